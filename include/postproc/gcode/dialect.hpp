@@ -1,0 +1,119 @@
+#pragma once
+/// @file
+/// Controller dialects as data: which comment syntax, which G code means what, when assignments take
+/// effect. The interpreter only ever sees the meanings (GMeaning), never raw G numbers, so a dialect
+/// is a table plus a few flags.
+
+#include <array>
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace postproc::gcode {
+
+enum class DialectId : std::uint8_t { fanuc, siemens, linuxcnc, heidenhain_iso };
+
+/// What a G code does. Codes that move the machine in ways this version does not resolve carry
+/// their own meaning so that each gets a stable diagnostic.
+enum class GMeaning : std::uint8_t {
+  unknown,
+  // motion group
+  rapid, linear, arc_cw, arc_ccw, dwell, cancel_motion,
+  drill_cycle,            ///< G73/G74(mill)/G76(mill)/G81–G89: positions resolved, cycle not expanded
+  turning_cycle,          ///< G70–G76 lathe cycles, G71.1/G71.2 (LinuxCNC): unresolved
+  threading,              ///< G32/G33/G33.1/G76 threading: unresolved
+  spline,                 ///< G5/G5.1/G5.2/G6.2 splines: unresolved
+  polar_interp_on, polar_interp_off,  ///< G12.1/G112 and G13.1/G113
+  cylindrical_interp,     ///< Fanuc G7.1/G107: unresolved
+  nurbs_or_ai_contour,    ///< Fanuc G05.1 Q1 (AI contour control): state only
+  // planes
+  plane_xy, plane_zx, plane_yz,
+  // distance
+  absolute, incremental, arc_absolute, arc_incremental,
+  // units
+  inch, mm,
+  // feed
+  feed_inverse_time, feed_per_minute, feed_per_rev,
+  // lathe diameter
+  diameter_mode, radius_mode,
+  // offsets
+  work_offset,            ///< G54–G59, G54.1 P, G59.1–G59.3
+  local_offset,           ///< G52
+  set_position,           ///< G92 (shift so the current point takes the given values)
+  reset_position_offset,  ///< G92.1/G92.2
+  restore_position_offset,///< G92.3
+  set_offsets_g10,        ///< G10: writes controller tables, no motion
+  machine_coords,         ///< G53 (non-modal)
+  tool_length_on, tool_length_off, tool_length_dynamic,  ///< G43 / G49 / G43.1
+  tcp_on,                 ///< Fanuc G43.4 (tool-centre point)
+  tcp_vector_on,          ///< Fanuc G43.5 (tool axis by I J K)
+  tilted_plane_on,        ///< G68.2
+  tilted_plane_tool_axis, ///< G53.1 / G53.6
+  tilted_plane_off,       ///< G69
+  rotation_on,            ///< G68 (rotation): unresolved
+  home_return,            ///< G28/G30: via intermediate point to home (machine position unknown)
+  home_set,               ///< G28.1/G30.1
+  cutter_comp,            ///< G40/G41/G42 (+ .1): state only
+  exact_stop, path_control,  ///< G61/G64 and friends: state only
+  css_on, css_off,        ///< G96/G97
+  spindle_clamp,          ///< Fanuc lathe G50 S / G92 S (system B/C)
+  return_initial, return_r,  ///< G98/G99 on mills
+  probe,                  ///< G38.x: unresolved (result is runtime state)
+  datum_shift_heidenhain, ///< MillPlus G93 datum shift
+  tilted_plane_heidenhain,///< MillPlus G7 tilted plane
+  machine_move_heidenhain,///< MillPlus G74 machine-coordinate move
+  state_only,             ///< recognised, no effect on geometry (e.g. G05.1 Q0, G08, G174)
+};
+
+/// Modal group a G code belongs to (two codes of the same group in one block are an error).
+enum class GGroup : std::uint8_t {
+  none, motion, plane, distance, arc_distance, units, feed_mode, diameter, work_offset, tool_length,
+  tcp, tilted_plane, cutter_comp, path_control, css, return_mode, non_modal,
+};
+
+struct GCodeDef {
+  std::uint16_t code10 = 0;  ///< G number × 10 (G43.4 → 434)
+  GMeaning meaning = GMeaning::unknown;
+  GGroup group = GGroup::none;
+};
+
+enum class AssignmentTiming : std::uint8_t { immediate, end_of_line };
+
+/// A controller dialect: data plus small hooks (flags) the lexer and interpreter consult.
+struct Dialect {
+  DialectId id = DialectId::fanuc;
+  std::string name;
+  bool paren_comments = true;        ///< `( ... )`
+  bool semicolon_comments = false;   ///< `; ...` to end of line
+  bool star_block_end = false;       ///< Heidenhain ISO: trailing `*` ends the block
+  bool multi_letter_identifiers = false;  ///< Siemens: TRAORI, CYCLE800(...), NAME=expr
+  bool hash_parameters = true;       ///< `#123`, `#<name>` (Fanuc macro B, LinuxCNC)
+  bool r_parameters = false;         ///< Siemens R1 / R1=...
+  bool o_word_control = false;       ///< LinuxCNC o100 sub / if / while
+  bool spaces_inside_words = false;  ///< LinuxCNC ignores spaces inside words ("G 1 X 1.5")
+  bool decimal_point_required = true;///< a whole number needs a point to mean mm (Fanuc: X1 = 1 µm)
+  bool lathe = false;                ///< lathe G-code system A (G98/G99 feed modes, U/W incremental)
+  char diameter_axis = 0;            ///< axis programmed as diameter from the start ('X' on lathes)
+  AssignmentTiming assignment_timing = AssignmentTiming::immediate;
+  /// Table indexed by code10; GMeaning::unknown where the dialect has no such code.
+  std::vector<GCodeDef> gcodes;
+
+  [[nodiscard]] const GCodeDef* find_g(std::uint16_t code10) const {
+    return code10 < gcodes.size() && gcodes[code10].meaning != GMeaning::unknown ? &gcodes[code10] : nullptr;
+  }
+};
+
+/// Options that refine a dialect (later also read from the machine file).
+struct DialectOptions {
+  bool lathe = false;           ///< Fanuc lathe (G-code system A) / Siemens turning
+  char diameter_axis = 0;       ///< 0 = dialect default
+};
+
+/// Builds the dialect named `name` (fanuc, siemens, linuxcnc, heidenhain-iso); nullopt if unknown.
+[[nodiscard]] std::optional<Dialect> make_dialect(std::string_view name, const DialectOptions& opt = {});
+[[nodiscard]] Dialect make_dialect(DialectId id, const DialectOptions& opt = {});
+[[nodiscard]] std::string_view dialect_names();  ///< "fanuc|siemens|linuxcnc|heidenhain-iso"
+
+}  // namespace postproc::gcode

@@ -1,0 +1,95 @@
+#pragma once
+/// @file
+/// Modal interpreter: turns lexed blocks into resolved motions (absolute mm / degrees in the active
+/// work coordinate system) and reports every construct it cannot resolve with a stable code.
+
+#include <string>
+#include <string_view>
+
+#include "postproc/gcode/block.hpp"
+#include "postproc/gcode/dialect.hpp"
+#include "postproc/gcode/motion.hpp"
+
+namespace postproc::gcode {
+
+/// Receives each resolved motion together with the block it came from.
+class MotionSink {
+ public:
+  virtual ~MotionSink() = default;
+  virtual void motion(const Motion& m, const Block& b) = 0;
+};
+
+/// Modal state carried from block to block (the part that is not already in Motion).
+struct ModalState {
+  GMeaning motion = GMeaning::cancel_motion;
+  std::uint16_t motion_code10 = 0;
+  Plane plane = Plane::xy;
+  bool absolute = true;
+  bool arc_absolute = false;        ///< G90.1 (LinuxCNC); IJK incremental by default
+  bool inch = false;
+  FeedMode feed_mode = FeedMode::per_minute;
+  double feed = 0;                  ///< in program units (mm or inch per min/rev; 1/min inverse time)
+  bool feed_known = false;
+  bool diameter_mode = false;
+  bool return_to_r = false;         ///< G99 (mills)
+  double cycle_r = 0;               ///< retract plane of the active drilling cycle, mm along the normal
+  double cycle_initial = 0;         ///< initial level when the cycle started
+  double cycle_bottom = 0;
+  bool cycle_bottom_known = false;
+  WorkOffset work_offset;
+  AxisVector local_offset = AxisVector::Zero();
+  AxisVector position_offset = AxisVector::Zero();
+  AxisVector saved_position_offset = AxisVector::Zero();
+  bool tool_length_active = false;
+  std::uint16_t tool_length_h = 0;
+  TcpMode tcp = TcpMode::off;
+  bool tilted_plane = false;
+  bool polar_interp = false;
+  AxisVector position = AxisVector::Zero();  ///< current point, active work coordinates, mm / deg
+  AxisMask known = 0;
+};
+
+struct InterpreterOptions {
+  /// Tolerance on the difference of start and end radius of an arc given by its centre, in mm,
+  /// applied together with a relative tolerance of 0.1 % (both must be exceeded to refuse).
+  double arc_radius_tolerance_mm = 0.002;
+};
+
+/// Interprets one program. Not thread-safe; one instance per program.
+class Interpreter {
+ public:
+  Interpreter(const Dialect& dialect, std::string file, DiagnosticSink& sink, InterpreterOptions opt = {});
+  /// Executes one lexed block. Motions are passed to `out` in order.
+  void execute(const Block& block, MotionSink& out);
+  [[nodiscard]] const ModalState& state() const { return s_; }
+  [[nodiscard]] const Dialect& dialect() const { return d_; }
+  [[nodiscard]] bool program_ended() const { return ended_; }
+
+ private:
+  struct BlockWords;
+  void report(const Block& b, Span at, Severity sev, std::string_view code, std::string msg);
+  bool collect(const Block& b, BlockWords& w);
+  void apply_tokens(const Block& b, BlockWords& w);
+  void apply_modes(const Block& b, BlockWords& w);
+  void do_motion(const Block& b, BlockWords& w, MotionSink& out);
+  bool target(const Block& b, const BlockWords& w, Motion& m);
+  bool arc(const Block& b, const BlockWords& w, Motion& m);
+  void drill(const Block& b, const BlockWords& w, Motion& m, MotionSink& out);
+  void fill_state(Motion& m) const;
+  void siemens_token(const Block& b, const Token& t, BlockWords& w);
+  void non_modal(const Block& b, BlockWords& w, MotionSink& out);
+  void unresolved_motion(const Block& b, const BlockWords& w, std::string_view code, std::string what);
+  [[nodiscard]] double to_mm(int axis, double v) const;
+
+  Dialect d_;
+  std::string file_;
+  DiagnosticSink& sink_;
+  InterpreterOptions opt_;
+  ModalState s_;
+  bool ended_ = false;
+  bool mcall_active_ = false;  ///< Siemens modal cycle call
+  bool mcall_pending_ = false; ///< MCALL seen in this block
+  int frame_keyword_ = 0;      ///< Siemens frame keyword in this block: 1 TRANS, 2 ATRANS, 3 ROT/SCALE/…
+};
+
+}  // namespace postproc::gcode

@@ -1,0 +1,88 @@
+#pragma once
+/// @file
+/// Resolved motion: what one motion of the program does, in absolute mm and degrees, with where it
+/// came from and the modal state it ran under.
+
+#include <array>
+#include <cstdint>
+#include <string_view>
+
+#include <Eigen/Core>
+
+namespace postproc::gcode {
+
+/// Axis order used everywhere: linear X Y Z, rotary A B C, secondary linear U V W.
+enum class Axis : std::uint8_t { x, y, z, a, b, c, u, v, w };
+inline constexpr int kAxisCount = 9;
+inline constexpr std::array<char, kAxisCount> kAxisLetters = {'X', 'Y', 'Z', 'A', 'B', 'C', 'U', 'V', 'W'};
+/// Axis position vector: mm for X Y Z U V W, degrees for A B C.
+using AxisVector = Eigen::Matrix<double, kAxisCount, 1>;
+using AxisMask = std::uint16_t;  ///< bit i set = axis i
+[[nodiscard]] constexpr AxisMask bit(Axis a) { return static_cast<AxisMask>(1u << static_cast<int>(a)); }
+[[nodiscard]] constexpr bool is_rotary(int axis) { return axis >= 3 && axis <= 5; }
+/// Index of an axis letter, -1 if the letter is not an axis.
+[[nodiscard]] int axis_index(char upper_letter);
+
+enum class MotionType : std::uint8_t { rapid, linear, arc_cw, arc_ccw, drill_cycle };
+enum class Plane : std::uint8_t { xy, zx, yz };
+enum class FeedMode : std::uint8_t { per_minute, per_rev, inverse_time };
+enum class TcpMode : std::uint8_t {
+  off,
+  fanuc_g43_4,   ///< Fanuc G43.4 tool-centre point, rotary axes programmed
+  fanuc_g43_5,   ///< Fanuc G43.5, tool axis programmed by I J K
+  siemens_traori,///< Sinumerik TRAORI
+  heidenhain_m128,
+};
+enum class Frame : std::uint8_t { work, machine };  ///< machine = G53 / SUPA block
+
+[[nodiscard]] std::string_view to_string(MotionType);
+[[nodiscard]] std::string_view to_string(Plane);
+[[nodiscard]] std::string_view to_string(FeedMode);
+[[nodiscard]] std::string_view to_string(TcpMode);
+
+/// Active work offset: G54–G59 (code10 540…590), G54.1 P n (code10 541, p = n), G59.1…3.
+struct WorkOffset {
+  std::uint16_t code10 = 540;
+  std::uint16_t p = 0;
+};
+
+/// Arc geometry in the active work coordinate system (mm).
+struct ArcData {
+  Eigen::Vector3d centre = Eigen::Vector3d::Zero();
+  double radius = 0;       ///< mm
+  double sweep = 0;        ///< signed sweep angle in radians about the plane normal (+ = ccw)
+  std::uint32_t turns = 1; ///< full turns requested (P word); 1 = ordinary arc
+  bool full_circle = false;
+};
+
+/// One resolved motion.
+struct Motion {
+  std::uint64_t line = 0;        ///< 1-based source line of the block
+  std::uint32_t column = 1;      ///< column of the motion word (or of the first axis word)
+  MotionType type = MotionType::linear;
+  std::uint16_t cycle_code10 = 0;///< G code × 10 of a drilling cycle (810 for G81), 0 otherwise
+  double cycle_r = 0;            ///< drilling cycle: retract plane along the plane normal, mm
+  double cycle_bottom = 0;       ///< drilling cycle: hole bottom along the plane normal, mm
+  Plane plane = Plane::xy;
+  Frame frame = Frame::work;
+  AxisVector start = AxisVector::Zero();
+  AxisVector end = AxisVector::Zero();   ///< absolute, active work coordinates, mm / degrees
+  AxisMask known = 0;            ///< axes whose absolute end position is known
+  AxisMask programmed = 0;       ///< axes written in this block
+  std::array<std::int8_t, kAxisCount> word_index{};  ///< index into Block::words per axis, -1 if none
+  ArcData arc;                   ///< valid for arc_cw / arc_ccw
+  double feed = 0;               ///< mm/min, mm/rev or 1/min (inverse time); 0 = not set
+  FeedMode feed_mode = FeedMode::per_minute;
+  bool feed_known = false;
+  WorkOffset work_offset;
+  AxisVector local_offset = AxisVector::Zero();     ///< G52 / TRANS shift, mm / degrees
+  AxisVector position_offset = AxisVector::Zero();  ///< G92 shift, mm / degrees
+  bool tool_length_active = false;
+  std::uint16_t tool_length_h = 0;
+  TcpMode tcp = TcpMode::off;
+  bool tilted_plane = false;     ///< G68.2 / CYCLE800 / PLANE active
+  bool diameter_mode = false;    ///< X was programmed as a diameter (end holds the radius)
+  bool inch_source = false;      ///< the block was programmed in inches (end is converted to mm)
+};
+
+}  // namespace postproc::gcode

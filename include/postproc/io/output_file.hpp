@@ -1,0 +1,33 @@
+#pragma once
+/// @file
+/// Output that appears only on success: written to a temporary file beside the target and renamed
+/// into place by commit(). "-" writes to stdout. An input is never overwritten unless asked, and then
+/// a backup is kept.
+
+#include <cstdio>
+#include <string>
+#include <string_view>
+
+namespace postproc::io {
+
+class OutputFile {
+ public:
+  /// `overwrite_input` names the input path; if it equals `path`, the input is only replaced when
+  /// `allow_overwrite` is set, and then `path + ".bak"` keeps the original.
+  explicit OutputFile(std::string path, std::string_view input_path = {}, bool allow_overwrite = false);
+  ~OutputFile();
+  OutputFile(const OutputFile&) = delete;
+  OutputFile& operator=(const OutputFile&) = delete;
+
+  void write(std::string_view bytes);
+  /// Flushes, closes and renames the temporary file into place. Throws postproc::Error on failure.
+  void commit();
+  [[nodiscard]] const std::string& path() const { return path_; }
+
+ private:
+  std::string path_, temp_;
+  std::FILE* f_ = nullptr;
+  bool stdout_ = false, committed_ = false, backup_ = false;
+};
+
+}  // namespace postproc::io

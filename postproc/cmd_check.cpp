@@ -1,0 +1,133 @@
+// postproc check FILE…: diagnostics and a summary per program.
+#include <fstream>
+#include <memory>
+
+#include <fmt/format.h>
+
+#include "common.hpp"
+#include "postproc/gcode/detect.hpp"
+#include "postproc/gcode/program.hpp"
+#include "postproc/gcode/summary.hpp"
+
+namespace postproc::cli {
+namespace {
+
+struct CheckOptions {
+  std::vector<std::string> files;
+  DialectArgs dialect;
+  std::size_t max_per_code = 20;
+  bool quiet = false;
+};
+
+class Summarise final : public gcode::BlockVisitor {
+ public:
+  gcode::ProgramSummary summary;
+  void block(const gcode::Block&, std::span<const gcode::Motion> motions, bool) override {
+    ++summary.blocks;
+    for (const auto& m : motions) summary.add(m);
+  }
+};
+
+/// First bytes of a file, for dialect suggestions (stdin cannot be re-read: no suggestion there).
+std::string head_of(const std::string& path, std::size_t bytes = 1 << 18) {
+  if (path == "-") return {};
+  std::ifstream f(path, std::ios::binary);
+  std::string s(bytes, '\0');
+  f.read(s.data(), static_cast<std::streamsize>(bytes));
+  s.resize(static_cast<std::size_t>(f.gcount()));
+  return s;
+}
+
+std::string unit_of(int axis) { return gcode::is_rotary(axis) ? "deg" : "mm"; }
+
+void print_summary(const std::string& file, const gcode::Dialect& d, const std::string& how,
+                   const gcode::ProgramSummary& s, const gcode::DiagnosticSink& sink) {
+  using gcode::MotionType;
+  std::string out = fmt::format("{}: dialect {}{}{}\n", file, d.name, d.lathe ? " (lathe)" : "", how);
+  out += fmt::format("  blocks: {}\n", s.blocks);
+  out += fmt::format("  motions: {} (rapid {}, linear {}, cw {}, ccw {}, drill {}{})\n", s.motions(),
+                     s.motions_by_type[0], s.motions_by_type[1], s.motions_by_type[2], s.motions_by_type[3],
+                     s.motions_by_type[4],
+                     s.machine_frame_moves ? fmt::format("; {} in machine coordinates", s.machine_frame_moves) : "");
+  std::string axes;
+  for (int a = 0; a < gcode::kAxisCount; ++a)
+    if ((s.axes_used >> a) & 1u) axes += fmt::format("{}{}", axes.empty() ? "" : " ", gcode::kAxisLetters[a]);
+  out += fmt::format("  axes: {}\n", axes.empty() ? "none" : axes);
+  for (int a = 0; a < gcode::kAxisCount; ++a)
+    if (s.min[a] <= s.max[a])
+      out += fmt::format("  extent {}: {:.4f} .. {:.4f} {}\n", gcode::kAxisLetters[a], s.min[a], s.max[a], unit_of(a));
+  constexpr const char* kFeedUnit[] = {"mm/min", "mm/rev", "1/min (inverse time)"};
+  constexpr const char* kFeedName[] = {"per minute", "per revolution", "inverse time"};
+  for (std::size_t k = 0; k < 3; ++k)
+    if (s.feeds[k].count > 0)
+      out += fmt::format("  feed {}: {:.4g} .. {:.4g} {} ({} moves)\n", kFeedName[k], s.feeds[k].min, s.feeds[k].max,
+                         kFeedUnit[k], s.feeds[k].count);
+  std::string unresolved;
+  for (const auto& [code, n] : sink.per_code())
+    if (code.rfind("PP-U", 0) == 0) unresolved += fmt::format("{}{} ×{}", unresolved.empty() ? "" : ", ", code, n);
+  out += fmt::format("  unresolved constructs: {}\n", unresolved.empty() ? "none" : unresolved);
+  const auto errors = sink.count(gcode::Severity::error);
+  out += fmt::format("  result: {}\n", errors > 0 ? fmt::format("refused ({} errors)", errors)
+                                       : unresolved.empty() ? std::string("accepted")
+                                                            : std::string("accepted with unresolved constructs"));
+  std::fputs(out.c_str(), stdout);
+}
+
+int check_one(const std::string& file, const CheckOptions& o) {
+  gcode::DiagnosticSink sink;
+  DiagnosticPrinter printer(sink, o.max_per_code);
+  std::string how;
+  DialectArgs args = o.dialect;
+  const auto guess = gcode::guess_dialect(head_of(file));
+  if (args.dialect.empty()) {
+    if (!guess)
+      throw Error(ExitCode::usage, fmt::format("{}: no --dialect given and nothing in the program identifies one; "
+                                               "pass --dialect {}",
+                                               file, gcode::dialect_names()));
+    args.dialect = gcode::make_dialect(guess->id).name;
+    how = fmt::format(" (guessed from '{}' at {}:{}; pass --dialect to confirm)", guess->evidence, guess->line,
+                      guess->column);
+  } else if (guess && gcode::make_dialect(guess->id).name != args.dialect) {
+    std::fputs(fmt::format("{}:{}:{}: note: PP-N002: '{}' suggests dialect {}, but --dialect {} was given\n", file,
+                           guess->line, guess->column, guess->evidence, gcode::make_dialect(guess->id).name,
+                           args.dialect)
+                   .c_str(),
+               stderr);
+  }
+  const gcode::Dialect d = make_dialect(args);
+  gcode::LineReader reader(file);
+  Summarise v;
+  gcode::run_program(reader, d, file, sink, v);
+  printer.finish();
+  if (!o.quiet) print_summary(file, d, how, v.summary, sink);
+  return static_cast<int>(exit_code_for(sink));
+}
+
+}  // namespace
+
+void setup_check(CLI::App& app, int& rc) {
+  auto o = std::make_shared<CheckOptions>();
+  auto* cmd = app.add_subcommand("check", "read programs, report located diagnostics and a summary");
+  cmd->add_option("files", o->files, "NC programs ('-' = stdin)")->required();
+  add_dialect_options(*cmd, o->dialect, false);
+  cmd->add_option("--max-per-code", o->max_per_code, "show at most this many diagnostics per code")
+      ->capture_default_str();
+  cmd->add_flag("-q,--quiet", o->quiet, "diagnostics only, no summary");
+  cmd->callback([o, &rc] {
+    int worst = 0;
+    for (const auto& f : o->files) {
+      int r = 0;
+      try {
+        r = check_one(f, *o);
+      } catch (const Error& e) {
+        // One unreadable file does not stop the others.
+        std::fputs(fmt::format("postproc: error: {}\n", e.what()).c_str(), stderr);
+        r = static_cast<int>(e.code());
+      }
+      worst = std::max(worst, r);
+    }
+    rc = worst;
+  });
+}
+
+}  // namespace postproc::cli

@@ -1,0 +1,57 @@
+#include "common.hpp"
+
+#include <fmt/format.h>
+
+namespace postproc::cli {
+
+void add_dialect_options(CLI::App& cmd, DialectArgs& a, bool required) {
+  auto* opt = cmd.add_option("--dialect", a.dialect,
+                             "controller dialect: fanuc|siemens|linuxcnc|heidenhain-iso (G70/G71, comments, G7 and "
+                             "assignment timing differ)")
+                  ->check(CLI::IsMember({"fanuc", "siemens", "linuxcnc", "heidenhain-iso"}));
+  if (required) opt->required();
+  cmd.add_flag("--lathe", a.lathe,
+               "lathe programs: Fanuc G-code system A (G98/G99 feed modes, U/W incremental, G70–G76 cycles), X "
+               "programmed as diameter");
+  cmd.add_option("--diameter-axis", a.diameter_axis, "axis programmed as a diameter from the start (X), or 'none'")
+      ->check(CLI::IsMember({"X", "x", "none"}));
+}
+
+gcode::Dialect make_dialect(const DialectArgs& a) {
+  gcode::DialectOptions o;
+  o.lathe = a.lathe;
+  if (a.diameter_axis == "X" || a.diameter_axis == "x") o.diameter_axis = 'X';
+  auto d = gcode::make_dialect(a.dialect, o);
+  if (!d) throw Error(ExitCode::usage, fmt::format("unknown dialect '{}'; use {}", a.dialect, gcode::dialect_names()));
+  if (a.diameter_axis == "none") d->diameter_axis = 0;
+  return *d;
+}
+
+DiagnosticPrinter::DiagnosticPrinter(gcode::DiagnosticSink& s, std::size_t per_code_limit)
+    : limit(per_code_limit), sink(s) {
+  sink.on_report = [this](const gcode::Diagnostic& d) {
+    std::size_t seen = 0;
+    for (auto& [code, n] : shown)
+      if (code == d.code) seen = ++n;
+    if (seen == 0) {
+      shown.emplace_back(d.code, 1);
+      seen = 1;
+    }
+    if (seen <= limit) std::fputs(gcode::format(d).c_str(), stderr);
+  };
+}
+
+void DiagnosticPrinter::finish() const {
+  for (const auto& [code, n] : shown)
+    if (n > limit)
+      std::fputs(fmt::format("note: {} more {} diagnostics not shown (raise --max-per-code)\n", n - limit, code).c_str(),
+                 stderr);
+}
+
+ExitCode exit_code_for(const gcode::DiagnosticSink& sink) {
+  if (sink.has_errors()) return ExitCode::refused;
+  if (sink.count(gcode::Severity::warning) > 0) return ExitCode::unresolved;
+  return ExitCode::ok;
+}
+
+}  // namespace postproc::cli

@@ -1,0 +1,43 @@
+#pragma once
+// Shared CLI plumbing: dialect options, diagnostic printing, exit codes.
+#include <cstdio>
+#include <string>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+
+#include "postproc/error.hpp"
+#include "postproc/gcode/dialect.hpp"
+#include "postproc/gcode/diagnostic.hpp"
+
+namespace postproc::cli {
+
+struct DialectArgs {
+  std::string dialect;       ///< empty = not given
+  bool lathe = false;
+  std::string diameter_axis; ///< "X" or empty
+};
+
+/// Adds --dialect, --lathe, --diameter-axis to `cmd`.
+void add_dialect_options(CLI::App& cmd, DialectArgs& a, bool required);
+/// Builds the dialect; throws Error(usage) on a bad combination.
+gcode::Dialect make_dialect(const DialectArgs& a);
+
+/// Prints diagnostics to stderr as they arrive, at most `per_code_limit` per code.
+struct DiagnosticPrinter {
+  explicit DiagnosticPrinter(gcode::DiagnosticSink& sink, std::size_t per_code_limit);
+  /// Prints how many were not shown, per code.
+  void finish() const;
+  std::size_t limit;
+  std::vector<std::pair<std::string, std::size_t>> shown;
+  gcode::DiagnosticSink& sink;
+};
+
+/// Exit code for a program given its diagnostics.
+ExitCode exit_code_for(const gcode::DiagnosticSink& sink);
+
+void setup_check(CLI::App& app, int& rc);
+void setup_dump(CLI::App& app, int& rc);
+void setup_convert(CLI::App& app, int& rc);
+
+}  // namespace postproc::cli

@@ -1,0 +1,32 @@
+// postproc command line: wires subcommands to the library. Exit codes are documented in README.md.
+#include <cstdio>
+#include <exception>
+
+#include <CLI/CLI.hpp>
+#include <fmt/format.h>
+
+#include "common.hpp"
+
+int main(int argc, char** argv) {
+  CLI::App app{"postproc: read, check and rewrite NC programs (compensation through calibrated machine models "
+               "follows)"};
+  app.set_version_flag("--version", std::string("postproc ") + POSTPROC_VERSION);
+  app.require_subcommand(1);
+  int rc = 0;
+  postproc::cli::setup_check(app, rc);
+  postproc::cli::setup_dump(app, rc);
+  postproc::cli::setup_convert(app, rc);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    const int rc = app.exit(e);
+    return rc == 0 ? 0 : static_cast<int>(postproc::ExitCode::usage);
+  } catch (const postproc::Error& e) {
+    std::fputs(fmt::format("postproc: error: {}\n", e.what()).c_str(), stderr);
+    return static_cast<int>(e.code());
+  } catch (const std::exception& e) {
+    std::fputs(fmt::format("postproc: internal error: {} (please report with the input)\n", e.what()).c_str(), stderr);
+    return static_cast<int>(postproc::ExitCode::internal);
+  }
+  return rc;
+}

@@ -1,0 +1,61 @@
+#pragma once
+// What one block says, gathered once by letter so the interpreter's steps can look words up.
+#include <array>
+#include <cstdint>
+
+#include "postproc/gcode/interpreter.hpp"
+
+namespace postproc::gcode {
+
+struct Interpreter::BlockWords {
+  struct G {
+    const GCodeDef* def = nullptr;
+    std::int16_t word = -1;
+  };
+  std::array<G, 12> g{};
+  int ng = 0;
+  G motion;  ///< the motion-group G code of this block, if any
+
+  AxisVector axis = AxisVector::Zero();   ///< values as written (program units), per axis
+  AxisMask axis_present = 0;
+  AxisMask axis_incremental = 0;          ///< U/W/H on Fanuc lathes, Siemens IC()
+  AxisMask axis_absolute = 0;             ///< Siemens AC()
+  AxisMask axis_unresolved = 0;           ///< written with an expression or parameter
+  std::array<std::int8_t, kAxisCount> axis_word{};
+
+  std::array<double, 26> letter{};        ///< other single-letter words (I J K R P Q L F S T H D E …)
+  std::uint32_t letter_present = 0;
+  std::uint32_t letter_unresolved = 0;
+  std::array<std::int16_t, 26> letter_word{};
+  std::uint32_t letter_absolute = 0;      ///< Siemens I=AC(…) absolute centre
+
+  double cr = 0;                          ///< Siemens CR= radius
+  bool has_cr = false;
+  int m_count = 0;
+  std::array<double, 8> m{};
+  std::array<std::int16_t, 8> m_word{};
+
+  bool machine_frame = false;             ///< G53 / SUPA / G153 in this block
+  bool axes_consumed = false;             ///< axis words were data for G10/G52/G92/… (no motion)
+
+  [[nodiscard]] bool has(char L) const { return (letter_present >> (L - 'A')) & 1u; }
+  [[nodiscard]] double get(char L) const { return letter[static_cast<std::size_t>(L - 'A')]; }
+  [[nodiscard]] bool unresolved(char L) const { return (letter_unresolved >> (L - 'A')) & 1u; }
+  [[nodiscard]] bool has_meaning(GMeaning meaning) const {
+    for (int i = 0; i < ng; ++i)
+      if (g[static_cast<std::size_t>(i)].def->meaning == meaning) return true;
+    return false;
+  }
+  [[nodiscard]] const G* find(GMeaning meaning) const {
+    for (int i = 0; i < ng; ++i)
+      if (g[static_cast<std::size_t>(i)].def->meaning == meaning) return &g[static_cast<std::size_t>(i)];
+    return nullptr;
+  }
+  [[nodiscard]] bool has_m(double code) const {
+    for (int i = 0; i < m_count; ++i)
+      if (m[static_cast<std::size_t>(i)] == code) return true;
+    return false;
+  }
+};
+
+}  // namespace postproc::gcode

@@ -1,0 +1,405 @@
+// Modal interpreter, part 1: gathering words, modal state, statements. Motion geometry lives in
+// interpreter_motion.cpp.
+#include "postproc/gcode/interpreter.hpp"
+
+#include <cmath>
+
+#include <fmt/format.h>
+
+#include "postproc/gcode/lexer.hpp"
+#include "src/gcode/block_words.hpp"
+#include "src/gcode/codes.hpp"
+#include "src/gcode/number_text.hpp"
+
+namespace postproc::gcode {
+namespace {
+
+constexpr char upper(char c) { return (c >= 'a' && c <= 'z') ? static_cast<char>(c - 32) : c; }
+
+bool iequals(std::string_view a, std::string_view b) {
+  if (a.size() != b.size()) return false;
+  for (std::size_t i = 0; i < a.size(); ++i)
+    if (upper(a[i]) != upper(b[i])) return false;
+  return true;
+}
+
+bool starts_with_i(std::string_view s, std::string_view prefix) {
+  return s.size() >= prefix.size() && iequals(s.substr(0, prefix.size()), prefix);
+}
+
+/// Value inside Siemens AC(…)/IC(…) when it is a literal number.
+bool fn_literal(std::string_view text, double& out) {
+  const auto open = text.find('(');
+  const auto close = text.rfind(')');
+  if (open == std::string_view::npos || close == std::string_view::npos || close <= open) return false;
+  std::string_view inner = text.substr(open + 1, close - open - 1);
+  while (!inner.empty() && inner.front() == ' ') inner.remove_prefix(1);
+  while (!inner.empty() && inner.back() == ' ') inner.remove_suffix(1);
+  return scan_number(inner, 0, false) == inner.size() && parse_number(inner, out);
+}
+
+/// Siemens keywords that only set state irrelevant to geometry.
+constexpr std::string_view kSiemensStateKeywords[] = {
+    "CFC", "CFTCP", "CFIN", "FFWON", "FFWOF", "SOFT", "BRISK", "DRIVE", "COMPCAD", "COMPCURV", "COMPOF",
+    "COMPON", "FNORM", "FLIN", "FCUB", "CPRECON", "CPRECOF", "UPATH", "SPATH", "ORISON", "ORISOF", "ORIWKS",
+    "ORIMKS", "ORIAXES", "ORIVECT", "ORIEULER", "ORIRPY", "ORIRPY2", "ORIVIRT1", "ORIVIRT2", "ORIPLANE",
+    "ORICONCW", "ORICONCCW", "ORICONIO", "ORICONTO", "ORICURVE", "ORIPATH", "ORIROTA", "ORIROTR", "ORIROTT",
+    "ORIROTC", "ORIC", "ORID", "OSOF", "OSC", "OST", "OSS", "OSSE", "STOPRE", "WAITM", "WAITE", "WAITS",
+    "SPOS", "LIMS", "DIAMCYCOF", "G_GROUP", "ACN", "ACP", "DC", "CDON", "CDOF", "CDOF2", "SOFTA", "BRISKA",
+    "DYNNORM", "DYNPOS", "DYNROUGH", "DYNSEMIFIN", "DYNFINISH", "TCOABS", "TCOFR", "PAROT", "PAROTOF",
+    "TOROT", "TOROTOF", "TOFRAME", "RTLION", "RTLIOF", "GWPSON", "GWPSOF", "SETMS", "M17", "RET",
+};
+
+}  // namespace
+
+Interpreter::Interpreter(const Dialect& dialect, std::string file, DiagnosticSink& sink, InterpreterOptions opt)
+    : d_(dialect), file_(std::move(file)), sink_(sink), opt_(opt) {
+  s_.diameter_mode = d_.diameter_axis != 0;
+}
+
+void Interpreter::report(const Block& b, Span at, Severity sev, std::string_view code, std::string msg) {
+  const LexContext ctx{file_, &sink_};
+  report_at(ctx, b, at, sev, code, std::move(msg));
+}
+
+double Interpreter::to_mm(int axis, double v) const {
+  if (is_rotary(axis)) return v;
+  return s_.inch ? v * 25.4 : v;
+}
+
+void Interpreter::unresolved_motion(const Block& b, const BlockWords& w, std::string_view code, std::string what) {
+  Span at = w.motion.word >= 0 ? b.words[static_cast<std::size_t>(w.motion.word)].span : Span{};
+  if (w.motion.word < 0) {
+    for (int a = 0; a < kAxisCount; ++a)
+      if (w.axis_word[static_cast<std::size_t>(a)] >= 0) {
+        at = b.words[static_cast<std::size_t>(w.axis_word[static_cast<std::size_t>(a)])].span;
+        break;
+      }
+  }
+  report(b, at, Severity::warning, code,
+         fmt::format("{} is not resolved by this version; positions after it are unknown until absolute "
+                     "moves re-establish them (compensation refuses the program unless --pass-through)",
+                     what));
+}
+
+bool Interpreter::collect(const Block& b, BlockWords& w) {
+  w.axis_word.fill(-1);
+  w.letter_word.fill(-1);
+  bool ok = true;
+  const bool lathe_incremental = d_.lathe && d_.id == DialectId::fanuc;
+  for (std::size_t i = 0; i < b.words.size(); ++i) {
+    const Word& word = b.words[i];
+    const auto wi = static_cast<std::int16_t>(i);
+    double v = word.number;
+    bool resolved = word.kind == ValueKind::number;
+    bool fn_abs = false, fn_inc = false;
+    if (word.kind == ValueKind::absolute_fn || word.kind == ValueKind::incremental_fn) {
+      resolved = fn_literal(b.text(word.value), v);
+      fn_abs = word.kind == ValueKind::absolute_fn;
+      fn_inc = !fn_abs;
+    }
+    if (!resolved && word.kind != ValueKind::string) {
+      report(b, word.span, Severity::warning, codes::kExpressionValue,
+             fmt::format("value of '{}' is an expression or parameter, which this version recognises but does not "
+                         "evaluate; the word's effect is unknown",
+                         b.text(word.span)));
+    }
+    if (word.name_len > 1 || word.index != 0) {
+      // Siemens extended addresses: CR= radius, A3/B3/C3 tool vector, others state only.
+      if (iequals(b.text(word.name), "CR") && resolved) {
+        w.has_cr = true;
+        w.cr = v;
+      }
+      continue;
+    }
+    const char L = word.letter;
+    if (L == 'G') {
+      if (!resolved) {
+        ok = false;
+        continue;
+      }
+      const auto code10 = static_cast<long>(std::lround(v * 10));
+      const GCodeDef* def = (code10 >= 0 && code10 < 20000 && std::abs(v * 10 - static_cast<double>(code10)) < 1e-6)
+                                ? d_.find_g(static_cast<std::uint16_t>(code10))
+                                : nullptr;
+      if (def == nullptr) {
+        report(b, word.span, Severity::error, codes::kUnknownG,
+               fmt::format("'{}' is not a G code of the {} dialect{}; check --dialect (and --lathe)", b.text(word.span),
+                           d_.name, d_.lathe ? " (lathe)" : ""));
+        ok = false;
+        continue;
+      }
+      if (def->group != GGroup::none && def->group != GGroup::non_modal) {
+        for (int k = 0; k < w.ng; ++k) {
+          const auto& other = w.g[static_cast<std::size_t>(k)];
+          if (other.def->group == def->group) {
+            report(b, word.span, Severity::error, codes::kModalConflict,
+                   fmt::format("'{}' and '{}' belong to the same modal group; keep one of them",
+                               b.text(b.words[static_cast<std::size_t>(other.word)].span), b.text(word.span)));
+            ok = false;
+          }
+        }
+      }
+      if (w.ng < static_cast<int>(w.g.size())) w.g[static_cast<std::size_t>(w.ng++)] = {def, wi};
+      if (def->group == GGroup::motion) w.motion = {def, wi};
+      continue;
+    }
+    if (L == 'M') {
+      if (resolved && w.m_count < static_cast<int>(w.m.size())) {
+        w.m[static_cast<std::size_t>(w.m_count)] = v;
+        w.m_word[static_cast<std::size_t>(w.m_count++)] = wi;
+      }
+      continue;
+    }
+    int axis = axis_index(L);
+    bool incremental = fn_inc;
+    if (lathe_incremental && (L == 'U' || L == 'W' || L == 'H')) {
+      axis = L == 'U' ? 0 : (L == 'W' ? 2 : 5);
+      incremental = true;
+    }
+    if (axis >= 0 && !(d_.lathe && d_.id == DialectId::fanuc && L == 'H' && false)) {
+      const auto ax = static_cast<std::size_t>(axis);
+      const AxisMask bitmask = static_cast<AxisMask>(1u << axis);
+      if (w.axis_present & bitmask) {
+        report(b, word.span, Severity::error, codes::kRepeatedWord,
+               fmt::format("axis {} is given twice in one block; keep one", kAxisLetters[ax]));
+        ok = false;
+        continue;
+      }
+      w.axis_present |= bitmask;
+      w.axis[static_cast<Eigen::Index>(axis)] = v;
+      w.axis_word[ax] = static_cast<std::int8_t>(i < 127 ? i : 127);
+      if (incremental) w.axis_incremental |= bitmask;
+      if (fn_abs) w.axis_absolute |= bitmask;
+      if (!resolved) w.axis_unresolved |= bitmask;
+      continue;
+    }
+    if (L >= 'A' && L <= 'Z') {
+      const auto li = static_cast<std::size_t>(L - 'A');
+      if (w.letter_present & (1u << li)) {
+        // Repeated letters other than G/M are an error on every controller we support.
+        report(b, word.span, Severity::error, codes::kRepeatedWord,
+               fmt::format("'{}' is given twice in one block; keep one", L));
+        ok = false;
+        continue;
+      }
+      w.letter_present |= 1u << li;
+      w.letter[li] = v;
+      w.letter_word[li] = wi;
+      if (!resolved) w.letter_unresolved |= 1u << li;
+      if (fn_abs) w.letter_absolute |= 1u << li;
+    }
+  }
+  return ok;
+}
+
+void Interpreter::siemens_token(const Block& b, const Token& t, BlockWords& w) {
+  const std::string_view name = b.text(t.name);
+  if (t.kind == TokenKind::call) {
+    if (iequals(name, "TRAORI")) {
+      s_.tcp = TcpMode::siemens_traori;
+    } else if (iequals(name, "MSG") || iequals(name, "SETAL") || iequals(name, "TRAFOOF")) {
+      if (iequals(name, "TRAFOOF")) s_.tcp = TcpMode::off;
+    } else if (iequals(name, "CYCLE800")) {
+      const bool reset = b.text(t.span).find_first_not_of(" ()", name.size()) == std::string_view::npos;
+      s_.tilted_plane = !reset;
+      if (!reset) {
+        report(b, t.span, Severity::warning, codes::kVendorCycle,
+               "CYCLE800 swivels the work plane, which this version does not resolve; positions after it are in "
+               "the swivelled frame and are reported as unknown");
+        s_.known = 0;
+      }
+    } else if (starts_with_i(name, "CYCLE") || starts_with_i(name, "POCKET") || starts_with_i(name, "SLOT") ||
+               starts_with_i(name, "HOLES") || starts_with_i(name, "LONGHOLE")) {
+      if (mcall_pending_) {
+        mcall_active_ = true;
+        report(b, t.span, Severity::warning, codes::kVendorCycle,
+               fmt::format("MCALL {}: the modal cycle runs at every following position and is not expanded; "
+                           "the tool axis position after each call is unknown",
+                           name));
+      } else {
+        report(b, t.span, Severity::warning, codes::kVendorCycle,
+               fmt::format("vendor cycle {} is not expanded; its motions are unknown", name));
+        s_.known &= static_cast<AxisMask>(~(bit(Axis::x) | bit(Axis::y) | bit(Axis::z)));
+      }
+    } else {
+      report(b, t.span, Severity::warning, codes::kSubprogramCall,
+             fmt::format("call {}(…) is not interpreted by this version", name));
+    }
+    return;
+  }
+  if (t.kind != TokenKind::keyword) return;
+  if (iequals(name, "TRAORI")) {
+    s_.tcp = TcpMode::siemens_traori;
+  } else if (iequals(name, "TRAFOOF") || iequals(name, "TRAOOF")) {
+    if (iequals(name, "TRAOOF"))
+      report(b, t.span, Severity::warning, codes::kUnknownKeyword,
+             "TRAOOF is not a Sinumerik keyword (TRAFOOF is); treated as TRAFOOF — check the program");
+    s_.tcp = TcpMode::off;
+  } else if (iequals(name, "SUPA")) {
+    w.machine_frame = true;
+  } else if (iequals(name, "MCALL")) {
+    mcall_pending_ = true;
+    mcall_active_ = false;
+  } else if (iequals(name, "DIAMON") || iequals(name, "DIAM90")) {
+    s_.diameter_mode = true;
+  } else if (iequals(name, "DIAMOF")) {
+    s_.diameter_mode = false;
+  } else if (iequals(name, "TRANS") || iequals(name, "ATRANS")) {
+    w.axes_consumed = true;
+    frame_keyword_ = iequals(name, "TRANS") ? 1 : 2;
+  } else if (iequals(name, "ROT") || iequals(name, "AROT") || iequals(name, "SCALE") || iequals(name, "ASCALE") ||
+             iequals(name, "MIRROR") || iequals(name, "AMIRROR") || iequals(name, "RPL")) {
+    w.axes_consumed = true;
+    frame_keyword_ = 3;
+  } else {
+    for (std::string_view k : kSiemensStateKeywords)
+      if (iequals(name, k)) return;
+    report(b, t.span, Severity::warning, codes::kSubprogramCall,
+           fmt::format("'{}' is not a keyword this version knows; on a Sinumerik it would call the subprogram "
+                       "{} — not followed",
+                       name, name));
+  }
+}
+
+void Interpreter::apply_tokens(const Block& b, BlockWords& w) {
+  mcall_pending_ = false;
+  frame_keyword_ = 0;
+  for (const Token& t : b.tokens) {
+    switch (t.kind) {
+      case TokenKind::assignment:
+        report(b, t.span, Severity::warning, codes::kAssignment,
+               fmt::format("assignment '{}' is recognised but not evaluated by this version", b.text(t.name)));
+        break;
+      case TokenKind::control_flow:
+        report(b, t.span, Severity::warning, codes::kControlFlow,
+               fmt::format("control flow '{}' is recognised but not followed by this version; motions in and after "
+                           "it are read as if it were absent",
+                           b.text(t.name)));
+        break;
+      case TokenKind::declaration:
+        report(b, t.span, Severity::warning, codes::kAssignment,
+               fmt::format("declaration '{}' is recognised but not evaluated by this version", b.text(t.name)));
+        break;
+      case TokenKind::keyword:
+      case TokenKind::call:
+        if (d_.id == DialectId::siemens) siemens_token(b, t, w);
+        break;
+      default:
+        break;
+    }
+  }
+}
+
+void Interpreter::apply_modes(const Block& b, BlockWords& w) {
+  // Order follows RS274/NGC: feed mode, feed, units, plane, distance modes, offsets, tool length.
+  for (int k = 0; k < w.ng; ++k) {
+    const auto& g = w.g[static_cast<std::size_t>(k)];
+    switch (g.def->meaning) {
+      case GMeaning::feed_inverse_time: s_.feed_mode = FeedMode::inverse_time; break;
+      case GMeaning::feed_per_minute: s_.feed_mode = FeedMode::per_minute; break;
+      case GMeaning::feed_per_rev: s_.feed_mode = FeedMode::per_rev; break;
+      case GMeaning::inch: s_.inch = true; break;
+      case GMeaning::mm: s_.inch = false; break;
+      default: break;
+    }
+  }
+  if (w.has('F') && !w.unresolved('F')) {
+    const double f = w.get('F');
+    s_.feed = s_.feed_mode == FeedMode::inverse_time ? f : (s_.inch ? f * 25.4 : f);
+    s_.feed_known = true;
+  } else if (w.has('F')) {
+    s_.feed_known = false;
+  }
+  for (int k = 0; k < w.ng; ++k) {
+    const auto& g = w.g[static_cast<std::size_t>(k)];
+    const Word& word = b.words[static_cast<std::size_t>(g.word)];
+    switch (g.def->meaning) {
+      case GMeaning::plane_xy: s_.plane = Plane::xy; break;
+      case GMeaning::plane_zx: s_.plane = Plane::zx; break;
+      case GMeaning::plane_yz: s_.plane = Plane::yz; break;
+      case GMeaning::absolute: s_.absolute = true; break;
+      case GMeaning::incremental: s_.absolute = false; break;
+      case GMeaning::arc_absolute: s_.arc_absolute = true; break;
+      case GMeaning::arc_incremental: s_.arc_absolute = false; break;
+      case GMeaning::diameter_mode: s_.diameter_mode = true; break;
+      case GMeaning::radius_mode: s_.diameter_mode = false; break;
+      case GMeaning::return_initial: s_.return_to_r = false; break;
+      case GMeaning::return_r: s_.return_to_r = true; break;
+      case GMeaning::work_offset: {
+        WorkOffset wo{g.def->code10, 0};
+        if (g.def->code10 == 541) {
+          if (!w.has('P') || w.unresolved('P')) {
+            report(b, word.span, Severity::error, codes::kMissingWord,
+                   "G54.1 needs a literal P word naming the additional work offset (e.g. G54.1 P1)");
+          } else {
+            wo.p = static_cast<std::uint16_t>(w.get('P'));
+          }
+        }
+        if (wo.code10 != s_.work_offset.code10 || wo.p != s_.work_offset.p) s_.known = 0;  // offsets are tables
+        s_.work_offset = wo;
+        break;
+      }
+      case GMeaning::tool_length_on:
+      case GMeaning::tcp_on:
+      case GMeaning::tcp_vector_on:
+        s_.tool_length_active = true;
+        s_.tool_length_h = w.has('H') && !w.unresolved('H') ? static_cast<std::uint16_t>(w.get('H')) : 0;
+        s_.tcp = g.def->meaning == GMeaning::tcp_on          ? TcpMode::fanuc_g43_4
+                 : g.def->meaning == GMeaning::tcp_vector_on ? TcpMode::fanuc_g43_5
+                                                              : s_.tcp;
+        if (g.def->meaning == GMeaning::tool_length_on && s_.tcp != TcpMode::siemens_traori &&
+            s_.tcp != TcpMode::heidenhain_m128)
+          s_.tcp = TcpMode::off;
+        break;
+      case GMeaning::tool_length_dynamic: s_.tool_length_active = true; break;
+      case GMeaning::tool_length_off:
+        s_.tool_length_active = false;
+        s_.tool_length_h = 0;
+        if (s_.tcp == TcpMode::fanuc_g43_4 || s_.tcp == TcpMode::fanuc_g43_5) s_.tcp = TcpMode::off;
+        break;
+      case GMeaning::tilted_plane_on:
+        s_.tilted_plane = true;
+        w.axes_consumed = true;  // X Y Z I J K of G68.2 define the plane, they do not move
+        s_.known = 0;
+        report(b, word.span, Severity::warning, codes::kTiltedPlane,
+               "tilted work plane: coordinates that follow are in the tilted frame, which this version does not "
+               "resolve into the work frame; they are reported as unknown");
+        break;
+      case GMeaning::tilted_plane_off:
+        if (s_.tilted_plane) s_.known = 0;
+        s_.tilted_plane = false;
+        break;
+      case GMeaning::rotation_on:
+        w.axes_consumed = true;
+        s_.known = 0;
+        report(b, word.span, Severity::warning, codes::kTiltedPlane,
+               "coordinate rotation (G68) is not resolved by this version; positions after it are unknown");
+        break;
+      case GMeaning::tilted_plane_heidenhain:
+        w.axes_consumed = true;
+        s_.tilted_plane = true;
+        break;
+      case GMeaning::polar_interp_on: s_.polar_interp = true; break;
+      case GMeaning::polar_interp_off:
+        s_.polar_interp = false;
+        s_.known = 0;
+        break;
+      default: break;
+    }
+  }
+  for (int i = 0; i < w.m_count; ++i) {
+    const double m = w.m[static_cast<std::size_t>(i)];
+    const Span at = b.words[static_cast<std::size_t>(w.m_word[static_cast<std::size_t>(i)])].span;
+    if (m == 2 || m == 30) ended_ = true;
+    if (d_.id == DialectId::heidenhain_iso && m == 128) s_.tcp = TcpMode::heidenhain_m128;
+    if (d_.id == DialectId::heidenhain_iso && m == 129) s_.tcp = TcpMode::off;
+    if ((m == 98 || m == 99) && d_.id != DialectId::siemens) {
+      report(b, at, Severity::warning, codes::kSubprogramCall,
+             m == 98 ? "M98 subprogram call is not followed by this version"
+                     : "M99 (return or loop to start) is not followed by this version");
+    }
+  }
+}
+
+}  // namespace postproc::gcode

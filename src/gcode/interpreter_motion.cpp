@@ -1,0 +1,455 @@
+// Modal interpreter, part 2: non-modal commands and motion geometry (targets, arcs, drilling cycles).
+#include <cmath>
+#include <numbers>
+
+#include <fmt/format.h>
+
+#include "postproc/gcode/interpreter.hpp"
+#include "src/gcode/block_words.hpp"
+#include "src/gcode/codes.hpp"
+
+namespace postproc::gcode {
+namespace {
+
+constexpr AxisMask kAllAxes = (1u << kAxisCount) - 1;
+
+/// Plane axes (first, second) and normal axis indices.
+struct PlaneAxes {
+  int u, v, n;
+};
+constexpr PlaneAxes plane_axes(Plane p) {
+  switch (p) {
+    case Plane::xy: return {0, 1, 2};
+    case Plane::zx: return {2, 0, 1};
+    case Plane::yz: return {1, 2, 0};
+  }
+  return {0, 1, 2};
+}
+/// Centre-offset letters for each plane axis (I J K belong to X Y Z).
+constexpr char centre_letter(int axis) { return static_cast<char>('I' + axis); }
+
+}  // namespace
+
+void Interpreter::fill_state(Motion& m) const {
+  m.plane = s_.plane;
+  m.feed = s_.feed;
+  m.feed_known = s_.feed_known;
+  m.feed_mode = s_.feed_mode;
+  m.work_offset = s_.work_offset;
+  m.local_offset = s_.local_offset;
+  m.position_offset = s_.position_offset;
+  m.tool_length_active = s_.tool_length_active;
+  m.tool_length_h = s_.tool_length_h;
+  m.tcp = s_.tcp;
+  m.tilted_plane = s_.tilted_plane;
+  m.diameter_mode = s_.diameter_mode && d_.diameter_axis != 0 ? true : s_.diameter_mode;
+  m.inch_source = s_.inch;
+}
+
+void Interpreter::execute(const Block& b, MotionSink& out) {
+  if (b.empty()) return;
+  BlockWords w;
+  const bool ok = collect(b, w);
+  apply_tokens(b, w);
+  apply_modes(b, w);
+  if (!ok) {
+    // A refused block still moves the machine; what it does is unknown.
+    s_.known &= static_cast<AxisMask>(~w.axis_present);
+    return;
+  }
+  non_modal(b, w, out);
+  if (!w.axes_consumed) do_motion(b, w, out);
+}
+
+void Interpreter::non_modal(const Block& b, BlockWords& w, MotionSink& out) {
+  if (frame_keyword_ != 0) {
+    // Siemens frames: TRANS/ATRANS X Y Z shift like G52; ROT/SCALE/MIRROR with values are unresolved.
+    const bool has_values = w.axis_present != 0;
+    if (frame_keyword_ == 3 && has_values) {
+      s_.known = 0;
+      report(b, {}, Severity::warning, codes::kTiltedPlane,
+             "programmable frame rotation/scaling/mirroring is not resolved; positions after it are unknown");
+    } else if (!has_values && (frame_keyword_ == 1 || frame_keyword_ == 3)) {
+      s_.position -= s_.local_offset;  // TRANS / ROT without values reset the programmable frame
+      s_.local_offset.setZero();
+    } else {
+      AxisVector shift = AxisVector::Zero();
+      for (int a = 0; a < kAxisCount; ++a)
+        if (w.axis_present & (1u << a)) shift[a] = to_mm(a, w.axis[a]);
+      const AxisVector old = s_.local_offset;
+      if (frame_keyword_ == 1) {
+        s_.local_offset = shift;
+      } else {
+        s_.local_offset += shift;
+      }
+      s_.position -= s_.local_offset - old;
+    }
+  }
+  if (w.has_meaning(GMeaning::machine_coords)) w.machine_frame = true;
+  for (int k = 0; k < w.ng; ++k) {
+    const auto& g = w.g[static_cast<std::size_t>(k)];
+    const Span at = b.words[static_cast<std::size_t>(g.word)].span;
+    switch (g.def->meaning) {
+      case GMeaning::dwell:
+        w.axes_consumed = w.axes_consumed || (w.axis_present & ~bit(Axis::x)) == 0;  // Fanuc G4 X = seconds
+        if (w.axis_present & bit(Axis::x)) w.axis_present = static_cast<AxisMask>(w.axis_present & ~bit(Axis::x));
+        break;
+      case GMeaning::set_offsets_g10: {
+        w.axes_consumed = true;
+        const int l = w.has('L') ? static_cast<int>(w.get('L')) : 0;
+        const int p = w.has('P') ? static_cast<int>(w.get('P')) : -1;
+        const bool active = p == 0 || p == (s_.work_offset.code10 - 530) / 10;
+        if ((l == 2 || l == 20) && active) {
+          for (int a = 0; a < kAxisCount; ++a) {
+            if (!(w.axis_present & (1u << a))) continue;
+            if (l == 20 && !(w.axis_unresolved & (1u << a))) {
+              s_.position[a] = to_mm(a, w.axis[a]);
+              s_.known |= static_cast<AxisMask>(1u << a);
+            } else {
+              s_.known &= static_cast<AxisMask>(~(1u << a));
+            }
+          }
+        }
+        break;
+      }
+      case GMeaning::local_offset:
+      case GMeaning::set_position:
+      case GMeaning::datum_shift_heidenhain: {
+        w.axes_consumed = true;
+        for (int a = 0; a < kAxisCount; ++a) {
+          if (!(w.axis_present & (1u << a))) continue;
+          const AxisMask m = static_cast<AxisMask>(1u << a);
+          if (w.axis_unresolved & m) {
+            s_.known &= static_cast<AxisMask>(~m);
+            continue;
+          }
+          double v = to_mm(a, w.axis[a]);
+          if (a == 0 && s_.diameter_mode) v /= 2;
+          if (g.def->meaning == GMeaning::set_position) {
+            // G92: the current point takes the value v; the shift absorbs the difference.
+            if (s_.known & m) s_.position_offset[a] += s_.position[a] - v;
+            s_.position[a] = v;
+            s_.known |= m;
+          } else {
+            const double old = s_.local_offset[a];
+            s_.local_offset[a] = v;
+            s_.position[a] -= v - old;
+          }
+        }
+        break;
+      }
+      case GMeaning::reset_position_offset:
+        s_.position += s_.position_offset;
+        if (std::lround(g.def->code10) == 921) s_.saved_position_offset.setZero();
+        else s_.saved_position_offset = s_.position_offset;
+        s_.position_offset.setZero();
+        break;
+      case GMeaning::restore_position_offset:
+        s_.position_offset = s_.saved_position_offset;
+        s_.position -= s_.position_offset;
+        break;
+      case GMeaning::home_return: {
+        // Intermediate point (if any) is an ordinary rapid; then the axes go home (unknown here).
+        AxisMask named = w.axis_present;
+        if (named != 0 && g.def->code10 != 290 && d_.id != DialectId::siemens) {
+          Motion m;
+          m.line = b.line;
+          m.column = at.begin + 1;
+          m.type = MotionType::rapid;
+          fill_state(m);
+          m.word_index.fill(-1);
+          if (target(b, w, m)) out.motion(m, b);
+        }
+        s_.known &= static_cast<AxisMask>(~(named == 0 ? kAllAxes : named));
+        w.axes_consumed = true;
+        break;
+      }
+      case GMeaning::home_set: w.axes_consumed = true; break;
+      case GMeaning::spindle_clamp:
+        // Fanuc lathe G50: with X/Z it sets the coordinate system like G92, with S it clamps speed.
+        if (w.axis_present != 0) {
+          w.axes_consumed = true;
+          for (int a = 0; a < kAxisCount; ++a)
+            if (w.axis_present & (1u << a)) {
+              double v = to_mm(a, w.axis[a]);
+              if (a == 0 && s_.diameter_mode) v /= 2;
+              s_.position[a] = v;
+              s_.known |= static_cast<AxisMask>(1u << a);
+            }
+        }
+        break;
+      case GMeaning::machine_move_heidenhain:
+        w.machine_frame = true;
+        break;
+      case GMeaning::tilted_plane_tool_axis:
+        w.axes_consumed = true;
+        s_.known = 0;
+        break;
+      case GMeaning::probe:
+        unresolved_motion(b, w, codes::kProbe, "probing (its end point is a runtime measurement)");
+        s_.known &= static_cast<AxisMask>(~w.axis_present);
+        w.axes_consumed = true;
+        break;
+      case GMeaning::cylindrical_interp:
+        unresolved_motion(b, w, codes::kCylindrical, "cylindrical interpolation");
+        break;
+      case GMeaning::state_only:
+        if (g.def->code10 == 650) {
+          report(b, at, Severity::warning, codes::kMacroCall, "G65 macro call is not followed by this version");
+          w.axes_consumed = true;
+        }
+        break;
+      default: break;
+    }
+  }
+}
+
+void Interpreter::do_motion(const Block& b, BlockWords& w, MotionSink& out) {
+  const GMeaning mode = w.motion.def ? w.motion.def->meaning : s_.motion;
+  if (w.motion.def) {
+    s_.motion = mode;
+    s_.motion_code10 = w.motion.def->code10;
+    if (mode == GMeaning::drill_cycle && !d_.lathe) {
+      s_.cycle_bottom_known = false;
+      s_.cycle_initial = s_.position[plane_axes(s_.plane).n];
+    }
+  }
+  // Axis words (or R/Z for cycles) make a motion; a motion G alone does not.
+  if (w.axis_present == 0) {
+    if (w.motion.def && (mode == GMeaning::turning_cycle || mode == GMeaning::threading || mode == GMeaning::spline)) {
+      const auto code = mode == GMeaning::turning_cycle ? codes::kTurningCycle
+                        : mode == GMeaning::threading   ? codes::kThreading
+                                                        : codes::kSpline;
+      unresolved_motion(b, w, code, fmt::format("{}", b.text(b.words[static_cast<std::size_t>(w.motion.word)].span)));
+    }
+    return;
+  }
+  if (s_.polar_interp) {
+    unresolved_motion(b, w, codes::kPolar, "motion under polar coordinate interpolation (G12.1/G112)");
+    s_.known &= static_cast<AxisMask>(~w.axis_present);
+    return;
+  }
+  Motion m;
+  m.line = b.line;
+  m.word_index = {};
+  for (int a = 0; a < kAxisCount; ++a) m.word_index[static_cast<std::size_t>(a)] = w.axis_word[static_cast<std::size_t>(a)];
+  const int first_word = w.motion.word >= 0 ? w.motion.word : [&] {
+    for (int a = 0; a < kAxisCount; ++a)
+      if (w.axis_word[static_cast<std::size_t>(a)] >= 0) return static_cast<int>(w.axis_word[static_cast<std::size_t>(a)]);
+    return 0;
+  }();
+  m.column = b.words[static_cast<std::size_t>(first_word)].span.begin + 1;
+  fill_state(m);
+  switch (mode) {
+    case GMeaning::rapid:
+    case GMeaning::linear:
+      m.type = mode == GMeaning::rapid ? MotionType::rapid : MotionType::linear;
+      if (target(b, w, m)) out.motion(m, b);
+      break;
+    case GMeaning::arc_cw:
+    case GMeaning::arc_ccw:
+      m.type = mode == GMeaning::arc_cw ? MotionType::arc_cw : MotionType::arc_ccw;
+      if (target(b, w, m) && arc(b, w, m)) out.motion(m, b);
+      break;
+    case GMeaning::drill_cycle:
+      if (d_.lathe) {
+        unresolved_motion(b, w, codes::kLatheDrill, "lathe / mill-turn drilling cycle");
+        s_.known &= static_cast<AxisMask>(~w.axis_present);
+      } else {
+        drill(b, w, m, out);
+      }
+      break;
+    case GMeaning::turning_cycle:
+    case GMeaning::threading:
+    case GMeaning::spline: {
+      const auto code = mode == GMeaning::turning_cycle ? codes::kTurningCycle
+                        : mode == GMeaning::threading   ? codes::kThreading
+                                                        : codes::kSpline;
+      unresolved_motion(b, w, code,
+                        mode == GMeaning::turning_cycle ? "turning cycle"
+                        : mode == GMeaning::threading   ? "threading"
+                                                        : "spline motion");
+      s_.known &= static_cast<AxisMask>(~w.axis_present);
+      break;
+    }
+    case GMeaning::cancel_motion:
+    default:
+      if (w.motion.def == nullptr && mode == GMeaning::cancel_motion) {
+        const Span at = b.words[static_cast<std::size_t>(first_word)].span;
+        report(b, at, Severity::error, codes::kMissingWord,
+               "axis words but no motion mode is active (after G80 or at program start); add G0 or G1");
+      }
+      s_.known &= static_cast<AxisMask>(~w.axis_present);
+      break;
+  }
+  if (mcall_active_ && !w.machine_frame) s_.known &= static_cast<AxisMask>(~bit(Axis::z));
+}
+
+bool Interpreter::target(const Block& b, const BlockWords& w, Motion& m) {
+  m.start = s_.position;
+  const AxisMask start_known = s_.known;
+  m.programmed = w.axis_present;
+  m.frame = w.machine_frame ? Frame::machine : Frame::work;
+  for (int a = 0; a < kAxisCount; ++a) {
+    const AxisMask bitmask = static_cast<AxisMask>(1u << a);
+    if (!(w.axis_present & bitmask)) continue;
+    if (w.axis_unresolved & bitmask) {
+      s_.known &= static_cast<AxisMask>(~bitmask);
+      continue;
+    }
+    double v = to_mm(a, w.axis[a]);
+    if (a == 0 && s_.diameter_mode) v /= 2;  // X (and U) in diameter; centre words stay radius
+    const bool incremental =
+        (w.axis_incremental & bitmask) || (!s_.absolute && !(w.axis_absolute & bitmask) && !w.machine_frame);
+    if (incremental) {
+      s_.position[a] += v;  // unknown stays unknown
+    } else {
+      s_.position[a] = v;
+      s_.known |= bitmask;
+    }
+  }
+  m.end = s_.position;
+  m.known = s_.known;
+  if (w.machine_frame) {
+    // Machine coordinates: the row carries them, but the work-frame position is now unknown.
+    m.known = w.axis_present & ~w.axis_unresolved;
+    s_.known &= static_cast<AxisMask>(~w.axis_present);
+  }
+  (void)start_known;
+  (void)b;
+  return true;
+}
+
+bool Interpreter::arc(const Block& b, const BlockWords& w, Motion& m) {
+  const PlaneAxes p = plane_axes(s_.plane);
+  const AxisMask need = static_cast<AxisMask>((1u << p.u) | (1u << p.v));
+  const Span at = b.words[static_cast<std::size_t>(w.motion.word >= 0 ? w.motion.word : 0)].span;
+  const char cu = centre_letter(p.u), cv = centre_letter(p.v);
+  const bool by_radius = (w.has('R') && !w.has(cu) && !w.has(cv)) || w.has_cr;
+  const bool centre_unresolved = w.unresolved(cu) || w.unresolved(cv) || (by_radius && w.has('R') && w.unresolved('R'));
+  auto start_known = [&](AxisMask mk) { return (m.known & mk) == mk; };
+  if ((s_.known & need) != need || centre_unresolved || !start_known(need)) {
+    // Start, end or centre unknown: the arc cannot be resolved.
+    if (!centre_unresolved)
+      report(b, at, Severity::warning, codes::kUnknownPosition,
+             "arc whose start or end point is unknown (after an unresolved construct, or incremental from an "
+             "unknown start); it is not resolved");
+    s_.known &= static_cast<AxisMask>(~need);
+    return false;
+  }
+  const Eigen::Vector2d s(m.start[p.u], m.start[p.v]);
+  const Eigen::Vector2d e(m.end[p.u], m.end[p.v]);
+  const bool cw = m.type == MotionType::arc_cw;
+  Eigen::Vector2d c;
+  const double scale = s_.inch ? 25.4 : 1.0;
+  if (by_radius) {
+    double r = (w.has_cr ? w.cr : w.get('R')) * scale;
+    const Eigen::Vector2d chord = e - s;
+    const double d = chord.norm();
+    if (d < 1e-9) {
+      report(b, at, Severity::error, codes::kArcGeometry,
+             "arc given by radius R with end point equal to start point; a full circle needs I J K centre words");
+      return false;
+    }
+    const double rad = std::abs(r);
+    if (d > 2 * rad * (1 + 1e-6) + 1e-6) {
+      report(b, at, Severity::error, codes::kArcGeometry,
+             fmt::format("radius {:.6g} mm is smaller than half the chord {:.6g} mm; fix R or the end point", rad, d / 2));
+      return false;
+    }
+    const double h = std::sqrt(std::max(0.0, rad * rad - d * d / 4));
+    const Eigen::Vector2d mid = (s + e) / 2;
+    const Eigen::Vector2d left(-chord.y() / d, chord.x() / d);  // unit normal to the left of s→e
+    // Positive R: the short arc; the centre lies right of the chord for cw, left for ccw.
+    const bool short_arc = r > 0;
+    const double side = (cw == short_arc) ? -1.0 : 1.0;
+    c = mid + side * h * left;
+    r = rad;
+  } else {
+    if (!w.has(cu) && !w.has(cv)) {
+      report(b, at, Severity::error, codes::kMissingWord,
+             fmt::format("arc without centre ({} {}) or radius (R); add them", cu, cv));
+      return false;
+    }
+    const double iu = w.has(cu) ? w.get(cu) * scale : 0.0;
+    const double iv = w.has(cv) ? w.get(cv) * scale : 0.0;
+    const bool abs_u = s_.arc_absolute || ((w.letter_absolute >> (cu - 'A')) & 1u);
+    const bool abs_v = s_.arc_absolute || ((w.letter_absolute >> (cv - 'A')) & 1u);
+    c = Eigen::Vector2d(abs_u ? iu : s.x() + iu, abs_v ? iv : s.y() + iv);
+    const double r1 = (s - c).norm(), r2 = (e - c).norm();
+    const double diff = std::abs(r1 - r2);
+    if (diff > opt_.arc_radius_tolerance_mm * (s_.inch ? 2.54 : 1.0) && diff > 1e-3 * std::max(r1, r2)) {
+      report(b, at, Severity::error, codes::kArcGeometry,
+             fmt::format("arc radius at start {:.6f} mm and at end {:.6f} mm differ by {:.6f} mm; fix the centre "
+                         "words or the end point",
+                         r1, r2, diff));
+      return false;
+    }
+  }
+  const Eigen::Vector2d rs = s - c, re = e - c;
+  double sweep = std::atan2(rs.x() * re.y() - rs.y() * re.x(), rs.dot(re));  // (-π, π]
+  const bool same = (e - s).norm() < 1e-9;
+  if (cw && sweep >= 0) sweep -= 2 * std::numbers::pi;
+  if (!cw && sweep <= 0) sweep += 2 * std::numbers::pi;
+  if (same) sweep = cw ? -2 * std::numbers::pi : 2 * std::numbers::pi;
+  std::uint32_t turns = 1;
+  if (d_.id == DialectId::linuxcnc && w.has('P') && !w.unresolved('P')) {
+    const double pv = w.get('P');
+    if (pv < 1 || pv != std::floor(pv)) {
+      report(b, b.words[static_cast<std::size_t>(w.letter_word['P' - 'A'])].span, Severity::error,
+             codes::kArcGeometry, "P (number of turns) must be a positive whole number");
+      return false;
+    }
+    turns = static_cast<std::uint32_t>(pv);
+    sweep += (cw ? -1.0 : 1.0) * 2 * std::numbers::pi * (turns - 1);
+  }
+  m.arc.centre = Eigen::Vector3d(m.end[0], m.end[1], m.end[2]);
+  m.arc.centre[p.u] = c.x();
+  m.arc.centre[p.v] = c.y();
+  m.arc.centre[p.n] = m.start[p.n];
+  m.arc.radius = rs.norm();
+  m.arc.sweep = sweep;
+  m.arc.turns = turns;
+  m.arc.full_circle = same;
+  return true;
+}
+
+void Interpreter::drill(const Block& b, const BlockWords& w, Motion& m, MotionSink& out) {
+  const PlaneAxes p = plane_axes(s_.plane);
+  const double scale = s_.inch ? 25.4 : 1.0;
+  const AxisMask normal_bit = static_cast<AxisMask>(1u << p.n);
+  if (w.has('R') && !w.unresolved('R')) {
+    const double r = w.get('R') * scale;
+    s_.cycle_r = s_.absolute ? r : s_.cycle_initial + r;
+  }
+  if (w.axis_present & normal_bit) {
+    const double z = w.axis[p.n] * scale;
+    s_.cycle_bottom = s_.absolute ? z : s_.cycle_r + z;
+    s_.cycle_bottom_known = !(w.axis_unresolved & normal_bit);
+  }
+  const int repeats = w.has('L') ? static_cast<int>(w.get('L')) : (w.has('K') ? static_cast<int>(w.get('K')) : 1);
+  if (repeats != 1) {
+    report(b, b.words[static_cast<std::size_t>(w.letter_word[(w.has('L') ? 'L' : 'K') - 'A'])].span,
+           Severity::warning, codes::kCycleRepeat,
+           "drilling cycle with a repeat count other than 1 is not expanded; positions after it are unknown");
+    s_.known &= static_cast<AxisMask>(~(w.axis_present | normal_bit));
+    return;
+  }
+  // Position in the plane (incremental in G91), then the cycle; it ends at R (G99) or initial level.
+  BlockWords plane_only = w;
+  plane_only.axis_present = static_cast<AxisMask>(w.axis_present & ~normal_bit);
+  target(b, plane_only, m);
+  m.type = MotionType::drill_cycle;
+  m.cycle_code10 = s_.motion_code10;
+  m.programmed = w.axis_present;
+  m.cycle_r = s_.cycle_r;
+  m.cycle_bottom = s_.cycle_bottom;
+  const double retract = s_.return_to_r ? s_.cycle_r : std::max(s_.cycle_initial, s_.cycle_r);
+  s_.position[p.n] = retract;
+  if (s_.cycle_bottom_known) s_.known |= normal_bit;
+  m.end = s_.position;
+  m.known = s_.known;
+  out.motion(m, b);
+}
+
+}  // namespace postproc::gcode

@@ -1,0 +1,461 @@
+// Lossless block lexer. Spans index the block's raw bytes; nothing is copied or normalised.
+#include "postproc/gcode/lexer.hpp"
+
+#include <charconv>
+#include <string>
+
+#include <fmt/format.h>
+
+#include "src/gcode/number_text.hpp"
+
+namespace postproc::gcode {
+namespace {
+
+constexpr bool is_space(char c) { return c == ' ' || c == '\t'; }
+constexpr bool is_digit(char c) { return c >= '0' && c <= '9'; }
+constexpr bool is_alpha(char c) { return (c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z'); }
+constexpr bool is_ident(char c) { return is_alpha(c) || is_digit(c) || c == '_'; }
+constexpr char upper(char c) { return (c >= 'a' && c <= 'z') ? static_cast<char>(c - 32) : c; }
+
+bool iequals(std::string_view a, std::string_view b) {
+  if (a.size() != b.size()) return false;
+  for (std::size_t i = 0; i < a.size(); ++i)
+    if (upper(a[i]) != upper(b[i])) return false;
+  return true;
+}
+
+/// Fanuc macro B statement keywords (multi-letter in otherwise single-letter dialects).
+constexpr std::string_view kFanucKeywords[] = {"IF", "GOTO", "WHILE", "THEN", "DO", "END"};
+
+/// Siemens statements that take the rest of the line as their argument.
+constexpr std::string_view kSiemensStatementKeywords[] = {
+    "IF", "ELSE", "ENDIF", "WHILE", "ENDWHILE", "FOR", "TO", "ENDFOR", "LOOP", "ENDLOOP",
+    "REPEAT", "UNTIL", "GOTO", "GOTOF", "GOTOB", "GOTOC", "CASE", "RET", "STOPRE"};
+constexpr std::string_view kSiemensDeclarations[] = {"DEF", "PROC", "EXTERN", "DEFINE"};
+
+class Lexer {
+ public:
+  Lexer(const Dialect& d, Block& b, const LexContext& ctx) : d_(d), b_(b), ctx_(ctx), s_(b.raw) {}
+
+  bool run() {
+    std::uint32_t i = skip_space(0);
+    // '%' starts a line of its own kind: "%", "%_N_NAME_MPF", "%O1200(TITLE)".
+    if (i < n() && s_[i] == '%') {
+      std::uint32_t j = i + 1;
+      while (j < n() && s_[j] != '(' && s_[j] != ';' && !is_space(s_[j]) &&
+             !(d_.id != DialectId::siemens && (s_[j] == 'O' || s_[j] == 'o' || s_[j] == ':')))
+        ++j;
+      push_token(TokenKind::percent, {i, j}, {i, j});
+      i = skip_space(j);
+    }
+    if (i < n() && s_[i] == '/') {
+      std::uint32_t j = i + 1;
+      if (j < n() && is_digit(s_[j])) {
+        b_.block_delete_level = static_cast<std::uint8_t>(s_[j] - '0');
+        ++j;
+      }
+      b_.block_delete = true;
+      b_.block_delete_span = {i, j};
+      i = skip_space(j);
+    }
+    bool first_item = true;
+    while (i < n()) {
+      const char c = s_[i];
+      std::uint32_t next = 0;
+      if (c == '(' && d_.paren_comments) {
+        next = paren_comment(i);
+      } else if (c == ';' && d_.semicolon_comments) {
+        push_token(TokenKind::line_comment, {i, n()}, {i, n()});
+        next = n();
+      } else if (c == '*' && d_.star_block_end) {
+        push_token(TokenKind::block_end, {i, i + 1}, {i, i + 1});
+        next = i + 1;
+      } else if (c == ':' && first_item && d_.id == DialectId::fanuc) {
+        next = program_number(i, i + 1);
+      } else if (c == '#' && d_.hash_parameters) {
+        next = hash_assignment(i);
+      } else if (is_alpha(c) || (c == '_' && d_.multi_letter_identifiers)) {
+        next = d_.multi_letter_identifiers ? siemens_item(i, first_item) : letter_item(i, first_item);
+      } else {
+        next = bad(i, "PP-E101", fmt::format("unexpected character '{}'", printable(c)),
+                   "remove it or check the --dialect");
+      }
+      first_item = false;
+      i = skip_space(next);
+    }
+    return ok_;
+  }
+
+ private:
+  [[nodiscard]] std::uint32_t n() const { return static_cast<std::uint32_t>(s_.size()); }
+  [[nodiscard]] std::uint32_t skip_space(std::uint32_t i) const {
+    while (i < n() && is_space(s_[i])) ++i;
+    return i;
+  }
+  static std::string printable(char c) {
+    if (static_cast<unsigned char>(c) < 32 || static_cast<unsigned char>(c) >= 127)
+      return fmt::format("\\x{:02X}", static_cast<unsigned char>(c));
+    return std::string(1, c);
+  }
+
+  void push_token(TokenKind k, Span span, Span name) { b_.tokens.push_back(Token{span, k, name}); }
+
+  std::uint32_t bad(std::uint32_t at, std::string_view code, const std::string& what, std::string_view fix,
+                    std::uint32_t len = 1) {
+    ok_ = false;
+    if (ctx_.sink)
+      report_at(ctx_, b_, {at, std::min(n(), at + len)}, Severity::error, code, fmt::format("{}; {}", what, fix));
+    // Resynchronise at the next whitespace so one bad byte does not hide the rest of the block.
+    std::uint32_t j = at + 1;
+    while (j < n() && !is_space(s_[j])) ++j;
+    return j;
+  }
+
+  std::uint32_t paren_comment(std::uint32_t i) {
+    std::uint32_t j = i + 1;
+    while (j < n() && s_[j] != ')') ++j;
+    if (j >= n()) {
+      ok_ = false;
+      if (ctx_.sink)
+        report_at(ctx_, b_, {i, i + 1}, Severity::error, "PP-E102",
+                  "comment '(' is not closed on this line; add ')' (comments cannot span lines)");
+      push_token(TokenKind::paren_comment, {i, n()}, {i, n()});
+      return n();
+    }
+    push_token(TokenKind::paren_comment, {i, j + 1}, {i + 1, j});
+    return j + 1;
+  }
+
+  /// Program number after 'O' or ':' at `digits`; `i` is the start of the token.
+  std::uint32_t program_number(std::uint32_t i, std::uint32_t digits) {
+    std::uint32_t j = digits;
+    while (j < n() && is_digit(s_[j])) ++j;
+    if (j == digits)
+      return bad(i, "PP-E103", "program number without digits",
+                 "write the program number (e.g. O1234) or remove the placeholder text", j - i + 1);
+    push_token(TokenKind::program_number, {i, j}, {digits, j});
+    return j;
+  }
+
+  /// End of a bracketed expression starting at `i` (s_[i] == open); 0 on error.
+  std::uint32_t match_bracket(std::uint32_t i, char open, char close) {
+    int depth = 0;
+    bool in_string = false;
+    for (std::uint32_t j = i; j < n(); ++j) {
+      const char c = s_[j];
+      if (c == '"') in_string = !in_string;
+      if (in_string) continue;
+      if (c == open) ++depth;
+      if (c == close && --depth == 0) return j + 1;
+    }
+    return 0;
+  }
+
+  /// Parses a value after an address (at `i`). Fills `w.value`, `w.kind`, `w.number`. Returns end or 0.
+  std::uint32_t value(std::uint32_t i, Word& w) {
+    if (d_.spaces_inside_words) i = skip_space(i);
+    if (i >= n()) return 0;
+    std::uint32_t j = i;
+    // A sign may precede a parameter or expression: X-#1, X-[#1+2].
+    std::uint32_t k = j;
+    if (s_[k] == '-' || s_[k] == '+') k = d_.spaces_inside_words ? skip_space(k + 1) : k + 1;
+    if (k < n() && s_[k] == '[') {
+      const std::uint32_t e = match_bracket(k, '[', ']');
+      if (e == 0) return 0;
+      w.kind = ValueKind::expression;
+      w.value = {j, e};
+      return e;
+    }
+    if (k < n() && s_[k] == '#' && d_.hash_parameters) {
+      const std::uint32_t e = parameter_ref_end(k);
+      if (e == 0) return 0;
+      w.kind = ValueKind::parameter;
+      w.value = {j, e};
+      return e;
+    }
+    // LinuxCNC unary functions as values: X sin[30]
+    if (k < n() && is_alpha(s_[k]) && d_.o_word_control) {
+      std::uint32_t e = k;
+      while (e < n() && is_alpha(s_[e])) ++e;
+      if (e < n() && s_[e] == '[') {
+        const std::uint32_t m = match_bracket(e, '[', ']');
+        if (m == 0) return 0;
+        w.kind = ValueKind::expression;
+        w.value = {j, m};
+        return m;
+      }
+      return 0;
+    }
+    const std::uint32_t e = scan_number(s_, j, d_.spaces_inside_words);
+    if (e == j) return 0;
+    if (!parse_number(s_.substr(j, e - j), w.number)) return 0;
+    w.kind = ValueKind::number;
+    w.value = {j, e};
+    return e;
+  }
+
+  /// End of `#123`, `#<name>`, `##1`, `#[expr]`, or 0.
+  std::uint32_t parameter_ref_end(std::uint32_t i) {
+    std::uint32_t j = i;
+    while (j < n() && s_[j] == '#') ++j;
+    if (j >= n()) return 0;
+    if (s_[j] == '<') {
+      const std::uint32_t e = static_cast<std::uint32_t>(s_.find('>', j));
+      return e == static_cast<std::uint32_t>(std::string_view::npos) ? 0 : e + 1;
+    }
+    if (s_[j] == '[') return match_bracket(j, '[', ']');
+    const std::uint32_t start = j;
+    while (j < n() && is_digit(s_[j])) ++j;
+    return j == start ? 0 : j;
+  }
+
+  /// `#1=expr`, `#<name>=expr`: the right-hand side runs to a comment or the end of the block.
+  std::uint32_t hash_assignment(std::uint32_t i) {
+    const std::uint32_t name_end = parameter_ref_end(i);
+    if (name_end == 0)
+      return bad(i, "PP-E104", "malformed parameter reference", "write #123, #<name> or #[expression]");
+    std::uint32_t j = skip_space(name_end);
+    if (j >= n() || s_[j] != '=')
+      return bad(i, "PP-E105", "parameter reference outside a word or assignment",
+                 "assign it (#1=5) or use it as a word value (X#1)", name_end - i);
+    j = rest_of_statement(j + 1);
+    push_token(TokenKind::assignment, {i, j}, {i, name_end});
+    return j;
+  }
+
+  /// End of a statement's text: up to a comment (outside brackets/strings) or the end of line,
+  /// with trailing spaces excluded.
+  std::uint32_t rest_of_statement(std::uint32_t j) {
+    int depth = 0;
+    bool in_string = false;
+    std::uint32_t e = j;
+    for (; e < n(); ++e) {
+      const char c = s_[e];
+      if (c == '"') in_string = !in_string;
+      if (in_string) continue;
+      if (c == '[') ++depth;
+      if (c == ']') --depth;
+      if (depth <= 0 && ((c == '(' && d_.paren_comments) || (c == ';' && d_.semicolon_comments))) break;
+    }
+    while (e > j && is_space(s_[e - 1])) --e;
+    return e;
+  }
+
+  /// Fanuc / LinuxCNC / Heidenhain: a single letter and a value, or a statement keyword.
+  std::uint32_t letter_item(std::uint32_t i, bool first_item) {
+    const char L = upper(s_[i]);
+    // Multi-letter statement keywords (Fanuc macro B: IF/GOTO/WHILE/DO/END/THEN).
+    if (d_.id == DialectId::fanuc && i + 1 < n() && is_alpha(s_[i + 1])) {
+      std::uint32_t e = i;
+      while (e < n() && is_alpha(s_[e])) ++e;
+      const std::string_view word = s_.substr(i, e - i);
+      for (std::string_view kw : kFanucKeywords)
+        if (iequals(word, kw)) {
+          // IF/WHILE take a bracketed condition; the whole statement runs to a comment or EOL.
+          const std::uint32_t end = rest_of_statement(e);
+          push_token(TokenKind::control_flow, {i, end}, {i, e});
+          return end;
+        }
+    }
+    if (L == 'O' && d_.o_word_control) return o_word(i);
+    if (L == 'O' && d_.id != DialectId::siemens) {
+      return program_number(i, d_.spaces_inside_words ? skip_space(i + 1) : i + 1);
+    }
+    Word w;
+    w.letter = L;
+    w.name = {i, i + 1};
+    const std::uint32_t e = value(i + 1, w);
+    if (e == 0) return missing_value(i);
+    w.span = {i, e};
+    if (L == 'N' && first_item && w.kind == ValueKind::number && !b_.has_n) {
+      b_.has_n = true;
+      b_.n_span = w.span;
+      b_.n_number = w.number;
+      return e;
+    }
+    b_.words.push_back(w);
+    return e;
+  }
+
+  std::uint32_t missing_value(std::uint32_t i) {
+    std::uint32_t e = i + 1;
+    while (e < n() && is_ident(s_[e])) ++e;
+    return bad(i, "PP-E106", fmt::format("'{}' is not a word this dialect ({}) knows", s_.substr(i, e - i), d_.name),
+               "an address letter must be followed by a number, #parameter or [expression]; check --dialect",
+               e - i);
+  }
+
+  /// LinuxCNC o-word: o100 sub / o<name> call [args] / o101 if [cond] …
+  std::uint32_t o_word(std::uint32_t i) {
+    std::uint32_t j = d_.spaces_inside_words ? skip_space(i + 1) : i + 1;
+    std::uint32_t name_end = j;
+    if (j < n() && s_[j] == '<') {
+      const auto e = s_.find('>', j);
+      if (e == std::string_view::npos)
+        return bad(i, "PP-E107", "o-word name '<' not closed", "write o<name>", n() - i);
+      name_end = static_cast<std::uint32_t>(e + 1);
+    } else if (j < n() && (s_[j] == '#' || s_[j] == '[')) {
+      name_end = s_[j] == '#' ? parameter_ref_end(j) : match_bracket(j, '[', ']');
+      if (name_end == 0) return bad(i, "PP-E107", "malformed o-word number", "write o100 or o<name>");
+    } else {
+      while (name_end < n() && is_digit(s_[name_end])) ++name_end;
+      if (name_end == j) return bad(i, "PP-E107", "o-word without a number or name", "write o100 or o<name>");
+    }
+    const std::uint32_t end = rest_of_statement(name_end);
+    push_token(TokenKind::control_flow, {i, end}, {i, name_end});
+    return end;
+  }
+
+  /// Siemens: identifiers may be multi-letter; addresses may carry '=' and extended digits.
+  std::uint32_t siemens_item(std::uint32_t i, bool first_item) {
+    std::uint32_t e = i;
+    while (e < n() && (is_alpha(s_[e]) || s_[e] == '_')) ++e;
+    const std::string_view letters = s_.substr(i, e - i);
+    // Identifier with digits (CYCLE800, R12, A3, L54, G642, X10): split letters and digits.
+    std::uint32_t d = e;
+    while (d < n() && is_ident(s_[d])) ++d;
+    const std::uint32_t after = skip_space(d);
+    const bool equals = after < n() && s_[after] == '=' && !(after + 1 < n() && s_[after + 1] == '=');
+    const bool paren = d < n() && s_[d] == '(';
+    const bool label = d < n() && s_[d] == ':' && first_item && !(d + 1 < n() && s_[d + 1] == '=');
+
+    if (label && letters.size() >= 2) {
+      push_token(TokenKind::label, {i, d + 1}, {i, d});
+      return d + 1;
+    }
+    const std::string_view ident = s_.substr(i, d - i);
+    for (std::string_view kw : kSiemensDeclarations)
+      if (iequals(ident, kw)) {
+        const std::uint32_t end = rest_of_statement(d);
+        push_token(TokenKind::declaration, {i, end}, {i, d});
+        return end;
+      }
+    for (std::string_view kw : kSiemensStatementKeywords)
+      if (iequals(ident, kw)) {
+        const std::uint32_t end = rest_of_statement(d);
+        push_token(TokenKind::control_flow, {i, end}, {i, d});
+        return end;
+      }
+    if (paren) {
+      const std::uint32_t m = match_bracket(d, '(', ')');
+      if (m == 0)
+        return bad(i, "PP-E108", fmt::format("'(' after {} is not closed", ident), "close the argument list",
+                   d - i + 1);
+      push_token(TokenKind::call, {i, m}, {i, d});
+      return m;
+    }
+    if (equals) {
+      // Address with '=' (X=10, A3=0.5, CR=5, R1=2) or a variable assignment (NAME=expr).
+      std::uint32_t v = skip_space(after + 1);
+      std::uint32_t end = siemens_expression_end(v);
+      if (end == v) return bad(i, "PP-E109", fmt::format("'{}=' without a value", ident), "write a value after '='");
+      const bool is_address = letters.size() <= 2 && (letters.size() == 1 || is_siemens_two_letter(letters));
+      if (!is_address || (letters.size() == 1 && upper(letters[0]) == 'R')) {
+        push_token(TokenKind::assignment, {i, end}, {i, d});
+        return end;
+      }
+      Word w;
+      w.letter = upper(s_[i]);
+      w.name = {i, d};
+      w.name_len = static_cast<std::uint8_t>(d - i);
+      w.index = extended_index(e, d);
+      w.has_equals = true;
+      w.value = {v, end};
+      const std::string_view text = s_.substr(v, end - v);
+      if (std::uint32_t ne = scan_number(text, 0, false); ne == text.size() && ne > 0 && parse_number(text, w.number)) {
+        w.kind = ValueKind::number;
+      } else if (text.size() > 3 && iequals(text.substr(0, 3), "AC(")) {
+        w.kind = ValueKind::absolute_fn;
+      } else if (text.size() > 3 && iequals(text.substr(0, 3), "IC(")) {
+        w.kind = ValueKind::incremental_fn;
+      } else if (!text.empty() && text[0] == '"') {
+        w.kind = ValueKind::string;
+      } else {
+        w.kind = ValueKind::expression;
+      }
+      w.span = {i, end};
+      b_.words.push_back(w);
+      return end;
+    }
+    if (letters.size() >= 2) {
+      push_token(TokenKind::keyword, {i, d}, {i, d});
+      return d;
+    }
+    // Single letter followed by a number: X10.5, G1, N10, L54 (letters.size() == 1 here).
+    Word w;
+    w.letter = upper(s_[i]);
+    w.name = {i, i + 1};
+    const std::uint32_t v_end = value(i + 1, w);
+    if (v_end == 0) return missing_value(i);
+    w.span = {i, v_end};
+    if (w.letter == 'N' && first_item && w.kind == ValueKind::number && !b_.has_n) {
+      b_.has_n = true;
+      b_.n_span = w.span;
+      b_.n_number = w.number;
+      return v_end;
+    }
+    b_.words.push_back(w);
+    return v_end;
+  }
+
+  static bool is_siemens_two_letter(std::string_view l) {
+    constexpr std::string_view kTwo[] = {"CR", "AP", "RP", "AR", "CT", "IP", "TU", "SF", "FA", "OS"};
+    for (auto k : kTwo)
+      if (iequals(l, k)) return true;
+    return false;
+  }
+  std::uint8_t extended_index(std::uint32_t from, std::uint32_t to) const {
+    unsigned v = 0;
+    for (std::uint32_t k = from; k < to && v < 100; ++k)
+      if (is_digit(s_[k])) v = v * 10 + static_cast<unsigned>(s_[k] - '0');
+    return static_cast<std::uint8_t>(v);
+  }
+  /// Siemens value after '=': runs to whitespace at bracket depth 0 (or a comment).
+  std::uint32_t siemens_expression_end(std::uint32_t v) {
+    int depth = 0;
+    bool in_string = false;
+    std::uint32_t e = v;
+    for (; e < n(); ++e) {
+      const char c = s_[e];
+      if (c == '"') in_string = !in_string;
+      if (in_string) continue;
+      if (c == '(' || c == '[') ++depth;
+      if (c == ')' || c == ']') --depth;
+      if (depth <= 0 && (is_space(c) || c == ';')) break;
+    }
+    return e;
+  }
+
+  const Dialect& d_;
+  Block& b_;
+  const LexContext& ctx_;
+  std::string_view s_;
+  bool ok_ = true;
+};
+
+}  // namespace
+
+void report_at(const LexContext& ctx, const Block& block, Span span, Severity sev, std::string_view code,
+               std::string message) {
+  if (!ctx.sink) return;
+  Diagnostic d;
+  d.severity = sev;
+  d.code = std::string(code);
+  d.file = std::string(ctx.file);
+  d.where = {block.line, span.begin + 1};
+  d.message = std::move(message);
+  d.source_line = std::string(block.raw);
+  d.length = std::max<std::uint32_t>(1, span.size());
+  ctx.sink->report(std::move(d));
+}
+
+bool lex_block(const Dialect& dialect, Block& block, const LexContext& ctx) {
+  block.words.clear();
+  block.tokens.clear();
+  block.has_n = false;
+  block.block_delete = false;
+  block.block_delete_level = 0;
+  return Lexer(dialect, block, ctx).run();
+}
+
+}  // namespace postproc::gcode

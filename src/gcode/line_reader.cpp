@@ -1,0 +1,94 @@
+#include "postproc/gcode/line_reader.hpp"
+
+#include <cerrno>
+#include <cstring>
+
+#include <fmt/format.h>
+
+#include "postproc/error.hpp"
+
+namespace postproc::gcode {
+
+LineReader::LineReader(const std::string& path, std::size_t chunk) : path_(path), buf_(chunk) {
+  if (path == "-") {
+    file_ = stdin;
+  } else {
+    file_ = std::fopen(path.c_str(), "rb");
+    if (file_ == nullptr)
+      throw Error(ExitCode::no_input, fmt::format("{}: cannot open for reading: {}", path, std::strerror(errno)));
+    owns_file_ = true;
+  }
+}
+
+LineReader::LineReader(std::string_view memory) : memory_(memory), from_memory_(true) {}
+
+LineReader::~LineReader() {
+  if (owns_file_ && file_ != nullptr) std::fclose(file_);
+}
+
+bool LineReader::refill() {
+  if (eof_ || from_memory_) return false;
+  // Move the unread tail to the front; grow when one line fills the whole buffer.
+  const std::size_t tail = end_ - begin_;
+  if (begin_ > 0) {
+    std::memmove(buf_.data(), buf_.data() + begin_, tail);
+    begin_ = 0;
+    end_ = tail;
+  }
+  if (end_ == buf_.size()) buf_.resize(buf_.size() * 2);
+  const std::size_t got = std::fread(buf_.data() + end_, 1, buf_.size() - end_, file_);
+  if (got == 0) {
+    if (std::ferror(file_))
+      throw Error(ExitCode::no_input, fmt::format("{}: read error: {}", path_, std::strerror(errno)));
+    eof_ = true;
+    return false;
+  }
+  end_ += got;
+  return true;
+}
+
+bool LineReader::next(std::string_view& line, std::string_view& eol) {
+  if (from_memory_) {
+    if (begin_ >= memory_.size()) return false;
+    const char* base = memory_.data();
+    std::size_t i = begin_;
+    while (i < memory_.size() && base[i] != '\n' && base[i] != '\r') ++i;
+    line = memory_.substr(begin_, i - begin_);
+    std::size_t e = i;
+    if (e < memory_.size()) e += (base[e] == '\r' && e + 1 < memory_.size() && base[e + 1] == '\n') ? 2 : 1;
+    eol = memory_.substr(i, e - i);
+    consumed_ += e - begin_;
+    begin_ = e;
+    ++line_no_;
+    return true;
+  }
+  std::size_t scan_from = begin_;
+  for (;;) {
+    const char* base = buf_.data();
+    std::size_t i = scan_from;
+    while (i < end_ && base[i] != '\n' && base[i] != '\r') ++i;
+    // A '\r' at the end of the buffer may be the first half of "\r\n": need one more byte.
+    const bool need_more = i >= end_ || (base[i] == '\r' && i + 1 >= end_ && !eof_);
+    if (need_more) {
+      const std::size_t offset = i - begin_;
+      if (refill()) {
+        scan_from = begin_ + (offset > 0 && i < end_ ? offset : offset);
+        if (scan_from > end_) scan_from = begin_;
+        continue;
+      }
+      if (begin_ >= end_) return false;
+      i = std::min(i, end_);
+    }
+    base = buf_.data();
+    std::size_t e = i;
+    if (e < end_) e += (base[e] == '\r' && e + 1 < end_ && base[e + 1] == '\n') ? 2 : 1;
+    line = std::string_view(base + begin_, i - begin_);
+    eol = std::string_view(base + i, e - i);
+    consumed_ += e - begin_;
+    begin_ = e;
+    ++line_no_;
+    return true;
+  }
+}
+
+}  // namespace postproc::gcode

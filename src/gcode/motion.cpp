@@ -1,0 +1,48 @@
+#include "postproc/gcode/motion.hpp"
+
+namespace postproc::gcode {
+
+int axis_index(char L) {
+  for (int i = 0; i < kAxisCount; ++i)
+    if (kAxisLetters[static_cast<std::size_t>(i)] == L) return i;
+  return -1;
+}
+
+std::string_view to_string(MotionType t) {
+  switch (t) {
+    case MotionType::rapid: return "rapid";
+    case MotionType::linear: return "linear";
+    case MotionType::arc_cw: return "cw";
+    case MotionType::arc_ccw: return "ccw";
+    case MotionType::drill_cycle: return "drill";
+  }
+  return "?";
+}
+std::string_view to_string(Plane p) {
+  switch (p) {
+    case Plane::xy: return "xy";
+    case Plane::zx: return "zx";
+    case Plane::yz: return "yz";
+  }
+  return "?";
+}
+std::string_view to_string(FeedMode f) {
+  switch (f) {
+    case FeedMode::per_minute: return "per_minute";
+    case FeedMode::per_rev: return "per_rev";
+    case FeedMode::inverse_time: return "inverse_time";
+  }
+  return "?";
+}
+std::string_view to_string(TcpMode t) {
+  switch (t) {
+    case TcpMode::off: return "off";
+    case TcpMode::fanuc_g43_4: return "G43.4";
+    case TcpMode::fanuc_g43_5: return "G43.5";
+    case TcpMode::siemens_traori: return "TRAORI";
+    case TcpMode::heidenhain_m128: return "M128";
+  }
+  return "?";
+}
+
+}  // namespace postproc::gcode

@@ -1,0 +1,70 @@
+#include "postproc/io/output_file.hpp"
+
+#include <cerrno>
+#include <cstring>
+#include <filesystem>
+#include <system_error>
+
+#include <fmt/format.h>
+#include <unistd.h>
+
+#include "postproc/error.hpp"
+
+namespace postproc::io {
+namespace fs = std::filesystem;
+
+OutputFile::OutputFile(std::string path, std::string_view input_path, bool allow_overwrite) : path_(std::move(path)) {
+  if (path_ == "-") {
+    stdout_ = true;
+    f_ = stdout;
+    return;
+  }
+  std::error_code ec;
+  if (!input_path.empty() && input_path != "-" && fs::exists(path_, ec) &&
+      fs::equivalent(fs::path(path_), fs::path(std::string(input_path)), ec)) {
+    if (!allow_overwrite)
+      throw Error(ExitCode::usage, fmt::format("{}: output would overwrite the input; choose another -o or pass "
+                                               "--in-place (a .bak backup is kept)",
+                                               path_));
+    backup_ = true;
+  }
+  temp_ = fmt::format("{}.tmp.{}", path_, ::getpid());
+  f_ = std::fopen(temp_.c_str(), "wb");
+  if (f_ == nullptr)
+    throw Error(ExitCode::cannot_write, fmt::format("{}: cannot create: {}", temp_, std::strerror(errno)));
+}
+
+OutputFile::~OutputFile() {
+  if (stdout_ || committed_) return;
+  if (f_ != nullptr) std::fclose(f_);
+  std::remove(temp_.c_str());  // never leave a partial output behind
+}
+
+void OutputFile::write(std::string_view bytes) {
+  if (bytes.empty()) return;
+  if (std::fwrite(bytes.data(), 1, bytes.size(), f_) != bytes.size())
+    throw Error(ExitCode::cannot_write, fmt::format("{}: write failed: {}", stdout_ ? "<stdout>" : temp_,
+                                                    std::strerror(errno)));
+}
+
+void OutputFile::commit() {
+  if (stdout_) {
+    std::fflush(stdout);
+    committed_ = true;
+    return;
+  }
+  const bool failed = std::fflush(f_) != 0 || std::ferror(f_) != 0;
+  std::fclose(f_);
+  f_ = nullptr;
+  if (failed) throw Error(ExitCode::cannot_write, fmt::format("{}: write failed: {}", temp_, std::strerror(errno)));
+  std::error_code ec;
+  if (backup_) {
+    fs::copy_file(path_, path_ + ".bak", fs::copy_options::overwrite_existing, ec);
+    if (ec) throw Error(ExitCode::cannot_write, fmt::format("{}.bak: cannot write backup: {}", path_, ec.message()));
+  }
+  fs::rename(temp_, path_, ec);
+  if (ec) throw Error(ExitCode::cannot_write, fmt::format("{}: cannot rename into place: {}", path_, ec.message()));
+  committed_ = true;
+}
+
+}  // namespace postproc::io
