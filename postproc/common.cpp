@@ -13,6 +13,10 @@ void add_dialect_options(CLI::App& cmd, DialectArgs& a, bool required) {
   cmd.add_flag("--lathe", a.lathe,
                "lathe programs: Fanuc G-code system A (G98/G99 feed modes, U/W incremental, G70–G76 cycles), X "
                "programmed as diameter");
+  cmd.add_option("--gcode-system", a.gcode_system,
+                 "Fanuc lathe G-code system: A (G98/G99 feed per min/rev, U/W incremental) or B (G90/G91, G94/G95)")
+      ->check(CLI::IsMember({"A", "B"}))
+      ->capture_default_str();
   cmd.add_option("--diameter-axis", a.diameter_axis, "axis programmed as a diameter from the start (X), or 'none'")
       ->check(CLI::IsMember({"X", "x", "none"}));
 }
@@ -20,6 +24,7 @@ void add_dialect_options(CLI::App& cmd, DialectArgs& a, bool required) {
 gcode::Dialect make_dialect(const DialectArgs& a) {
   gcode::DialectOptions o;
   o.lathe = a.lathe;
+  o.gcode_system = a.gcode_system.empty() ? 'A' : a.gcode_system[0];
   if (a.diameter_axis == "X" || a.diameter_axis == "x") o.diameter_axis = 'X';
   auto d = gcode::make_dialect(a.dialect, o);
   if (!d) throw Error(ExitCode::usage, fmt::format("unknown dialect '{}'; use {}", a.dialect, gcode::dialect_names()));

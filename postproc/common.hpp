@@ -15,6 +15,7 @@ namespace postproc::cli {
 struct DialectArgs {
   std::string dialect;       ///< empty = not given
   bool lathe = false;
+  std::string gcode_system = "A";
   std::string diameter_axis; ///< "X" or empty
 };
 

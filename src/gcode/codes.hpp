@@ -34,4 +34,5 @@ inline constexpr std::string_view kCycleRepeat = "PP-U217";
 // Notes.
 inline constexpr std::string_view kDialectGuess = "PP-N001";
 inline constexpr std::string_view kDialectMismatch = "PP-N002";
+inline constexpr std::string_view kTapeLeader = "PP-N003";
 }  // namespace postproc::gcode::codes

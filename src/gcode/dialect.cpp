@@ -33,7 +33,8 @@ void base_table(std::vector<GCodeDef>& t) {
       {g(58), M::work_offset, Gr::work_offset}, {g(59), M::work_offset, Gr::work_offset},
       {g(9), M::exact_stop, Gr::non_modal}, {g(61), M::exact_stop, Gr::path_control},
       {g(64), M::path_control, Gr::path_control},
-      {g(80), M::cancel_motion, Gr::motion},
+      // G80 may share a block with G0/G1 ("G00 G80"): it cancels cycles, it is not itself a motion.
+      {g(80), M::cancel_motion, Gr::non_modal},
       {g(28), M::home_return, Gr::non_modal}, {g(30), M::home_return, Gr::non_modal},
   });
 }
@@ -62,7 +63,7 @@ void iso_mill_common(std::vector<GCodeDef>& t) {
   });
 }
 
-void fanuc(std::vector<GCodeDef>& t, bool lathe) {
+void fanuc(std::vector<GCodeDef>& t, bool lathe, char system) {
   iso_mill_common(t);
   set(t, {
       {g(43.4), M::tcp_on, Gr::tool_length}, {g(43.5), M::tcp_vector_on, Gr::tool_length},
@@ -74,9 +75,9 @@ void fanuc(std::vector<GCodeDef>& t, bool lathe) {
       {g(12.1), M::polar_interp_on, Gr::non_modal}, {g(13.1), M::polar_interp_off, Gr::non_modal},
       {g(112), M::polar_interp_on, Gr::non_modal}, {g(113), M::polar_interp_off, Gr::non_modal},
       {g(15), M::state_only, Gr::non_modal}, {g(16), M::state_only, Gr::non_modal},
-      {g(32), M::threading, Gr::motion}, {g(50.1), M::state_only, Gr::non_modal},
+      {g(32), M::threading, Gr::motion}, {g(33), M::threading, Gr::motion}, {g(50.1), M::state_only, Gr::non_modal},
       {g(51.1), M::state_only, Gr::non_modal}, {g(65), M::state_only, Gr::non_modal},
-      {g(80.5), M::cancel_motion, Gr::motion}, {g(49.1), M::tool_length_off, Gr::tool_length},
+      {g(80.5), M::cancel_motion, Gr::non_modal}, {g(49.1), M::tool_length_off, Gr::tool_length},
       {g(41.2), M::cutter_comp, Gr::cutter_comp}, {g(42.2), M::cutter_comp, Gr::cutter_comp},
       {g(61.1), M::path_control, Gr::path_control}, {g(62), M::path_control, Gr::path_control},
       {g(63), M::path_control, Gr::path_control}, {g(10.6), M::state_only, Gr::non_modal},
@@ -102,6 +103,17 @@ void fanuc(std::vector<GCodeDef>& t, bool lathe) {
         {g(91), M::unknown, Gr::none},
         {g(7), M::unknown, Gr::none},
     });
+    if (system == 'B') {
+      // System B: G90/G91 absolute/incremental, G94/G95 feed modes, G98/G99 return levels, G77/G78/G79
+      // single cycles, G92 sets the coordinate system (or clamps the spindle with S) like G50.
+      set(t, {
+          {g(90), M::absolute, Gr::distance}, {g(91), M::incremental, Gr::distance},
+          {g(94), M::feed_per_minute, Gr::feed_mode}, {g(95), M::feed_per_rev, Gr::feed_mode},
+          {g(98), M::return_initial, Gr::return_mode}, {g(99), M::return_r, Gr::return_mode},
+          {g(77), M::turning_cycle, Gr::motion}, {g(78), M::threading, Gr::motion},
+          {g(79), M::turning_cycle, Gr::motion}, {g(92), M::spindle_clamp, Gr::non_modal},
+      });
+    }
   }
 }
 
@@ -159,7 +171,12 @@ void siemens(std::vector<GCodeDef>& t) {
       {g(153), M::machine_coords, Gr::non_modal}, {g(5), M::spline, Gr::motion},
       {g(28), M::unknown, Gr::none}, {g(30), M::unknown, Gr::none},
   });
-  for (int k = 505; k <= 599; ++k) set(t, {{static_cast<std::uint16_t>(k * 10), M::work_offset, Gr::work_offset}});
+  set(t, {{g(62), M::state_only, Gr::non_modal}, {g(621), M::state_only, Gr::non_modal},
+          {g(43), M::state_only, Gr::non_modal}, {g(44), M::state_only, Gr::non_modal},
+          {g(340), M::state_only, Gr::non_modal}, {g(341), M::state_only, Gr::non_modal},
+          {g(110), M::polar_pole, Gr::non_modal}, {g(111), M::polar_pole, Gr::non_modal},
+          {g(112), M::polar_pole, Gr::non_modal}, {g(90), M::absolute, Gr::distance}});
+  for (int k = 501; k <= 599; ++k) set(t, {{static_cast<std::uint16_t>(k * 10), M::work_offset, Gr::work_offset}});
 }
 
 void heidenhain_iso(std::vector<GCodeDef>& t) {
@@ -192,7 +209,8 @@ Dialect make_dialect(DialectId id, const DialectOptions& opt) {
   switch (id) {
     case DialectId::fanuc:
       d.name = "fanuc";
-      fanuc(d.gcodes, opt.lathe);
+      fanuc(d.gcodes, opt.lathe, opt.gcode_system);
+      d.gcode_system = opt.gcode_system;
       if (opt.lathe) d.diameter_axis = 'X';
       break;
     case DialectId::siemens:

@@ -164,7 +164,11 @@ void Interpreter::non_modal(const Block& b, BlockWords& w, MotionSink& out) {
         w.axes_consumed = true;
         break;
       }
-      case GMeaning::home_set: w.axes_consumed = true; break;
+      case GMeaning::home_set:
+      case GMeaning::polar_pole: w.axes_consumed = true; break;
+      case GMeaning::cancel_motion:
+        if (w.motion.def == nullptr) s_.motion = GMeaning::cancel_motion;
+        break;
       case GMeaning::spindle_clamp:
         // Fanuc lathe G50: with X/Z it sets the coordinate system like G92, with S it clamps speed.
         if (w.axis_present != 0) {
@@ -182,8 +186,10 @@ void Interpreter::non_modal(const Block& b, BlockWords& w, MotionSink& out) {
         w.machine_frame = true;
         break;
       case GMeaning::tilted_plane_tool_axis:
+        // Orients the tool to the tilted plane with a rapid move; G0 stays the motion mode (LinuxCNC remaps).
         w.axes_consumed = true;
         s_.known = 0;
+        if (d_.id == DialectId::linuxcnc) s_.motion = GMeaning::rapid;
         break;
       case GMeaning::probe:
         unresolved_motion(b, w, codes::kProbe, "probing (its end point is a runtime measurement)");
@@ -205,7 +211,10 @@ void Interpreter::non_modal(const Block& b, BlockWords& w, MotionSink& out) {
 }
 
 void Interpreter::do_motion(const Block& b, BlockWords& w, MotionSink& out) {
-  const GMeaning mode = w.motion.def ? w.motion.def->meaning : s_.motion;
+  // MillPlus G74 is a one-block rapid in machine coordinates.
+  const GMeaning mode = w.has_meaning(GMeaning::machine_move_heidenhain) ? GMeaning::rapid
+                        : w.motion.def                                  ? w.motion.def->meaning
+                                                                        : s_.motion;
   if (w.motion.def) {
     s_.motion = mode;
     s_.motion_code10 = w.motion.def->code10;

@@ -113,7 +113,13 @@ class Lexer {
 
   std::uint32_t paren_comment(std::uint32_t i) {
     std::uint32_t j = i + 1;
-    while (j < n() && s_[j] != ')') ++j;
+    // Fanuc-family controls (Haas, Mori) accept nested parentheses inside a comment; LinuxCNC does not.
+    const bool nests = d_.id == DialectId::fanuc;
+    int depth = 1;
+    for (; j < n(); ++j) {
+      if (nests && s_[j] == '(') ++depth;
+      if (s_[j] == ')' && --depth == 0) break;
+    }
     if (j >= n()) {
       ok_ = false;
       if (ctx_.sink)
@@ -186,9 +192,8 @@ class Lexer {
       }
       return 0;
     }
-    const std::uint32_t e = scan_number(s_, j, d_.spaces_inside_words);
+    const std::uint32_t e = lex_number(s_, j, d_.spaces_inside_words, w.number);
     if (e == j) return 0;
-    if (!parse_number(s_.substr(j, e - j), w.number)) return 0;
     w.kind = ValueKind::number;
     w.value = {j, e};
     return e;
@@ -316,8 +321,10 @@ class Lexer {
     while (d < n() && is_ident(s_[d])) ++d;
     const std::uint32_t after = skip_space(d);
     const bool equals = after < n() && s_[after] == '=' && !(after + 1 < n() && s_[after + 1] == '=');
-    const bool paren = d < n() && s_[d] == '(';
-    const bool label = d < n() && s_[d] == ':' && first_item && !(d + 1 < n() && s_[d + 1] == '=');
+    // Sinumerik accepts blanks between a cycle name and its argument list: CYCLE90 (-17,…).
+    const std::uint32_t open = letters.size() >= 2 ? after : d;
+    const bool paren = open < n() && s_[open] == '(';
+    const bool label = d < n() && s_[d] == ':' && (first_item || only_n_before(i)) && !(d + 1 < n() && s_[d + 1] == '=');
 
     if (label && letters.size() >= 2) {
       push_token(TokenKind::label, {i, d + 1}, {i, d});
@@ -337,7 +344,7 @@ class Lexer {
         return end;
       }
     if (paren) {
-      const std::uint32_t m = match_bracket(d, '(', ')');
+      const std::uint32_t m = match_bracket(open, '(', ')');
       if (m == 0)
         return bad(i, "PP-E108", fmt::format("'(' after {} is not closed", ident), "close the argument list",
                    d - i + 1);
@@ -398,6 +405,10 @@ class Lexer {
     return v_end;
   }
 
+  /// True when only an N word (and blanks) precede position i.
+  [[nodiscard]] bool only_n_before(std::uint32_t i) const {
+    return b_.has_n && b_.words.empty() && b_.tokens.empty() && skip_space(b_.n_span.end) == i;
+  }
   static bool is_siemens_two_letter(std::string_view l) {
     constexpr std::string_view kTwo[] = {"CR", "AP", "RP", "AR", "CT", "IP", "TU", "SF", "FA", "OS"};
     for (auto k : kTwo)

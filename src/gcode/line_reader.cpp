@@ -47,12 +47,21 @@ bool LineReader::refill() {
   return true;
 }
 
+namespace {
+/// Index of the first '\n' or '\r' in [from, to), or `to`. memchr is vectorised; a lone '\r' is rare.
+std::size_t find_eol(const char* base, std::size_t from, std::size_t to) {
+  const void* nl = std::memchr(base + from, '\n', to - from);
+  const std::size_t n = nl ? static_cast<std::size_t>(static_cast<const char*>(nl) - base) : to;
+  const void* cr = std::memchr(base + from, '\r', n - from);
+  return cr ? static_cast<std::size_t>(static_cast<const char*>(cr) - base) : n;
+}
+}  // namespace
+
 bool LineReader::next(std::string_view& line, std::string_view& eol) {
   if (from_memory_) {
     if (begin_ >= memory_.size()) return false;
     const char* base = memory_.data();
-    std::size_t i = begin_;
-    while (i < memory_.size() && base[i] != '\n' && base[i] != '\r') ++i;
+    const std::size_t i = find_eol(base, begin_, memory_.size());
     line = memory_.substr(begin_, i - begin_);
     std::size_t e = i;
     if (e < memory_.size()) e += (base[e] == '\r' && e + 1 < memory_.size() && base[e + 1] == '\n') ? 2 : 1;
@@ -65,15 +74,13 @@ bool LineReader::next(std::string_view& line, std::string_view& eol) {
   std::size_t scan_from = begin_;
   for (;;) {
     const char* base = buf_.data();
-    std::size_t i = scan_from;
-    while (i < end_ && base[i] != '\n' && base[i] != '\r') ++i;
+    std::size_t i = find_eol(base, scan_from, end_);
     // A '\r' at the end of the buffer may be the first half of "\r\n": need one more byte.
     const bool need_more = i >= end_ || (base[i] == '\r' && i + 1 >= end_ && !eof_);
     if (need_more) {
-      const std::size_t offset = i - begin_;
+      const std::size_t offset = i - begin_;  // bytes already known to hold no EOL
       if (refill()) {
-        scan_from = begin_ + (offset > 0 && i < end_ ? offset : offset);
-        if (scan_from > end_) scan_from = begin_;
+        scan_from = begin_ + offset;
         continue;
       }
       if (begin_ >= end_) return false;

@@ -2,10 +2,19 @@
 
 namespace postproc::gcode {
 
+namespace {
+constexpr std::array<std::int8_t, 128> make_axis_table() {
+  std::array<std::int8_t, 128> t{};
+  for (auto& v : t) v = -1;
+  for (int i = 0; i < kAxisCount; ++i) t[static_cast<std::size_t>(kAxisLetters[static_cast<std::size_t>(i)])] = static_cast<std::int8_t>(i);
+  return t;
+}
+constexpr auto kAxisTable = make_axis_table();
+}  // namespace
+
 int axis_index(char L) {
-  for (int i = 0; i < kAxisCount; ++i)
-    if (kAxisLetters[static_cast<std::size_t>(i)] == L) return i;
-  return -1;
+  const auto u = static_cast<unsigned char>(L);
+  return u < 128 ? kAxisTable[u] : -1;
 }
 
 std::string_view to_string(MotionType t) {

@@ -61,6 +61,7 @@ struct Block {
   std::string_view raw;  ///< bytes of the line without its end-of-line
   std::string_view eol;  ///< "\n", "\r\n", "\r" or "" (last line without newline)
   std::uint64_t line = 0;  ///< 1-based
+  bool leader = false;          ///< Fanuc tape leader: text before the first '%', ignored by the control
   bool block_delete = false;    ///< starts with '/'
   std::uint8_t block_delete_level = 0;  ///< /2 → 2 (0 for plain '/')
   Span block_delete_span;
@@ -71,7 +72,7 @@ struct Block {
   std::vector<Token> tokens;    ///< comments and statements in source order
 
   void clear() {
-    raw = {}; eol = {}; line = 0; block_delete = false; block_delete_level = 0; block_delete_span = {};
+    raw = {}; eol = {}; line = 0; leader = false; block_delete = false; block_delete_level = 0; block_delete_span = {};
     has_n = false; n_span = {}; n_number = 0; words.clear(); tokens.clear();
   }
   [[nodiscard]] std::string_view text(Span s) const { return s.of(raw); }

@@ -64,6 +64,7 @@ enum class GMeaning : std::uint8_t {
   datum_shift_heidenhain, ///< MillPlus G93 datum shift
   tilted_plane_heidenhain,///< MillPlus G7 tilted plane
   machine_move_heidenhain,///< MillPlus G74 machine-coordinate move
+  polar_pole,             ///< Siemens G110–G112 pole definition (axis words are data)
   state_only,             ///< recognised, no effect on geometry (e.g. G05.1 Q0, G08, G174)
 };
 
@@ -94,7 +95,8 @@ struct Dialect {
   bool o_word_control = false;       ///< LinuxCNC o100 sub / if / while
   bool spaces_inside_words = false;  ///< LinuxCNC ignores spaces inside words ("G 1 X 1.5")
   bool decimal_point_required = true;///< a whole number needs a point to mean mm (Fanuc: X1 = 1 µm)
-  bool lathe = false;                ///< lathe G-code system A (G98/G99 feed modes, U/W incremental)
+  bool lathe = false;                ///< lathe: G70–G76 turning cycles, U/W incremental, X diameter
+  char gcode_system = 'A';           ///< Fanuc lathe G-code system, 'A' or 'B'
   char diameter_axis = 0;            ///< axis programmed as diameter from the start ('X' on lathes)
   AssignmentTiming assignment_timing = AssignmentTiming::immediate;
   /// Table indexed by code10; GMeaning::unknown where the dialect has no such code.
@@ -107,7 +109,8 @@ struct Dialect {
 
 /// Options that refine a dialect (later also read from the machine file).
 struct DialectOptions {
-  bool lathe = false;           ///< Fanuc lathe (G-code system A) / Siemens turning
+  bool lathe = false;           ///< Fanuc lathe / Siemens turning
+  char gcode_system = 'A';      ///< Fanuc lathe G-code system: 'A' (G98/G99 feeds) or 'B' (G94/G95, G90/G91)
   char diameter_axis = 0;       ///< 0 = dialect default
 };
 
