@@ -62,7 +62,11 @@ class Dumper final : public gcode::BlockVisitor {
     str(gcode::to_string(m.feed_mode));
     str(gcode::to_string(m.plane));
     const bool arc = m.type == MotionType::arc_cw || m.type == MotionType::arc_ccw;
-    for (int i = 0; i < 3; ++i) arc ? num(m.arc.centre[i]) : empty();
+    for (int i = 0; i < 3; ++i) {
+      // The centre's coordinate along the plane normal is the start height: empty when unknown.
+      if (arc && ((m.known >> i) & 1u)) num(m.arc.centre[i]);
+      else empty();
+    }
     arc ? num(m.arc.radius) : empty();
     arc ? num(m.arc.sweep * 180.0 / std::numbers::pi) : empty();
     arc ? num(m.arc.turns) : empty();

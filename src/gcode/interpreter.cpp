@@ -388,6 +388,10 @@ void Interpreter::apply_modes(const Block& b, BlockWords& w) {
       default: break;
     }
   }
+  if (d_.id == DialectId::siemens && w.has('L')) {
+    report(b, b.words[static_cast<std::size_t>(w.letter_word['L' - 'A'])].span, Severity::warning,
+           codes::kSubprogramCall, "subprogram call (L word) is not followed by this version");
+  }
   for (int i = 0; i < w.m_count; ++i) {
     const double m = w.m[static_cast<std::size_t>(i)];
     const Span at = b.words[static_cast<std::size_t>(w.m_word[static_cast<std::size_t>(i)])].span;
