@@ -12,18 +12,18 @@ struct Interpreter::BlockWords {
     const GCodeDef* def = nullptr;
     std::int16_t word = -1;
   };
-  std::array<G, 12> g{};
+  std::array<G, 12> g;  ///< first ng entries valid
   int ng = 0;
   G motion;  ///< the motion-group G code of this block, if any
 
-  AxisVector axis = AxisVector::Zero();   ///< values as written (program units), per axis
+  AxisVector axis;                        ///< values as written (program units); valid where present
   AxisMask axis_present = 0;
   AxisMask axis_incremental = 0;          ///< U/W/H on Fanuc lathes, Siemens IC()
   AxisMask axis_absolute = 0;             ///< Siemens AC()
   AxisMask axis_unresolved = 0;           ///< written with an expression or parameter
   std::array<std::int8_t, kAxisCount> axis_word{};
 
-  std::array<double, 26> letter{};        ///< other single-letter words (I J K R P Q L F S T H D E …)
+  std::array<double, 26> letter;          ///< valid where letter_present; other single-letter words (I J K R P Q L F S T H D E …)
   std::uint32_t letter_present = 0;
   std::uint32_t letter_unresolved = 0;
   std::array<std::int16_t, 26> letter_word{};
@@ -32,8 +32,8 @@ struct Interpreter::BlockWords {
   double cr = 0;                          ///< Siemens CR= radius
   bool has_cr = false;
   int m_count = 0;
-  std::array<double, 8> m{};
-  std::array<std::int16_t, 8> m_word{};
+  std::array<double, 8> m;               ///< first m_count entries valid
+  std::array<std::int16_t, 8> m_word;
 
   bool machine_frame = false;             ///< G53 / SUPA / G153 in this block
   bool axes_consumed = false;             ///< axis words were data for G10/G52/G92/… (no motion)

@@ -157,7 +157,7 @@ bool Interpreter::collect(const Block& b, BlockWords& w) {
       axis = L == 'U' ? 0 : (L == 'W' ? 2 : 5);
       incremental = true;
     }
-    if (axis >= 0 && !(d_.lathe && d_.id == DialectId::fanuc && L == 'H' && false)) {
+    if (axis >= 0) {
       const auto ax = static_cast<std::size_t>(axis);
       const AxisMask bitmask = static_cast<AxisMask>(1u << axis);
       if (w.axis_present & bitmask) {

@@ -42,7 +42,7 @@ void Interpreter::fill_state(Motion& m) const {
   m.tool_length_h = s_.tool_length_h;
   m.tcp = s_.tcp;
   m.tilted_plane = s_.tilted_plane;
-  m.diameter_mode = s_.diameter_mode && d_.diameter_axis != 0 ? true : s_.diameter_mode;
+  m.diameter_mode = s_.diameter_mode;
   m.inch_source = s_.inch;
 }
 
@@ -294,9 +294,8 @@ void Interpreter::do_motion(const Block& b, BlockWords& w, MotionSink& out) {
   if (mcall_active_ && !w.machine_frame) s_.known &= static_cast<AxisMask>(~bit(Axis::z));
 }
 
-bool Interpreter::target(const Block& b, const BlockWords& w, Motion& m) {
+bool Interpreter::target(const Block&, const BlockWords& w, Motion& m) {
   m.start = s_.position;
-  const AxisMask start_known = s_.known;
   m.programmed = w.axis_present;
   m.frame = w.machine_frame ? Frame::machine : Frame::work;
   for (int a = 0; a < kAxisCount; ++a) {
@@ -324,8 +323,6 @@ bool Interpreter::target(const Block& b, const BlockWords& w, Motion& m) {
     m.known = w.axis_present & ~w.axis_unresolved;
     s_.known &= static_cast<AxisMask>(~w.axis_present);
   }
-  (void)start_known;
-  (void)b;
   return true;
 }
 

@@ -62,7 +62,9 @@ class Lexer {
     while (i < n()) {
       const char c = s_[i];
       std::uint32_t next = 0;
-      if (c == '(' && d_.paren_comments) {
+      if (is_alpha(c) && !d_.multi_letter_identifiers) {
+        next = letter_item(i, first_item);
+      } else if (c == '(' && d_.paren_comments) {
         next = paren_comment(i);
       } else if (c == ';' && d_.semicolon_comments) {
         push_token(TokenKind::line_comment, {i, n()}, {i, n()});
@@ -249,6 +251,29 @@ class Lexer {
   /// Fanuc / LinuxCNC / Heidenhain: a single letter and a value, or a statement keyword.
   std::uint32_t letter_item(std::uint32_t i, bool first_item) {
     const char L = upper(s_[i]);
+    // Fast path for the common case, a letter directly followed by a literal (X-12.5, G1, N10).
+    if (i + 1 < n() && L != 'O') {
+      const char c = s_[i + 1];
+      if ((static_cast<unsigned>(c - '0') < 10u || c == '-' || c == '.' || c == '+')) {
+        double v = 0;
+        const std::uint32_t e = lex_number(s_, i + 1, d_.spaces_inside_words, v);
+        if (e != i + 1 && (e >= n() || (s_[e] != '.' && !is_digit(s_[e])))) {
+          if (L == 'N' && first_item && !b_.has_n) {
+            b_.has_n = true;
+            b_.n_span = {i, e};
+            b_.n_number = v;
+            return e;
+          }
+          Word& w = b_.words.emplace_back();
+          w.span = {i, e};
+          w.name = {i, i + 1};
+          w.value = {i + 1, e};
+          w.letter = L;
+          w.number = v;
+          return e;
+        }
+      }
+    }
     // Multi-letter statement keywords (Fanuc macro B: IF/GOTO/WHILE/DO/END/THEN).
     if (d_.id == DialectId::fanuc && i + 1 < n() && is_alpha(s_[i + 1])) {
       std::uint32_t e = i;
