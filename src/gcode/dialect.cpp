@@ -195,7 +195,10 @@ void heidenhain_iso(std::vector<GCodeDef>& t) {
       {g(96), M::css_on, Gr::css}, {g(97), M::css_off, Gr::css},
       {g(98), M::state_only, Gr::non_modal}, {g(99), M::state_only, Gr::non_modal},
       {g(79), M::drill_cycle, Gr::non_modal},
-      {g(28), M::unknown, Gr::none}, {g(30), M::unknown, Gr::none},
+      {g(28), M::unknown, Gr::none},
+      // G30/G31 define the blank form (BLK FORM): their axis words are data, not a move.
+      {g(30), M::polar_pole, Gr::non_modal}, {g(31), M::polar_pole, Gr::non_modal},
+      {g(29), M::state_only, Gr::non_modal}, {g(99), M::state_only, Gr::non_modal},
   });
 }
 

@@ -388,6 +388,26 @@ void Interpreter::apply_modes(const Block& b, BlockWords& w) {
       default: break;
     }
   }
+  if (d_.id == DialectId::heidenhain_iso) {
+    // Heidenhain ISO: I J K set the modal circle centre / pole (absolute, or from the current point
+    // in G91); the tool does not move to it.
+    for (int a = 0; a < 3; ++a) {
+      const char L = static_cast<char>('I' + a);
+      if (!w.has(L)) continue;
+      if (w.unresolved(L)) {
+        s_.circle_centre_known = static_cast<std::uint8_t>(s_.circle_centre_known & ~(1u << a));
+        continue;
+      }
+      const double v = to_mm(a, w.get(L));
+      const bool from_current = !s_.absolute;
+      if (from_current && !((s_.known >> a) & 1u)) {
+        s_.circle_centre_known = static_cast<std::uint8_t>(s_.circle_centre_known & ~(1u << a));
+        continue;
+      }
+      s_.circle_centre[a] = from_current ? s_.position[a] + v : v;
+      s_.circle_centre_known = static_cast<std::uint8_t>(s_.circle_centre_known | (1u << a));
+    }
+  }
   if (d_.id == DialectId::siemens && w.has('L')) {
     report(b, b.words[static_cast<std::size_t>(w.letter_word['L' - 'A'])].span, Severity::warning,
            codes::kSubprogramCall, "subprogram call (L word) is not followed by this version");

@@ -326,6 +326,21 @@ bool Interpreter::target(const Block&, const BlockWords& w, Motion& m) {
   return true;
 }
 
+bool Interpreter::radii_agree(const Block& b, Span at, const Eigen::Vector2d& s, const Eigen::Vector2d& e,
+                              const Eigen::Vector2d& c) {
+  const double r1 = (s - c).norm(), r2 = (e - c).norm();
+  const double diff = std::abs(r1 - r2);
+  // Inch programs print one decimal more: allow 0.0002 in instead of 0.002 mm.
+  if (diff > opt_.arc_radius_tolerance_mm * (s_.inch ? 2.54 : 1.0) && diff > 1e-3 * std::max(r1, r2)) {
+    report(b, at, Severity::error, codes::kArcGeometry,
+           fmt::format("arc radius at start {:.6f} mm and at end {:.6f} mm differ by {:.6f} mm; fix the centre "
+                       "words or the end point",
+                       r1, r2, diff));
+    return false;
+  }
+  return true;
+}
+
 bool Interpreter::arc(const Block& b, const BlockWords& w, Motion& m) {
   const PlaneAxes p = plane_axes(s_.plane);
   const AxisMask need = static_cast<AxisMask>((1u << p.u) | (1u << p.v));
@@ -371,6 +386,15 @@ bool Interpreter::arc(const Block& b, const BlockWords& w, Motion& m) {
     const double side = (cw == short_arc) ? -1.0 : 1.0;
     c = mid + side * h * left;
     r = rad;
+  } else if (d_.id == DialectId::heidenhain_iso) {
+    const unsigned need_cc = (1u << p.u) | (1u << p.v);
+    if ((s_.circle_centre_known & need_cc) != need_cc) {
+      report(b, at, Severity::error, codes::kMissingWord,
+             fmt::format("circle without a centre: program {} {} (circle centre) before G02/G03, or give R", cu, cv));
+      return false;
+    }
+    c = Eigen::Vector2d(s_.circle_centre[p.u], s_.circle_centre[p.v]);
+    if (!radii_agree(b, at, s, e, c)) return false;
   } else {
     if (!w.has(cu) && !w.has(cv)) {
       report(b, at, Severity::error, codes::kMissingWord,
@@ -382,15 +406,7 @@ bool Interpreter::arc(const Block& b, const BlockWords& w, Motion& m) {
     const bool abs_u = s_.arc_absolute || ((w.letter_absolute >> (cu - 'A')) & 1u);
     const bool abs_v = s_.arc_absolute || ((w.letter_absolute >> (cv - 'A')) & 1u);
     c = Eigen::Vector2d(abs_u ? iu : s.x() + iu, abs_v ? iv : s.y() + iv);
-    const double r1 = (s - c).norm(), r2 = (e - c).norm();
-    const double diff = std::abs(r1 - r2);
-    if (diff > opt_.arc_radius_tolerance_mm * (s_.inch ? 2.54 : 1.0) && diff > 1e-3 * std::max(r1, r2)) {
-      report(b, at, Severity::error, codes::kArcGeometry,
-             fmt::format("arc radius at start {:.6f} mm and at end {:.6f} mm differ by {:.6f} mm; fix the centre "
-                         "words or the end point",
-                         r1, r2, diff));
-      return false;
-    }
+    if (!radii_agree(b, at, s, e, c)) return false;
   }
   const Eigen::Vector2d rs = s - c, re = e - c;
   double sweep = std::atan2(rs.x() * re.y() - rs.y() * re.x(), rs.dot(re));  // (-π, π]

@@ -72,6 +72,12 @@ class Lexer {
       } else if (c == '*' && d_.star_block_end) {
         push_token(TokenKind::block_end, {i, i + 1}, {i, i + 1});
         next = i + 1;
+      } else if (c == '%' && d_.star_block_end) {
+        // Heidenhain ISO: "%NAME G71 *" opens and "N99999 %NAME G71 *" closes the program.
+        std::uint32_t j = i + 1;
+        while (j < n() && !is_space(s_[j]) && s_[j] != '*' && s_[j] != ';') ++j;
+        push_token(TokenKind::percent, {i, j}, {i, j});
+        next = j;
       } else if (c == ':' && first_item && d_.id == DialectId::fanuc) {
         next = program_number(i, i + 1);
       } else if (c == '#' && d_.hash_parameters) {

@@ -45,6 +45,8 @@ struct ModalState {
   TcpMode tcp = TcpMode::off;
   bool tilted_plane = false;
   bool polar_interp = false;
+  Eigen::Vector3d circle_centre = Eigen::Vector3d::Zero();  ///< Heidenhain CC (I J K), mm, modal
+  std::uint8_t circle_centre_known = 0;  ///< bits 0..2 = X Y Z components set
   AxisVector position = AxisVector::Zero();  ///< current point, active work coordinates, mm / deg
   AxisMask known = 0;
 };
@@ -74,6 +76,8 @@ class Interpreter {
   void do_motion(const Block& b, BlockWords& w, MotionSink& out);
   bool target(const Block& b, const BlockWords& w, Motion& m);
   bool arc(const Block& b, const BlockWords& w, Motion& m);
+  bool radii_agree(const Block& b, Span at, const Eigen::Vector2d& s, const Eigen::Vector2d& e,
+                   const Eigen::Vector2d& c);
   void drill(const Block& b, const BlockWords& w, Motion& m, MotionSink& out);
   void fill_state(Motion& m) const;
   void siemens_token(const Block& b, const Token& t, BlockWords& w);
