@@ -35,6 +35,8 @@ struct Interpreter::BlockWords {
   std::array<double, 8> m;               ///< first m_count entries valid
   std::array<std::int16_t, 8> m_word;
 
+  bool polar = false;                     ///< Siemens AP=/RP= polar coordinates in this block
+  bool siemens_motion_keyword = false;    ///< CIP, CT, BSPLINE, … in this block
   bool machine_frame = false;             ///< G53 / SUPA / G153 in this block
   bool axes_consumed = false;             ///< axis words were data for G10/G52/G92/… (no motion)
 

@@ -106,10 +106,12 @@ bool Interpreter::collect(const Block& b, BlockWords& w) {
     }
     if (word.name_len > 1 || word.index != 0) {
       // Siemens extended addresses: CR= radius, A3/B3/C3 tool vector, others state only.
-      if (iequals(b.text(word.name), "CR") && resolved) {
+      const std::string_view nm = b.text(word.name);
+      if (iequals(nm, "CR") && resolved) {
         w.has_cr = true;
         w.cr = v;
       }
+      if (iequals(nm, "AP") || iequals(nm, "RP")) w.polar = true;
       continue;
     }
     const char L = word.letter;
@@ -236,6 +238,11 @@ void Interpreter::siemens_token(const Block& b, const Token& t, BlockWords& w) {
       report(b, t.span, Severity::warning, codes::kUnknownKeyword,
              "TRAOOF is not a Sinumerik keyword (TRAFOOF is); treated as TRAFOOF — check the program");
     s_.tcp = TcpMode::off;
+  } else if (iequals(name, "CIP") || iequals(name, "CT") || iequals(name, "ASPLINE") || iequals(name, "BSPLINE") ||
+             iequals(name, "CSPLINE") || iequals(name, "POLY")) {
+    // Motion-group keywords whose paths this version does not compute.
+    s_.motion = GMeaning::spline;
+    w.siemens_motion_keyword = true;
   } else if (iequals(name, "SUPA")) {
     w.machine_frame = true;
   } else if (iequals(name, "MCALL")) {

@@ -223,6 +223,11 @@ void Interpreter::do_motion(const Block& b, BlockWords& w, MotionSink& out) {
       s_.cycle_initial = s_.position[plane_axes(s_.plane).n];
     }
   }
+  if (w.polar) {
+    unresolved_motion(b, w, codes::kPolar, "motion in polar coordinates (AP=/RP=)");
+    s_.known &= static_cast<AxisMask>(~(bit(Axis::x) | bit(Axis::y) | bit(Axis::z)));
+    return;
+  }
   // Axis words (or R/Z for cycles) make a motion; a motion G alone does not.
   if (w.axis_present == 0) {
     if (w.motion.def && (mode == GMeaning::turning_cycle || mode == GMeaning::threading || mode == GMeaning::spline)) {
