@@ -11,6 +11,7 @@ inline constexpr std::string_view kUnknownG = "PP-E201";
 inline constexpr std::string_view kModalConflict = "PP-E202";
 inline constexpr std::string_view kRepeatedWord = "PP-E203";
 inline constexpr std::string_view kMissingWord = "PP-E204";
+inline constexpr std::string_view kOutOfRange = "PP-E205";
 inline constexpr std::string_view kArcGeometry = "PP-E301";
 inline constexpr std::string_view kAfterEnd = "PP-E401";
 // Warnings: accepted, but not resolved (compensation refuses unless --pass-through).

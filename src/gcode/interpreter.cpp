@@ -27,6 +27,10 @@ bool starts_with_i(std::string_view s, std::string_view prefix) {
   return s.size() >= prefix.size() && iequals(s.substr(0, prefix.size()), prefix);
 }
 
+/// Largest magnitude accepted for any word value (1e9 mm = 1000 km): beyond it, arithmetic in mm or
+/// inches could overflow, and no machine moves that far.
+constexpr double kMaxMagnitude = 1e9;
+
 /// Value inside Siemens AC(…)/IC(…) when it is a literal number.
 bool fn_literal(std::string_view text, double& out) {
   const auto open = text.find('(');
@@ -97,6 +101,13 @@ bool Interpreter::collect(const Block& b, BlockWords& w) {
       resolved = fn_literal(b.text(word.value), v);
       fn_abs = word.kind == ValueKind::absolute_fn;
       fn_inc = !fn_abs;
+    }
+    if (resolved && !(std::abs(v) <= kMaxMagnitude)) {
+      report(b, word.span, Severity::error, codes::kOutOfRange,
+             fmt::format("'{}' is out of range (magnitude above {:g}); check the number", b.text(word.span),
+                         kMaxMagnitude));
+      ok = false;
+      continue;
     }
     if (!resolved && word.kind != ValueKind::string) {
       report(b, word.span, Severity::warning, codes::kExpressionValue,

@@ -20,6 +20,15 @@ OutputFile::OutputFile(std::string path, std::string_view input_path, bool allow
     return;
   }
   std::error_code ec;
+  // Devices and pipes (/dev/null, a FIFO) are written directly: renaming over them would replace
+  // the device with a regular file.
+  if (fs::exists(path_, ec) && !fs::is_regular_file(path_, ec)) {
+    f_ = std::fopen(path_.c_str(), "wb");
+    if (f_ == nullptr)
+      throw Error(ExitCode::cannot_write, fmt::format("{}: cannot open for writing: {}", path_, std::strerror(errno)));
+    direct_ = true;
+    return;
+  }
   if (!input_path.empty() && input_path != "-" && fs::exists(path_, ec) &&
       fs::equivalent(fs::path(path_), fs::path(std::string(input_path)), ec)) {
     if (!allow_overwrite)
@@ -36,6 +45,10 @@ OutputFile::OutputFile(std::string path, std::string_view input_path, bool allow
 
 OutputFile::~OutputFile() {
   if (stdout_ || committed_) return;
+  if (direct_) {
+    std::fclose(f_);
+    return;
+  }
   if (f_ != nullptr) std::fclose(f_);
   std::remove(temp_.c_str());  // never leave a partial output behind
 }
@@ -48,9 +61,12 @@ void OutputFile::write(std::string_view bytes) {
 }
 
 void OutputFile::commit() {
-  if (stdout_) {
-    std::fflush(stdout);
+  if (stdout_ || direct_) {
+    const bool failed = std::fflush(f_) != 0;
+    if (direct_) std::fclose(f_);
+    f_ = nullptr;
     committed_ = true;
+    if (failed) throw Error(ExitCode::cannot_write, fmt::format("{}: write failed: {}", path_, std::strerror(errno)));
     return;
   }
   const bool failed = std::fflush(f_) != 0 || std::ferror(f_) != 0;

@@ -17,6 +17,7 @@ class LineReader {
   /// Opens `path` ("-" = stdin). Throws postproc::Error (exit code io_error) if it cannot be opened.
   explicit LineReader(const std::string& path, std::size_t chunk = 1 << 20);
   /// Reads from an in-memory buffer (tests, fuzzing). The buffer must outlive the reader.
+  /// Pass a std::string_view explicitly: a std::string selects the file constructor.
   explicit LineReader(std::string_view memory);
   ~LineReader();
   LineReader(const LineReader&) = delete;

@@ -27,7 +27,7 @@ class OutputFile {
  private:
   std::string path_, temp_;
   std::FILE* f_ = nullptr;
-  bool stdout_ = false, committed_ = false, backup_ = false;
+  bool stdout_ = false, direct_ = false, committed_ = false, backup_ = false;
 };
 
 }  // namespace postproc::io
