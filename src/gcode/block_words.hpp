@@ -43,6 +43,15 @@ struct Interpreter::BlockWords {
   [[nodiscard]] bool has(char L) const { return (letter_present >> (L - 'A')) & 1u; }
   [[nodiscard]] double get(char L) const { return letter[static_cast<std::size_t>(L - 'A')]; }
   [[nodiscard]] bool unresolved(char L) const { return (letter_unresolved >> (L - 'A')) & 1u; }
+  /// The value of letter L as a whole number in [lo, hi], or `fallback` when absent, unresolved or
+  /// not a whole number in range (callers that must refuse check `whole()` first).
+  [[nodiscard]] long whole_or(char L, long lo, long hi, long fallback) const {
+    if (!has(L) || unresolved(L)) return fallback;
+    const double v = get(L);
+    if (!(v >= static_cast<double>(lo) && v <= static_cast<double>(hi)) || v != static_cast<double>(static_cast<long>(v)))
+      return fallback;
+    return static_cast<long>(v);
+  }
   [[nodiscard]] bool has_meaning(GMeaning meaning) const {
     for (int i = 0; i < ng; ++i)
       if (g[static_cast<std::size_t>(i)].def->meaning == meaning) return true;

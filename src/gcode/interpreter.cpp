@@ -347,11 +347,12 @@ void Interpreter::apply_modes(const Block& b, BlockWords& w) {
       case GMeaning::work_offset: {
         WorkOffset wo{g.def->code10, 0};
         if (g.def->code10 == 541) {
-          if (!w.has('P') || w.unresolved('P')) {
+          const long pn = w.whole_or('P', 1, 9999, -1);
+          if (pn < 0) {
             report(b, word.span, Severity::error, codes::kMissingWord,
-                   "G54.1 needs a literal P word naming the additional work offset (e.g. G54.1 P1)");
+                   "G54.1 needs a literal whole P word from 1 to 9999 naming the additional work offset (e.g. G54.1 P1)");
           } else {
-            wo.p = static_cast<std::uint16_t>(w.get('P'));
+            wo.p = static_cast<std::uint16_t>(pn);
           }
         }
         if (wo.code10 != s_.work_offset.code10 || wo.p != s_.work_offset.p) s_.known = 0;  // offsets are tables
@@ -362,7 +363,7 @@ void Interpreter::apply_modes(const Block& b, BlockWords& w) {
       case GMeaning::tcp_on:
       case GMeaning::tcp_vector_on:
         s_.tool_length_active = true;
-        s_.tool_length_h = w.has('H') && !w.unresolved('H') ? static_cast<std::uint16_t>(w.get('H')) : 0;
+        s_.tool_length_h = static_cast<std::uint16_t>(w.whole_or('H', 0, 9999, 0));
         s_.tcp = g.def->meaning == GMeaning::tcp_on          ? TcpMode::fanuc_g43_4
                  : g.def->meaning == GMeaning::tcp_vector_on ? TcpMode::fanuc_g43_5
                                                               : s_.tcp;

@@ -96,8 +96,8 @@ void Interpreter::non_modal(const Block& b, BlockWords& w, MotionSink& out) {
         break;
       case GMeaning::set_offsets_g10: {
         w.axes_consumed = true;
-        const int l = w.has('L') ? static_cast<int>(w.get('L')) : 0;
-        const int p = w.has('P') ? static_cast<int>(w.get('P')) : -1;
+        const long l = w.whole_or('L', 0, 1000, 0);
+        const long p = w.whole_or('P', 0, 1000, -1);
         const bool active = p == 0 || p == (s_.work_offset.code10 - 530) / 10;
         if ((l == 2 || l == 20) && active) {
           for (int a = 0; a < kAxisCount; ++a) {
@@ -422,7 +422,7 @@ bool Interpreter::arc(const Block& b, const BlockWords& w, Motion& m) {
   std::uint32_t turns = 1;
   if (d_.id == DialectId::linuxcnc && w.has('P') && !w.unresolved('P')) {
     const double pv = w.get('P');
-    if (pv < 1 || pv != std::floor(pv)) {
+    if (!(pv >= 1 && pv <= 1e6) || pv != std::floor(pv)) {
       report(b, b.words[static_cast<std::size_t>(w.letter_word['P' - 'A'])].span, Severity::error,
              codes::kArcGeometry, "P (number of turns) must be a positive whole number");
       return false;
@@ -454,7 +454,8 @@ void Interpreter::drill(const Block& b, const BlockWords& w, Motion& m, MotionSi
     s_.cycle_bottom = s_.absolute ? z : s_.cycle_r + z;
     s_.cycle_bottom_known = !(w.axis_unresolved & normal_bit);
   }
-  const int repeats = w.has('L') ? static_cast<int>(w.get('L')) : (w.has('K') ? static_cast<int>(w.get('K')) : 1);
+  // A repeat count that is not a small whole number is treated like any repeat (not expanded).
+  const long repeats = w.has('L') ? w.whole_or('L', 0, 100000, -1) : (w.has('K') ? w.whole_or('K', 0, 100000, -1) : 1);
   if (repeats != 1) {
     report(b, b.words[static_cast<std::size_t>(w.letter_word[(w.has('L') ? 'L' : 'K') - 'A'])].span,
            Severity::warning, codes::kCycleRepeat,
