@@ -1,4 +1,6 @@
 // postproc check FILE…: diagnostics and a summary per program.
+#include <cerrno>
+#include <cstring>
 #include <fstream>
 #include <memory>
 
@@ -32,6 +34,7 @@ class Summarise final : public gcode::BlockVisitor {
 std::string head_of(const std::string& path, std::size_t bytes = 1 << 18) {
   if (path == "-") return {};
   std::ifstream f(path, std::ios::binary);
+  if (!f) throw Error(ExitCode::no_input, fmt::format("{}: cannot open for reading: {}", path, std::strerror(errno)));
   std::string s(bytes, '\0');
   f.read(s.data(), static_cast<std::streamsize>(bytes));
   s.resize(static_cast<std::size_t>(f.gcount()));
@@ -60,8 +63,8 @@ void print_summary(const std::string& file, const gcode::Dialect& d, const std::
   constexpr const char* kFeedName[] = {"per minute", "per revolution", "inverse time"};
   for (std::size_t k = 0; k < 3; ++k)
     if (s.feeds[k].count > 0)
-      out += fmt::format("  feed {}: {:.4g} .. {:.4g} {} ({} moves)\n", kFeedName[k], s.feeds[k].min, s.feeds[k].max,
-                         kFeedUnit[k], s.feeds[k].count);
+      out += fmt::format("  feed {}: {:.4g} .. {:.4g} {} ({} move{})\n", kFeedName[k], s.feeds[k].min, s.feeds[k].max,
+                         kFeedUnit[k], s.feeds[k].count, s.feeds[k].count == 1 ? "" : "s");
   std::string unresolved;
   for (const auto& [code, n] : sink.per_code())
     if (code.rfind("PP-U", 0) == 0) unresolved += fmt::format("{}{} ×{}", unresolved.empty() ? "" : ", ", code, n);

@@ -17,6 +17,10 @@ void add_dialect_options(CLI::App& cmd, DialectArgs& a, bool required) {
                  "Fanuc lathe G-code system: A (G98/G99 feed per min/rev, U/W incremental) or B (G90/G91, G94/G95)")
       ->check(CLI::IsMember({"A", "B"}))
       ->capture_default_str();
+  cmd.add_option("--integer-input", a.integer_input,
+                 "Fanuc: how axis words without a decimal point are read: increment (X100 = 0.1 mm, the factory "
+                 "setting) or calculator (X100 = 100 mm, parameter DPI=1, Haas)")
+      ->check(CLI::IsMember({"increment", "calculator"}));
   cmd.add_option("--diameter-axis", a.diameter_axis, "axis programmed as a diameter from the start (X), or 'none'")
       ->check(CLI::IsMember({"X", "x", "none"}));
 }
@@ -24,6 +28,8 @@ void add_dialect_options(CLI::App& cmd, DialectArgs& a, bool required) {
 gcode::Dialect make_dialect(const DialectArgs& a) {
   gcode::DialectOptions o;
   o.lathe = a.lathe;
+  if (a.integer_input == "increment") o.integer_input = gcode::Dialect::IntegerInput::increment;
+  if (a.integer_input == "calculator") o.integer_input = gcode::Dialect::IntegerInput::calculator;
   o.gcode_system = a.gcode_system.empty() ? 'A' : a.gcode_system[0];
   if (a.diameter_axis == "X" || a.diameter_axis == "x") o.diameter_axis = 'X';
   auto d = gcode::make_dialect(a.dialect, o);

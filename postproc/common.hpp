@@ -17,6 +17,7 @@ struct DialectArgs {
   bool lathe = false;
   std::string gcode_system = "A";
   std::string diameter_axis; ///< "X" or empty
+  std::string integer_input; ///< "", "increment" or "calculator" (Fanuc)
 };
 
 /// Adds --dialect, --lathe, --diameter-axis to `cmd`.

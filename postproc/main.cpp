@@ -19,8 +19,8 @@ int main(int argc, char** argv) {
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    const int rc = app.exit(e);
-    return rc == 0 ? 0 : static_cast<int>(postproc::ExitCode::usage);
+    const int code = app.exit(e);
+    return code == 0 ? 0 : static_cast<int>(postproc::ExitCode::usage);
   } catch (const postproc::Error& e) {
     std::fputs(fmt::format("postproc: error: {}\n", e.what()).c_str(), stderr);
     return static_cast<int>(e.code());

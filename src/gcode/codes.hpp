@@ -13,7 +13,6 @@ inline constexpr std::string_view kRepeatedWord = "PP-E203";
 inline constexpr std::string_view kMissingWord = "PP-E204";
 inline constexpr std::string_view kOutOfRange = "PP-E205";
 inline constexpr std::string_view kArcGeometry = "PP-E301";
-inline constexpr std::string_view kAfterEnd = "PP-E401";
 // Warnings: accepted, but not resolved (compensation refuses unless --pass-through).
 inline constexpr std::string_view kTurningCycle = "PP-U201";
 inline constexpr std::string_view kThreading = "PP-U202";
@@ -32,6 +31,7 @@ inline constexpr std::string_view kAssignment = "PP-U214";
 inline constexpr std::string_view kUnknownKeyword = "PP-U215";
 inline constexpr std::string_view kMacroCall = "PP-U216";
 inline constexpr std::string_view kCycleRepeat = "PP-U217";
+inline constexpr std::string_view kIntegerInput = "PP-U218";
 // Notes.
 inline constexpr std::string_view kDialectGuess = "PP-N001";
 inline constexpr std::string_view kDialectMismatch = "PP-N002";

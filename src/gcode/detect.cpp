@@ -43,9 +43,15 @@ std::optional<DialectGuess> guess_dialect(std::string_view text, std::size_t max
     if (end == std::string_view::npos) end = text.size();
     const std::string_view line = text.substr(start, end - start);
     for (const Marker& m : kMarkers) {
+      // Markers inside ( ) comments say nothing about the dialect: "(ROUGH SUB-PROGRAM)".
       const std::size_t last = m.at_line_start ? 0 : line.size();
-      for (std::size_t p = 0; p <= last && p < line.size(); ++p)
-        if (match_at(line, p, m.text)) return DialectGuess{m.id, std::string(m.text), ln, static_cast<std::uint32_t>(p + 1)};
+      int depth = 0;
+      for (std::size_t p = 0; p <= last && p < line.size(); ++p) {
+        if (line[p] == '(' && !m.at_line_start) ++depth;
+        if (depth == 0 && match_at(line, p, m.text))
+          return DialectGuess{m.id, std::string(m.text), ln, static_cast<std::uint32_t>(p + 1)};
+        if (line[p] == ')' && depth > 0) --depth;
+      }
     }
     start = end + 1;
   }

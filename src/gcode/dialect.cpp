@@ -213,6 +213,7 @@ Dialect make_dialect(DialectId id, const DialectOptions& opt) {
     case DialectId::fanuc:
       d.name = "fanuc";
       fanuc(d.gcodes, opt.lathe, opt.gcode_system);
+      d.integer_input = opt.integer_input;
       d.gcode_system = opt.gcode_system;
       if (opt.lathe) d.diameter_axis = 'X';
       break;

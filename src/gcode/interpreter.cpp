@@ -31,6 +31,15 @@ bool starts_with_i(std::string_view s, std::string_view prefix) {
 /// inches could overflow, and no machine moves that far.
 constexpr double kMaxMagnitude = 1e9;
 
+/// Words whose whole-number values Fanuc reads in least input increments.
+constexpr bool is_length_or_angle(char L) {
+  switch (L) {
+    case 'X': case 'Y': case 'Z': case 'U': case 'V': case 'W': case 'A': case 'B': case 'C':
+    case 'I': case 'J': case 'K': case 'R': case 'Q': return true;
+    default: return false;
+  }
+}
+
 /// Value inside Siemens AC(…)/IC(…) when it is a literal number.
 bool fn_literal(std::string_view text, double& out) {
   const auto open = text.find('(');
@@ -59,6 +68,7 @@ constexpr std::string_view kSiemensStateKeywords[] = {
 Interpreter::Interpreter(const Dialect& dialect, std::string file, DiagnosticSink& sink, InterpreterOptions opt)
     : d_(dialect), file_(std::move(file)), sink_(sink), opt_(opt) {
   s_.diameter_mode = d_.diameter_axis != 0;
+  if (d_.lathe) s_.plane = Plane::zx;  // lathes power up in G18
 }
 
 void Interpreter::report(const Block& b, Span at, Severity sev, std::string_view code, std::string msg) {
@@ -101,6 +111,20 @@ bool Interpreter::collect(const Block& b, BlockWords& w) {
       resolved = fn_literal(b.text(word.value), v);
       fn_abs = word.kind == ValueKind::absolute_fn;
       fn_inc = !fn_abs;
+    }
+    if (resolved && word.kind == ValueKind::number && d_.integer_input != Dialect::IntegerInput::calculator &&
+        v != 0 && is_length_or_angle(word.letter) && b.text(word.value).find('.') == std::string_view::npos) {
+      // Fanuc with standard input (DPI=0): X100 means 100 least input increments.
+      const bool angle = word.letter >= 'A' && word.letter <= 'C';
+      v *= angle ? 0.001 : (s_.inch ? 0.0001 : 0.001);
+      if (d_.integer_input == Dialect::IntegerInput::unknown && !warned_integer_input_) {
+        warned_integer_input_ = true;
+        report(b, word.span, Severity::warning, codes::kIntegerInput,
+               fmt::format("'{}' has no decimal point: a Fanuc control with standard input reads it as {:g} {}, one "
+                           "with calculator-type input (parameter DPI=1, Haas) as {:g}; read as {:g} — pass "
+                           "--integer-input increment|calculator to say which (reported once per program)",
+                           b.text(word.span), v, angle ? "deg" : (s_.inch ? "in" : "mm"), word.number, v));
+      }
     }
     if (resolved && !(std::abs(v) <= kMaxMagnitude)) {
       report(b, word.span, Severity::error, codes::kOutOfRange,
@@ -153,7 +177,13 @@ bool Interpreter::collect(const Block& b, BlockWords& w) {
           }
         }
       }
-      if (w.ng < static_cast<int>(w.g.size())) w.g[static_cast<std::size_t>(w.ng++)] = {def, wi};
+      if (w.ng >= static_cast<int>(w.g.size())) {
+        report(b, word.span, Severity::error, codes::kRepeatedWord,
+               fmt::format("more than {} G codes in one block; split the block", w.g.size()));
+        ok = false;
+        continue;
+      }
+      w.g[static_cast<std::size_t>(w.ng++)] = {def, wi};
       if (def->group == GGroup::motion) w.motion = {def, wi};
       continue;
     }
@@ -217,7 +247,7 @@ void Interpreter::siemens_token(const Block& b, const Token& t, BlockWords& w) {
       const bool reset = b.text(t.span).find_first_not_of(" ()", name.size()) == std::string_view::npos;
       s_.tilted_plane = !reset;
       if (!reset) {
-        report(b, t.span, Severity::warning, codes::kVendorCycle,
+        report(b, t.span, Severity::warning, codes::kTiltedPlane,
                "CYCLE800 swivels the work plane, which this version does not resolve; positions after it are in "
                "the swivelled frame and are reported as unknown");
         s_.known = 0;
@@ -265,10 +295,12 @@ void Interpreter::siemens_token(const Block& b, const Token& t, BlockWords& w) {
     s_.diameter_mode = false;
   } else if (iequals(name, "TRANS") || iequals(name, "ATRANS")) {
     w.axes_consumed = true;
+    frame_span_ = t.span;
     frame_keyword_ = iequals(name, "TRANS") ? 1 : 2;
   } else if (iequals(name, "ROT") || iequals(name, "AROT") || iequals(name, "SCALE") || iequals(name, "ASCALE") ||
              iequals(name, "MIRROR") || iequals(name, "AMIRROR") || iequals(name, "RPL")) {
     w.axes_consumed = true;
+    frame_span_ = t.span;
     frame_keyword_ = 3;
   } else {
     for (std::string_view k : kSiemensStateKeywords)

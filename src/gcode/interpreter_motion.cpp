@@ -67,10 +67,11 @@ void Interpreter::non_modal(const Block& b, BlockWords& w, MotionSink& out) {
     const bool has_values = w.axis_present != 0;
     if (frame_keyword_ == 3 && has_values) {
       s_.known = 0;
-      report(b, {}, Severity::warning, codes::kTiltedPlane,
+      report(b, frame_span_, Severity::warning, codes::kTiltedPlane,
              "programmable frame rotation/scaling/mirroring is not resolved; positions after it are unknown");
     } else if (!has_values && (frame_keyword_ == 1 || frame_keyword_ == 3)) {
-      s_.position -= s_.local_offset;  // TRANS / ROT without values reset the programmable frame
+      // TRANS / ROT without values reset the programmable frame: the same point now reads offset more.
+      s_.position += s_.local_offset;
       s_.local_offset.setZero();
     } else {
       AxisVector shift = AxisVector::Zero();
@@ -219,8 +220,10 @@ void Interpreter::do_motion(const Block& b, BlockWords& w, MotionSink& out) {
     s_.motion = mode;
     s_.motion_code10 = w.motion.def->code10;
     if (mode == GMeaning::drill_cycle && !d_.lathe) {
+      const int normal = plane_axes(s_.plane).n;
       s_.cycle_bottom_known = false;
-      s_.cycle_initial = s_.position[plane_axes(s_.plane).n];
+      s_.cycle_initial = s_.position[normal];
+      s_.cycle_initial_known = (s_.known >> normal) & 1u;
     }
   }
   if (w.polar) {
@@ -366,7 +369,7 @@ bool Interpreter::arc(const Block& b, const BlockWords& w, Motion& m) {
   const Eigen::Vector2d s(m.start[p.u], m.start[p.v]);
   const Eigen::Vector2d e(m.end[p.u], m.end[p.v]);
   const bool cw = m.type == MotionType::arc_cw;
-  Eigen::Vector2d c;
+  Eigen::Vector2d c = Eigen::Vector2d::Zero();
   const double scale = s_.inch ? 25.4 : 1.0;
   if (by_radius) {
     double r = (w.has_cr ? w.cr : w.get('R')) * scale;
@@ -413,6 +416,11 @@ bool Interpreter::arc(const Block& b, const BlockWords& w, Motion& m) {
     c = Eigen::Vector2d(abs_u ? iu : s.x() + iu, abs_v ? iv : s.y() + iv);
     if (!radii_agree(b, at, s, e, c)) return false;
   }
+  if ((s - c).norm() < 1e-9) {
+    report(b, at, Severity::error, codes::kArcGeometry,
+           "arc of zero radius (centre on the start point); fix the centre words");
+    return false;
+  }
   const Eigen::Vector2d rs = s - c, re = e - c;
   double sweep = std::atan2(rs.x() * re.y() - rs.y() * re.x(), rs.dot(re));  // (-π, π]
   const bool same = (e - s).norm() < 1e-9;
@@ -448,6 +456,9 @@ void Interpreter::drill(const Block& b, const BlockWords& w, Motion& m, MotionSi
   if (w.has('R') && !w.unresolved('R')) {
     const double r = w.get('R') * scale;
     s_.cycle_r = s_.absolute ? r : s_.cycle_initial + r;
+    s_.cycle_r_known = s_.absolute || s_.cycle_initial_known;
+  } else if (w.has('R')) {
+    s_.cycle_r_known = false;
   }
   if (w.axis_present & normal_bit) {
     const double z = w.axis[p.n] * scale;
@@ -472,9 +483,13 @@ void Interpreter::drill(const Block& b, const BlockWords& w, Motion& m, MotionSi
   m.programmed = w.axis_present;
   m.cycle_r = s_.cycle_r;
   m.cycle_bottom = s_.cycle_bottom;
+  // G98 returns to the higher of initial level and R: unknown if the initial level was unknown
+  // (e.g. after G28). G99 returns to R, known once R was given literally.
   const double retract = s_.return_to_r ? s_.cycle_r : std::max(s_.cycle_initial, s_.cycle_r);
+  const bool retract_known = s_.cycle_r_known && (s_.return_to_r || s_.cycle_initial_known);
   s_.position[p.n] = retract;
-  if (s_.cycle_bottom_known) s_.known |= normal_bit;
+  if (retract_known) s_.known |= normal_bit;
+  else s_.known &= static_cast<AxisMask>(~normal_bit);
   m.end = s_.position;
   m.known = s_.known;
   out.motion(m, b);

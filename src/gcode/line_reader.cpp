@@ -1,5 +1,6 @@
 #include "postproc/gcode/line_reader.hpp"
 
+#include <algorithm>
 #include <cerrno>
 #include <cstring>
 
@@ -9,7 +10,7 @@
 
 namespace postproc::gcode {
 
-LineReader::LineReader(const std::string& path, std::size_t chunk) : path_(path), buf_(chunk) {
+LineReader::LineReader(const std::string& path, std::size_t chunk) : path_(path), buf_(std::max<std::size_t>(chunk, 64)) {
   if (path == "-") {
     file_ = stdin;
   } else {
@@ -84,7 +85,7 @@ bool LineReader::next(std::string_view& line, std::string_view& eol) {
         continue;
       }
       if (begin_ >= end_) return false;
-      i = std::min(i, end_);
+      i = std::min(begin_ + offset, end_);  // refill() may have moved the unread bytes to the front
     }
     base = buf_.data();
     std::size_t e = i;

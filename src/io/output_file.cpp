@@ -15,8 +15,13 @@ namespace fs = std::filesystem;
 
 OutputFile::OutputFile(std::string path, std::string_view input_path, bool allow_overwrite) : path_(std::move(path)) {
   if (path_ == "-") {
+    // Standard output gets the same guarantee as a file: the bytes go to an anonymous temporary
+    // file first and are copied out on commit, so a refused program writes nothing. Memory stays
+    // bounded whatever the size.
     stdout_ = true;
-    f_ = stdout;
+    f_ = std::tmpfile();
+    if (f_ == nullptr)
+      throw Error(ExitCode::cannot_write, fmt::format("cannot create a temporary file for stdout: {}", std::strerror(errno)));
     return;
   }
   std::error_code ec;
@@ -44,8 +49,8 @@ OutputFile::OutputFile(std::string path, std::string_view input_path, bool allow
 }
 
 OutputFile::~OutputFile() {
-  if (stdout_ || committed_) return;
-  if (direct_) {
+  if (committed_) return;
+  if (stdout_ || direct_) {
     std::fclose(f_);
     return;
   }
@@ -56,14 +61,27 @@ OutputFile::~OutputFile() {
 void OutputFile::write(std::string_view bytes) {
   if (bytes.empty()) return;
   if (std::fwrite(bytes.data(), 1, bytes.size(), f_) != bytes.size())
-    throw Error(ExitCode::cannot_write, fmt::format("{}: write failed: {}", stdout_ ? "<stdout>" : temp_,
+    throw Error(ExitCode::cannot_write, fmt::format("{}: write failed: {}", stdout_ ? "<stdout>" : direct_ ? path_ : temp_,
                                                     std::strerror(errno)));
 }
 
 void OutputFile::commit() {
-  if (stdout_ || direct_) {
+  if (stdout_) {
+    bool failed = std::fflush(f_) != 0 || std::fseek(f_, 0, SEEK_SET) != 0;
+    char buf[1 << 16];
+    std::size_t got = 0;
+    while (!failed && (got = std::fread(buf, 1, sizeof buf, f_)) > 0)
+      failed = std::fwrite(buf, 1, got, stdout) != got;
+    failed = failed || std::ferror(f_) != 0 || std::fflush(stdout) != 0;
+    std::fclose(f_);
+    f_ = nullptr;
+    committed_ = true;
+    if (failed) throw Error(ExitCode::cannot_write, fmt::format("<stdout>: write failed: {}", std::strerror(errno)));
+    return;
+  }
+  if (direct_) {
     const bool failed = std::fflush(f_) != 0;
-    if (direct_) std::fclose(f_);
+    std::fclose(f_);
     f_ = nullptr;
     committed_ = true;
     if (failed) throw Error(ExitCode::cannot_write, fmt::format("{}: write failed: {}", path_, std::strerror(errno)));

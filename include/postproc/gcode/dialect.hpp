@@ -94,7 +94,11 @@ struct Dialect {
   bool r_parameters = false;         ///< Siemens R1 / R1=...
   bool o_word_control = false;       ///< LinuxCNC o100 sub / if / while
   bool spaces_inside_words = false;  ///< LinuxCNC ignores spaces inside words ("G 1 X 1.5")
-  bool decimal_point_required = true;///< a whole number needs a point to mean mm (Fanuc: X1 = 1 µm)
+  /// The writer puts a point on whole numbers (Fanuc: without one, X1 may mean one increment).
+  bool decimal_point_required = true;
+  /// How a length/angle word written without a decimal point is read (Fanuc parameter DPI):
+  /// unknown (warn, read as increments), increment (×0.001 mm / 0.0001 in / 0.001°), calculator (whole units).
+  enum class IntegerInput : std::uint8_t { unknown, increment, calculator } integer_input = IntegerInput::calculator;
   bool lathe = false;                ///< lathe: G70–G76 turning cycles, U/W incremental, X diameter
   char gcode_system = 'A';           ///< Fanuc lathe G-code system, 'A' or 'B'
   char diameter_axis = 0;            ///< axis programmed as diameter from the start ('X' on lathes)
@@ -112,6 +116,8 @@ struct DialectOptions {
   bool lathe = false;           ///< Fanuc lathe / Siemens turning
   char gcode_system = 'A';      ///< Fanuc lathe G-code system: 'A' (G98/G99 feeds) or 'B' (G94/G95, G90/G91)
   char diameter_axis = 0;       ///< 0 = dialect default
+  /// Fanuc only: how whole numbers without a point are read; unknown = warn once (PP-U218).
+  Dialect::IntegerInput integer_input = Dialect::IntegerInput::unknown;
 };
 
 /// Builds the dialect named `name` (fanuc, siemens, linuxcnc, heidenhain-iso); nullopt if unknown.

@@ -34,6 +34,8 @@ struct ModalState {
   bool return_to_r = false;         ///< G99 (mills)
   double cycle_r = 0;               ///< retract plane of the active drilling cycle, mm along the normal
   double cycle_initial = 0;         ///< initial level when the cycle started
+  bool cycle_initial_known = false;
+  bool cycle_r_known = false;
   double cycle_bottom = 0;
   bool cycle_bottom_known = false;
   WorkOffset work_offset;
@@ -91,8 +93,10 @@ class Interpreter {
   InterpreterOptions opt_;
   ModalState s_;
   bool ended_ = false;
+  bool warned_integer_input_ = false;
   bool mcall_active_ = false;  ///< Siemens modal cycle call
   bool mcall_pending_ = false; ///< MCALL seen in this block
+  Span frame_span_;            ///< where that frame keyword is
   int frame_keyword_ = 0;      ///< Siemens frame keyword in this block: 1 TRANS, 2 ATRANS, 3 ROT/SCALE/…
 };
 
