@@ -101,6 +101,13 @@ bool Interpreter::collect(const Block& b, BlockWords& w) {
   w.letter_word.fill(-1);
   bool ok = true;
   const bool lathe_incremental = d_.lathe && d_.id == DialectId::fanuc;
+  // Units for reading whole numbers as increments: a G20/G21 anywhere in this block applies.
+  bool inch = s_.inch;
+  if (d_.integer_input != Dialect::IntegerInput::calculator)
+    for (const Word& word : b.words)
+      if (word.letter == 'G' && word.kind == ValueKind::number && word.number >= 0 && word.number < 2000)
+        if (const GCodeDef* def = d_.find_g(static_cast<std::uint16_t>(std::lround(word.number * 10))))
+          inch = def->meaning == GMeaning::inch ? true : def->meaning == GMeaning::mm ? false : inch;
   for (std::size_t i = 0; i < b.words.size(); ++i) {
     const Word& word = b.words[i];
     const auto wi = static_cast<std::int16_t>(i);
@@ -116,14 +123,14 @@ bool Interpreter::collect(const Block& b, BlockWords& w) {
         v != 0 && is_length_or_angle(word.letter) && b.text(word.value).find('.') == std::string_view::npos) {
       // Fanuc with standard input (DPI=0): X100 means 100 least input increments.
       const bool angle = word.letter >= 'A' && word.letter <= 'C';
-      v *= angle ? 0.001 : (s_.inch ? 0.0001 : 0.001);
+      v *= angle ? 0.001 : (inch ? 0.0001 : 0.001);
       if (d_.integer_input == Dialect::IntegerInput::unknown && !warned_integer_input_) {
         warned_integer_input_ = true;
         report(b, word.span, Severity::warning, codes::kIntegerInput,
                fmt::format("'{}' has no decimal point: a Fanuc control with standard input reads it as {:g} {}, one "
                            "with calculator-type input (parameter DPI=1, Haas) as {:g}; read as {:g} — pass "
                            "--integer-input increment|calculator to say which (reported once per program)",
-                           b.text(word.span), v, angle ? "deg" : (s_.inch ? "in" : "mm"), word.number, v));
+                           b.text(word.span), v, angle ? "deg" : (inch ? "in" : "mm"), word.number, v));
       }
     }
     if (resolved && !(std::abs(v) <= kMaxMagnitude)) {

@@ -10,7 +10,7 @@
 
 namespace postproc::gcode {
 
-LineReader::LineReader(const std::string& path, std::size_t chunk) : path_(path), buf_(std::max<std::size_t>(chunk, 64)) {
+LineReader::LineReader(const std::string& path, std::size_t chunk) : path_(path), buf_(std::max<std::size_t>(chunk, 1)) {  // a 0-byte buffer would never grow
   if (path == "-") {
     file_ = stdin;
   } else {
