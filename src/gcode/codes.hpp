@@ -13,6 +13,9 @@ inline constexpr std::string_view kRepeatedWord = "PP-E203";
 inline constexpr std::string_view kMissingWord = "PP-E204";
 inline constexpr std::string_view kOutOfRange = "PP-E205";
 inline constexpr std::string_view kArcGeometry = "PP-E301";
+inline constexpr std::string_view kRenumberRefused = "PP-E501";
+inline constexpr std::string_view kUnitsRefused = "PP-E502";
+inline constexpr std::string_view kLinearizeRefused = "PP-E503";
 // Warnings: accepted, but not resolved (compensation refuses unless --pass-through).
 inline constexpr std::string_view kTurningCycle = "PP-U201";
 inline constexpr std::string_view kThreading = "PP-U202";

@@ -1,94 +1,165 @@
+// postproc convert: the passes that rewrite a program block by block (identity, --strip-comments,
+// --renumber, --decimals/--units, --linearize) and the second pass that re-reads converted text.
 #include "postproc/gcode/convert.hpp"
 
+#include <cctype>
+#include <functional>
+#include <memory>
 #include <string>
 #include <vector>
 
 #include <fmt/format.h>
 
+#include "postproc/gcode/block_writer.hpp"
 #include "postproc/gcode/lexer.hpp"
 #include "postproc/gcode/program.hpp"
-#include "src/gcode/codes.hpp"
+#include "src/gcode/convert_support.hpp"
+#include "src/gcode/convert_units.hpp"
+#include "src/gcode/linearize.hpp"
 
 namespace postproc::gcode {
 namespace {
 
-/// A replacement of the bytes in `span` by `text`.
-struct Edit {
-  Span span;
-  std::string text;
-};
-
-/// Applies sorted, non-overlapping edits to `raw`.
-void render(std::string_view raw, std::vector<Edit>& edits, std::string& out) {
-  std::sort(edits.begin(), edits.end(), [](const Edit& a, const Edit& b) { return a.span.begin < b.span.begin; });
-  std::uint32_t at = 0;
-  for (const Edit& e : edits) {
-    out.append(raw.substr(at, e.span.begin - at));
-    out.append(e.text);
-    at = e.span.end;
-  }
-  out.append(raw.substr(at));
-}
-
 bool is_space(char c) { return c == ' ' || c == '\t'; }
 
-class Converter final : public BlockVisitor {
- public:
-  Converter(std::string_view file, const ConvertOptions& opt, io::OutputFile& out, DiagnosticSink& sink)
-      : file_(file), opt_(opt), out_(out), sink_(sink) {}
+/// LinuxCNC comments that act (operator message, debug/print output, probe and log files): kept by
+/// --strip-comments like Siemens MSG().
+bool active_comment(std::string_view body) {
+  while (!body.empty() && is_space(body.front())) body.remove_prefix(1);
+  constexpr std::string_view kActive[] = {"MSG,", "DEBUG,", "PRINT,", "PROBEOPEN", "PROBECLOSE",
+                                          "LOGOPEN", "LOGAPPEND", "LOGCLOSE", "LOG,"};
+  for (std::string_view k : kActive) {
+    if (body.size() < k.size()) continue;
+    bool same = true;
+    for (std::size_t i = 0; i < k.size() && same; ++i)
+      same = std::toupper(static_cast<unsigned char>(body[i])) == k[i];
+    if (same) return true;
+  }
+  return false;
+}
 
-  void block(const Block& b, std::span<const Motion>, bool) override {
-    ++result.blocks;
+/// Where a pass writes: the output file, or a buffer the next pass reads.
+using Writer = std::function<void(std::string_view)>;
+
+/// Forwards diagnostics to the caller's sink; a later pass remaps lines to the input's.
+struct Forward {
+  DiagnosticSink& to;
+  const std::vector<std::uint64_t>* line_map = nullptr;  ///< pass output line → input line (1-based)
+  bool later_pass = false;
+  bool units = false;  ///< --units ran in the earlier pass
+  void operator()(const Diagnostic& d) const {
+    // A later pass re-reads the earlier pass's output: the interpreter's warnings and notes were
+    // reported already; only refusals (its own, or errors the conversion caused) are new.
+    if (later_pass && d.severity != Severity::error) return;
+    Diagnostic c = d;
+    if (line_map != nullptr && c.where.line >= 1 && c.where.line <= line_map->size())
+      c.where.line = (*line_map)[c.where.line - 1];
+    if (later_pass && c.code != codes::kLinearizeRefused) {
+      // The converted text no longer reads: the conversion is refused, naming why.
+      c.message = fmt::format("{}the converted block would be refused ({}: {})", units ? "--units refused: " : "",
+                              c.code, c.message);
+      if (units) c.code = std::string(codes::kUnitsRefused);
+    }
+    to.report(std::move(c));
+  }
+};
+
+class Pass final : public BlockVisitor {
+ public:
+  Pass(std::string_view file, const Dialect& d, const ConvertOptions& opt, Writer write, Forward fwd,
+       ConvertResult& result)
+      : file_(file), d_(d), opt_(opt), write_(std::move(write)), collect_(0), own_(0), r_(result) {
+    collect_.on_report = [this, fwd](const Diagnostic& diag) {
+      diags_.push_back({diag.code, diag.severity, diag.where.column, diag.length});
+      fwd(diag);
+    };
+    own_.on_report = fwd;
+    if (opt_.units || opt_.any_min_decimals())
+      units_ = std::make_unique<UnitsPass>(d_, opt_, file_, own_, r_);
+    if (opt_.linearize_tolerance_mm)
+      lin_ = std::make_unique<Linearizer>(d_, *opt_.linearize_tolerance_mm, file_, own_, r_);
+    next_n_ = opt_.renumber_start.value_or(0);
+  }
+
+  DiagnosticSink& collector() { return collect_; }
+  std::vector<std::uint64_t>* line_map = nullptr;   ///< records each output line's input line
+  std::vector<bool>* line_changed = nullptr;        ///< … and whether it differs from it
+  const std::vector<std::uint64_t>* in_map = nullptr;     ///< this pass's input line → program line
+  const std::vector<bool>* in_changed = nullptr;
+
+  void block(const Block& b, std::span<const Motion> motions, bool) override {
+    ++r_.blocks;
+    const std::uint64_t src = in_map && b.line <= in_map->size() ? (*in_map)[b.line - 1] : b.line;
+    const bool was_changed = in_changed && b.line <= in_changed->size() && (*in_changed)[b.line - 1];
+    if (!b.eol.empty()) eol_ = b.eol;
     if (opt_.identity()) {
-      write(b.raw, b.eol);
+      emit(b.raw, b.eol, src, was_changed);
+      diags_.clear();
       return;
     }
-    edits_.clear();
-    bool had_content = !b.empty() || b.block_delete;
-    if (opt_.strip_comments) strip_comments(b);
-    if (opt_.renumber_start) renumber(b);
-    if (edits_.empty()) {
-      write(b.raw, b.eol);
-      return;
+    BlockEditor ed(b, d_.decimal_point_required);
+    before_.clear();
+    after_.clear();
+    const bool had_content = !b.empty() || b.block_delete;
+    if (units_) units_->block(b, diags_, ed, before_);
+    if (lin_) lin_->block(b, motions, diags_, ed, after_);
+    if (opt_.strip_comments) strip_comments(b, ed);
+    if (opt_.renumber_start) renumber(b, ed);
+    diags_.clear();
+    const std::string fallback_eol(b.eol.empty() ? eol_ : b.eol);
+    for (const std::string& l : before_) {
+      emit(l, fallback_eol, src, true);
+      ++r_.inserted_lines;
     }
-    line_.clear();
-    render(b.raw, edits_, line_);
-    // Trailing whitespace left by a removed comment goes too; a line that held only comments goes.
-    while (!line_.empty() && is_space(line_.back())) line_.pop_back();
-    if (had_content && line_.empty()) {
-      ++result.removed_blocks;
-      return;
+    const std::string_view eol = after_.empty() ? b.eol : std::string_view(fallback_eol);
+    if (ed.empty()) {
+      emit(b.raw, eol, src, was_changed);
+    } else {
+      line_.clear();
+      ed.render(line_);
+      // Trailing whitespace left by a removed comment goes too; a line that held only comments goes.
+      if (opt_.strip_comments || opt_.renumber_start)
+        while (!line_.empty() && is_space(line_.back())) line_.pop_back();
+      if (had_content && line_.empty()) {
+        ++r_.removed_blocks;
+      } else {
+        const bool changed = line_ != b.raw;
+        if (changed && !was_changed) ++r_.changed_blocks;
+        emit(line_, eol, src, changed || was_changed);
+      }
     }
-    ++result.changed_blocks;
-    write(line_, b.eol);
+    for (std::size_t i = 0; i < after_.size(); ++i) {
+      emit(after_[i], i + 1 == after_.size() ? b.eol : std::string_view(fallback_eol), src, true);
+      ++r_.inserted_lines;
+    }
   }
 
-  ConvertResult result;
-
- private:
-  void write(std::string_view raw, std::string_view eol) {
-    buffer_.append(raw);
-    buffer_.append(eol);
-    if (buffer_.size() > (1u << 20)) flush();
-  }
-
- public:
   void flush() {
-    out_.write(buffer_);
+    write_(buffer_);
     buffer_.clear();
   }
 
  private:
-  void strip_comments(const Block& b) {
+  void emit(std::string_view raw, std::string_view eol, std::uint64_t src, bool changed) {
+    buffer_.append(raw);
+    buffer_.append(eol);
+    if (line_map) line_map->push_back(src);
+    if (line_changed) line_changed->push_back(changed);
+    if (buffer_.size() > (1u << 20)) flush();
+  }
+
+  void strip_comments(const Block& b, BlockEditor& ed) {
     for (const Token& t : b.tokens) {
       if (t.kind != TokenKind::paren_comment && t.kind != TokenKind::line_comment) continue;
+      if (t.kind == TokenKind::paren_comment && d_.id == DialectId::linuxcnc && active_comment(b.text(t.name)))
+        continue;
       Span s = t.span;
       while (s.begin > 0 && is_space(b.raw[s.begin - 1])) --s.begin;  // the separating blank goes too
-      edits_.push_back({s, ""});
+      ed.remove(s);
     }
   }
 
-  void renumber(const Block& b) {
+  void renumber(const Block& b, BlockEditor& ed) {
     for (const Token& t : b.tokens) {
       // Jumps name sequence numbers; renumbering would retarget them.
       if (t.kind == TokenKind::control_flow || t.kind == TokenKind::label) {
@@ -97,20 +168,27 @@ class Converter final : public BlockVisitor {
         return;
       }
     }
-    for (const Word& w : b.words)
-      if ((w.letter == 'M' && w.number == 99) || (w.letter == 'G' && w.number >= 70 && w.number <= 73 &&
-                                                   b.words.size() > 1 && has_letter(b, 'P') && has_letter(b, 'Q'))) {
+    for (const Word& w : b.words) {
+      // M99 P n returns to sequence n; lathe G70–G73 P Q name the contour's first and last block
+      // (on mills G73 is peck drilling, whose P and Q are dwell and depth).
+      const int g = g_code10(w);
+      const GCodeDef* def = g >= 0 ? d_.find_g(static_cast<std::uint16_t>(g)) : nullptr;
+      const bool m99p = w.letter == 'M' && w.kind == ValueKind::number && w.number == 99 && has_letter(b, 'P');
+      const bool contour = def != nullptr && def->meaning == GMeaning::turning_cycle && g >= 700 && g <= 730 &&
+                           has_letter(b, 'P') && has_letter(b, 'Q');
+      if (m99p || contour) {
         refuse(b, w.span, "the block refers to sequence numbers (M99 P / G70–G73 P Q); renumbering would change "
                           "their targets");
         return;
       }
+    }
     if (!b.has_n) return;
     const Span digits{b.n_span.begin + 1, b.n_span.end};
     const std::string_view old = b.text(digits);
     std::string num = fmt::format("{}", next_n_);
     // Keep the source's zero padding (N0010 stays four digits wide).
     if (!old.empty() && old[0] == '0' && num.size() < old.size()) num.insert(0, old.size() - num.size(), '0');
-    edits_.push_back({digits, std::move(num)});
+    ed.replace(digits, std::move(num));
     next_n_ += opt_.renumber_step;
   }
 
@@ -121,32 +199,70 @@ class Converter final : public BlockVisitor {
   }
 
   void refuse(const Block& b, Span s, std::string why) {
-    const LexContext ctx{file_, &sink_};
-    report_at(ctx, b, s, Severity::error, "PP-E501", fmt::format("--renumber refused: {}", why));
+    report_at(LexContext{file_, &own_}, b, s, Severity::error, codes::kRenumberRefused, fmt::format("--renumber refused: {}", why));
   }
 
   std::string_view file_;
+  const Dialect& d_;
   const ConvertOptions& opt_;
-  io::OutputFile& out_;
-  DiagnosticSink& sink_;
-  std::vector<Edit> edits_;
+  Writer write_;
+  DiagnosticSink collect_;  ///< given to the reader and interpreter: records the block's diagnostics
+  DiagnosticSink own_;      ///< convert's own refusals
+  ConvertResult& r_;
+  BlockDiags diags_;
+  std::unique_ptr<UnitsPass> units_;
+  std::unique_ptr<Linearizer> lin_;
+  std::vector<std::string> before_, after_;
   std::string line_, buffer_;
+  std::string eol_ = "\n";  ///< the file's EOL, for new lines
   std::uint64_t next_n_ = 0;
-
- public:
-  void start() { next_n_ = opt_.renumber_start.value_or(0); }
 };
 
 }  // namespace
 
 ConvertResult convert(LineReader& in, std::string_view file, const Dialect& dialect, const ConvertOptions& opt,
                       io::OutputFile& out, DiagnosticSink& sink) {
-  Converter c(file, opt, out, sink);
-  c.start();
-  const ProgramStats st = run_program(in, dialect, file, sink, c);
-  c.flush();
-  c.result.bytes_in = st.bytes;
-  return c.result;
+  ConvertResult result;
+  const Writer to_file = [&out](std::string_view s) { out.write(s); };
+  ConvertOptions first = opt;
+  first.linearize_tolerance_mm.reset();
+  // Converted values are re-read before anything is written (an arc rounded into new units may no
+  // longer close); linearising runs on the other options' result, so that the chords are computed
+  // in the output's units and decimals.
+  const bool second_pass = opt.units || (opt.linearize_tolerance_mm && !first.identity());
+  if (!second_pass) {
+    Pass pass(file, dialect, opt, to_file, Forward{sink}, result);
+    const ProgramStats st = run_program(in, dialect, file, pass.collector(), pass);
+    pass.flush();
+    result.bytes_in = st.bytes;
+    return result;
+  }
+  std::string buffer;
+  std::vector<std::uint64_t> line_map;
+  std::vector<bool> line_changed;
+  {
+    Pass pass(file, dialect, first, [&buffer](std::string_view s) { buffer.append(s); }, Forward{sink}, result);
+    pass.line_map = &line_map;
+    pass.line_changed = &line_changed;
+    const ProgramStats st = run_program(in, dialect, file, pass.collector(), pass);
+    pass.flush();
+    result.bytes_in = st.bytes;
+  }
+  if (sink.has_errors()) return result;
+  ConvertOptions second;
+  second.linearize_tolerance_mm = opt.linearize_tolerance_mm;
+  ConvertResult lin;
+  Pass pass(file, dialect, second, to_file, Forward{sink, &line_map, true, opt.units.has_value()}, lin);
+  pass.in_map = &line_map;
+  pass.in_changed = &line_changed;
+  LineReader again{std::string_view(buffer)};
+  run_program(again, dialect, file, pass.collector(), pass);
+  pass.flush();
+  result.changed_blocks += lin.changed_blocks;
+  result.inserted_lines += lin.inserted_lines;
+  result.arcs_linearized = lin.arcs_linearized;
+  result.segments = lin.segments;
+  return result;
 }
 
 }  // namespace postproc::gcode

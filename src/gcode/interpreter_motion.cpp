@@ -264,10 +264,12 @@ void Interpreter::do_motion(const Block& b, BlockWords& w, MotionSink& out) {
       if (target(b, w, m)) out.motion(m, b);
       break;
     case GMeaning::arc_cw:
-    case GMeaning::arc_ccw:
+    case GMeaning::arc_ccw: {
       m.type = mode == GMeaning::arc_cw ? MotionType::arc_cw : MotionType::arc_ccw;
-      if (target(b, w, m) && arc(b, w, m)) out.motion(m, b);
+      const AxisMask known_before = s_.known;  // the arc needs its start point, not just its end
+      if (target(b, w, m) && arc(b, w, m, known_before)) out.motion(m, b);
       break;
+    }
     case GMeaning::drill_cycle:
       if (d_.lathe) {
         unresolved_motion(b, w, codes::kLatheDrill, "lathe / mill-turn drilling cycle");
@@ -349,15 +351,14 @@ bool Interpreter::radii_agree(const Block& b, Span at, const Eigen::Vector2d& s,
   return true;
 }
 
-bool Interpreter::arc(const Block& b, const BlockWords& w, Motion& m) {
+bool Interpreter::arc(const Block& b, const BlockWords& w, Motion& m, AxisMask start_known) {
   const PlaneAxes p = plane_axes(s_.plane);
   const AxisMask need = static_cast<AxisMask>((1u << p.u) | (1u << p.v));
   const Span at = b.words[static_cast<std::size_t>(w.motion.word >= 0 ? w.motion.word : 0)].span;
   const char cu = centre_letter(p.u), cv = centre_letter(p.v);
   const bool by_radius = (w.has('R') && !w.has(cu) && !w.has(cv)) || w.has_cr;
   const bool centre_unresolved = w.unresolved(cu) || w.unresolved(cv) || (by_radius && w.has('R') && w.unresolved('R'));
-  auto start_known = [&](AxisMask mk) { return (m.known & mk) == mk; };
-  if ((s_.known & need) != need || centre_unresolved || !start_known(need)) {
+  if ((s_.known & need) != need || centre_unresolved || (start_known & need) != need) {
     // Start, end or centre unknown: the arc cannot be resolved.
     if (!centre_unresolved)
       report(b, at, Severity::warning, codes::kUnknownPosition,

@@ -77,7 +77,7 @@ class Interpreter {
   void apply_modes(const Block& b, BlockWords& w);
   void do_motion(const Block& b, BlockWords& w, MotionSink& out);
   bool target(const Block& b, const BlockWords& w, Motion& m);
-  bool arc(const Block& b, const BlockWords& w, Motion& m);
+  bool arc(const Block& b, const BlockWords& w, Motion& m, AxisMask start_known);
   bool radii_agree(const Block& b, Span at, const Eigen::Vector2d& s, const Eigen::Vector2d& e,
                    const Eigen::Vector2d& c);
   void drill(const Block& b, const BlockWords& w, Motion& m, MotionSink& out);

@@ -1,0 +1,158 @@
+// Convert helpers: modal tracking over G words, literal spans of words.
+#include "src/gcode/convert_support.hpp"
+
+#include <cctype>
+#include <cmath>
+#include <string>
+
+#include "src/gcode/number_text.hpp"
+
+namespace postproc::gcode {
+
+int g_code10(const Word& w) {
+  if (w.letter != 'G' || !plain_letter(w) || w.kind != ValueKind::number) return -1;
+  const double c = w.number * 10;
+  const long r = std::lround(c);
+  if (r < 0 || r >= 20000 || std::abs(c - static_cast<double>(r)) > 1e-6) return -1;
+  return static_cast<int>(r);
+}
+
+int implied_decimals(const Dialect& d, const Word& w, std::string_view literal, bool inch) {
+  if (d.integer_input == Dialect::IntegerInput::calculator || !plain_letter(w)) return 0;
+  if (literal.find('.') != std::string_view::npos) return 0;
+  if (std::string_view("XYZUVWABCIJKRQ").find(w.letter) == std::string_view::npos) return 0;
+  const bool angle = w.letter >= 'A' && w.letter <= 'C';
+  return inch && !angle ? 4 : 3;
+}
+
+std::optional<Span> literal_span(const Block& b, const Word& w) {
+  if (w.kind == ValueKind::number) return w.value;
+  if (w.kind != ValueKind::absolute_fn && w.kind != ValueKind::incremental_fn) return std::nullopt;
+  const std::string_view t = b.text(w.value);
+  const auto open = t.find('('), close = t.rfind(')');
+  if (open == std::string_view::npos || close == std::string_view::npos || close <= open) return std::nullopt;
+  auto begin = static_cast<std::uint32_t>(open + 1), end = static_cast<std::uint32_t>(close);
+  while (begin < end && t[begin] == ' ') ++begin;
+  while (end > begin && t[end - 1] == ' ') --end;
+  double v = 0;
+  if (!parse_number(t.substr(begin, end - begin), v)) return std::nullopt;
+  return Span{w.value.begin + begin, w.value.begin + end};
+}
+
+void ModalTrack::update(const Block& b) {
+  block_g.clear();
+  units_in_block = false;
+  for (std::size_t i = 0; i < b.words.size(); ++i) {
+    const int c = g_code10(b.words[i]);
+    if (c < 0) continue;
+    if (const GCodeDef* def = dialect->find_g(static_cast<std::uint16_t>(c))) block_g.push_back({def, i});
+  }
+  const bool siemens = dialect->id == DialectId::siemens;
+  if (siemens)
+    for (const Token& t : b.tokens) {
+      if (t.kind != TokenKind::keyword) continue;
+      std::string name(b.text(t.name));
+      for (char& c : name) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+      if (name == "DIAMON" || name == "DIAM90") diameter = true;
+      if (name == "DIAMOF") diameter = false;
+    }
+  bool motion_given = false;
+  for (const G& g : block_g) {
+    switch (g.def->meaning) {
+      case GMeaning::inch:
+      case GMeaning::mm: {
+        const bool to_inch = g.def->meaning == GMeaning::inch;
+        inch = to_inch;
+        units_in_block = true;
+        // Sinumerik G70/G71 change geometry only; feeds stay in the basic system (G700/G710 change both).
+        if (!siemens || g.def->code10 >= 7000) feed_inch = to_inch;
+        break;
+      }
+      case GMeaning::feed_inverse_time: feed_mode = FeedMode::inverse_time; break;
+      case GMeaning::feed_per_minute: feed_mode = FeedMode::per_minute; break;
+      case GMeaning::feed_per_rev: feed_mode = FeedMode::per_rev; break;
+      case GMeaning::absolute: absolute = true; break;
+      case GMeaning::arc_absolute: arc_absolute = true; break;
+      case GMeaning::arc_incremental: arc_absolute = false; break;
+      case GMeaning::diameter_mode: diameter = true; break;
+      case GMeaning::radius_mode: diameter = false; break;
+      case GMeaning::incremental: absolute = false; break;
+      case GMeaning::plane_xy: plane = Plane::xy; break;
+      case GMeaning::plane_zx: plane = Plane::zx; break;
+      case GMeaning::plane_yz: plane = Plane::yz; break;
+      case GMeaning::css_on: css = true; break;
+      case GMeaning::css_off: css = false; break;
+      case GMeaning::tcp_vector_on: tcp_vector = true; break;
+      case GMeaning::tcp_on:
+      case GMeaning::tool_length_on:
+      case GMeaning::tool_length_off: tcp_vector = false; break;
+      case GMeaning::cancel_motion:
+        if (!motion_given) motion = GMeaning::cancel_motion;
+        break;
+      case GMeaning::state_only:
+        if (dialect->id == DialectId::fanuc && g.def->code10 == 160) polar_command = true;
+        if (dialect->id == DialectId::fanuc && g.def->code10 == 150) polar_command = false;
+        break;
+      default: break;
+    }
+    if (g.def->group == GGroup::motion) {
+      motion = g.def->meaning;
+      motion_code10 = g.def->code10;
+      motion_given = true;
+    }
+  }
+}
+
+const ModalTrack::G* ModalTrack::find(GMeaning m) const {
+  for (const G& g : block_g)
+    if (g.def->meaning == m) return &g;
+  return nullptr;
+}
+
+const ModalTrack::G* ModalTrack::block_motion() const {
+  for (const G& g : block_g)
+    if (g.def->group == GGroup::motion) return &g;
+  return nullptr;
+}
+
+const ModalTrack::G* ModalTrack::axis_consumer() const {
+  for (const G& g : block_g) {
+    switch (g.def->meaning) {
+      case GMeaning::dwell:
+      case GMeaning::set_offsets_g10:
+      case GMeaning::local_offset:
+      case GMeaning::set_position:
+      case GMeaning::home_return:
+      case GMeaning::home_set:
+      case GMeaning::tilted_plane_on:
+      case GMeaning::rotation_on:
+      case GMeaning::tilted_plane_tool_axis:
+      case GMeaning::tool_length_dynamic:
+      case GMeaning::spindle_clamp:
+      case GMeaning::datum_shift_heidenhain:
+      case GMeaning::tilted_plane_heidenhain:
+      case GMeaning::polar_pole:
+      case GMeaning::probe:
+        return &g;
+      default: break;
+    }
+  }
+  return nullptr;
+}
+
+int ModalTrack::axis_of(const Word& w) const {
+  if (!plain_letter(w)) return -1;
+  if (dialect->lathe && dialect->id == DialectId::fanuc && (w.letter == 'U' || w.letter == 'W' || w.letter == 'H'))
+    return w.letter == 'U' ? 0 : (w.letter == 'W' ? 2 : 5);
+  return axis_index(w.letter);
+}
+
+bool ModalTrack::incremental(const Word& w) const {
+  if (w.kind == ValueKind::incremental_fn) return true;
+  if (w.kind == ValueKind::absolute_fn) return false;
+  if (dialect->lathe && dialect->id == DialectId::fanuc && (w.letter == 'U' || w.letter == 'W' || w.letter == 'H'))
+    return true;
+  return !absolute && !has(GMeaning::machine_coords);
+}
+
+}  // namespace postproc::gcode

@@ -1,0 +1,3 @@
+(expect exit 64: the output would overwrite the input)
+G0 X1
+M30

@@ -1,0 +1,5 @@
+(expect PP-E301)
+G21 G90 G17
+G0 X0 Y0
+G2 X0 Y0 R5. F100.
+M30

@@ -1,0 +1,5 @@
+(expect PP-E201)
+G0 X0 Y0
+G1 X1 F100
+G7 X2
+M30

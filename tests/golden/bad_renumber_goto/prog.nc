@@ -1,0 +1,6 @@
+(expect PP-E501)
+N10 #1=0
+N20 #1=#1+1
+N30 G0 X#1
+N40 IF [#1 LT 3] GOTO 20
+N50 M30

@@ -1,0 +1,3 @@
+(expect exit 64: convert without -o)
+G0 X1
+M30
