@@ -68,7 +68,8 @@ class Pass final : public BlockVisitor {
  public:
   Pass(std::string_view file, const Dialect& d, const ConvertOptions& opt, Writer write, Forward fwd,
        ConvertResult& result)
-      : file_(file), d_(d), opt_(opt), write_(std::move(write)), collect_(0), own_(0), r_(result) {
+      : file_(file), d_(d), opt_(opt), identity_(opt.identity()), write_(std::move(write)), collect_(0), own_(0),
+        r_(result) {
     collect_.on_report = [this, fwd](const Diagnostic& diag) {
       diags_.push_back({diag.code, diag.severity, diag.where.column, diag.length});
       fwd(diag);
@@ -91,8 +92,8 @@ class Pass final : public BlockVisitor {
     ++r_.blocks;
     const std::uint64_t src = in_map && b.line <= in_map->size() ? (*in_map)[b.line - 1] : b.line;
     const bool was_changed = in_changed && b.line <= in_changed->size() && (*in_changed)[b.line - 1];
-    if (!b.eol.empty()) eol_ = b.eol;
-    if (opt_.identity()) {
+    if (!b.eol.empty() && eol_ != b.eol) eol_ = b.eol;
+    if (identity_) {
       emit(b.raw, b.eol, src, was_changed);
       diags_.clear();
       return;
@@ -205,6 +206,7 @@ class Pass final : public BlockVisitor {
   std::string_view file_;
   const Dialect& d_;
   const ConvertOptions& opt_;
+  const bool identity_;  ///< decided once: the per-block path must stay a plain copy
   Writer write_;
   DiagnosticSink collect_;  ///< given to the reader and interpreter: records the block's diagnostics
   DiagnosticSink own_;      ///< convert's own refusals

@@ -1,7 +1,6 @@
 #include "postproc/gcode/detect.hpp"
 
 #include <array>
-#include <cctype>
 
 namespace postproc::gcode {
 namespace {
@@ -27,10 +26,12 @@ constexpr std::array<Marker, 22> kMarkers = {{
     {"BEGIN PGM", DialectId::heidenhain_iso, true}, {"G65 P", DialectId::fanuc, false},
 }};
 
+constexpr char upper(char c) { return (c >= 'a' && c <= 'z') ? static_cast<char>(c - 32) : c; }
+
 bool match_at(std::string_view line, std::size_t pos, std::string_view pat) {
-  if (pos + pat.size() > line.size()) return false;
-  for (std::size_t i = 0; i < pat.size(); ++i)
-    if (std::toupper(static_cast<unsigned char>(line[pos + i])) != pat[i]) return false;
+  if (pos + pat.size() > line.size() || upper(line[pos]) != pat[0]) return false;
+  for (std::size_t i = 1; i < pat.size(); ++i)
+    if (upper(line[pos + i]) != pat[i]) return false;
   return true;
 }
 

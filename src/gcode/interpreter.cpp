@@ -103,7 +103,10 @@ bool Interpreter::collect(const Block& b, BlockWords& w) {
   const bool lathe_incremental = d_.lathe && d_.id == DialectId::fanuc;
   // Units for reading whole numbers as increments: a G20/G21 anywhere in this block applies.
   bool inch = s_.inch;
+  bool any_whole = false;
   if (d_.integer_input != Dialect::IntegerInput::calculator)
+    for (const Word& word : b.words) any_whole = any_whole || (word.whole && is_length_or_angle(word.letter));
+  if (any_whole)
     for (const Word& word : b.words)
       if (word.letter == 'G' && word.kind == ValueKind::number && word.number >= 0 && word.number < 2000)
         if (const GCodeDef* def = d_.find_g(static_cast<std::uint16_t>(std::lround(word.number * 10))))
@@ -120,7 +123,7 @@ bool Interpreter::collect(const Block& b, BlockWords& w) {
       fn_inc = !fn_abs;
     }
     if (resolved && word.kind == ValueKind::number && d_.integer_input != Dialect::IntegerInput::calculator &&
-        v != 0 && is_length_or_angle(word.letter) && b.text(word.value).find('.') == std::string_view::npos) {
+        v != 0 && word.whole && is_length_or_angle(word.letter)) {
       // Fanuc with standard input (DPI=0): X100 means 100 least input increments.
       const bool angle = word.letter >= 'A' && word.letter <= 'C';
       v *= angle ? 0.001 : (inch ? 0.0001 : 0.001);

@@ -200,7 +200,9 @@ class Lexer {
       }
       return 0;
     }
-    const std::uint32_t e = lex_number(s_, j, d_.spaces_inside_words, w.number);
+    bool point = false;
+    const std::uint32_t e = lex_number(s_, j, d_.spaces_inside_words, w.number, &point);
+    w.whole = !point;
     if (e == j) return 0;
     w.kind = ValueKind::number;
     w.value = {j, e};
@@ -262,7 +264,8 @@ class Lexer {
       const char c = s_[i + 1];
       if ((static_cast<unsigned>(c - '0') < 10u || c == '-' || c == '.' || c == '+')) {
         double v = 0;
-        const std::uint32_t e = lex_number(s_, i + 1, d_.spaces_inside_words, v);
+        bool point = false;
+        const std::uint32_t e = lex_number(s_, i + 1, d_.spaces_inside_words, v, &point);
         if (e != i + 1 && (e >= n() || (s_[e] != '.' && !is_digit(s_[e])))) {
           if (L == 'N' && first_item && !b_.has_n) {
             b_.has_n = true;
@@ -276,6 +279,7 @@ class Lexer {
           w.value = {i + 1, e};
           w.letter = L;
           w.number = v;
+          w.whole = !point;
           return e;
         }
       }

@@ -14,7 +14,8 @@ inline constexpr double kPow10[] = {1e0,  1e1,  1e2,  1e3,  1e4,  1e5,  1e6,  1e
 
 /// Scans a literal at `j` and converts it. Returns the end, or `j` if there is no literal (a literal
 /// needs at least one digit). `out` is set only when a literal was found.
-inline std::uint32_t lex_number(std::string_view s, std::uint32_t j, bool allow_space_after_sign, double& out) {
+inline std::uint32_t lex_number(std::string_view s, std::uint32_t j, bool allow_space_after_sign, double& out,
+                                bool* has_point = nullptr) {
   const auto n = static_cast<std::uint32_t>(s.size());
   std::uint32_t k = j;
   bool neg = false;
@@ -34,6 +35,7 @@ inline std::uint32_t lex_number(std::string_view s, std::uint32_t j, bool allow_
   }
   k = int_end;
   std::uint32_t decimals = 0;
+  if (has_point) *has_point = k < n && p[k] == '.';
   if (k < n && p[k] == '.') {
     ++k;
     const std::uint32_t frac_begin = k;

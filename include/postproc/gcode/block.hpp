@@ -32,6 +32,7 @@ struct Word {
   std::uint8_t name_len = 1;  ///< 1 for plain letter addresses
   std::uint8_t index = 0;     ///< extended address digits (A3 → 3), 0 when none
   bool has_equals = false;    ///< written with '=' (Siemens X=10, A3=0.5)
+  bool whole = false;         ///< a literal number written without a decimal point (X100)
   double number = 0.0;  ///< parsed value when kind == number
 };
 
