@@ -24,7 +24,7 @@ constexpr const char* kColumns[] = {
     "line", "motion", "x", "y", "z", "a", "b", "c", "u", "v", "w", "feed", "feed_mode", "plane",
     "centre_x", "centre_y", "centre_z", "radius", "sweep_deg", "turns", "cycle", "cycle_r", "cycle_bottom",
     "frame", "work_offset", "g52_x", "g52_y", "g52_z", "g92_x", "g92_y", "g92_z", "tool_length_h", "tcp",
-    "tilted_plane", "diameter_mode"};
+    "tilted_plane", "diameter_mode", "tool_i", "tool_j", "tool_k", "orientation_frame"};
 constexpr std::size_t kColumnCount = std::size(kColumns);
 
 class Dumper final : public gcode::BlockVisitor {
@@ -89,6 +89,8 @@ class Dumper final : public gcode::BlockVisitor {
     str(gcode::to_string(m.tcp));
     boolean(m.tilted_plane);
     boolean(m.diameter_mode);
+    for (int i = 0; i < 3; ++i) m.tool_vector_known ? num(m.tool_vector[i]) : empty();
+    str(m.orientation_machine_frame ? "machine" : "work");
     buf_ += jsonl_ ? "}\n" : "\n";
   }
   void sep() {

@@ -399,3 +399,28 @@ TEST(Interpreter, FanucWholeNumbersWithoutPoint) {
 }
 
 }  // namespace
+
+namespace {
+
+TEST(Interpreter, ToolVectorsUnderTraoriAndG43_5) {
+  // Siemens A3/B3/C3 (missing components 0) and Fanuc G43.5 I J K give a unit tool axis per block.
+  const Program s(dialect("siemens"),
+                  "G17 G0 X0 Y0 Z0\nTRAORI\nG1 X10 A3=0 B3=3 C3=4 F500\nORIMKS\nX20\nTRAFOOF\nG1 X1 A3=1\n");
+  ASSERT_EQ(s.motions.size(), 4u);
+  EXPECT_TRUE(s.motions[1].tool_vector_known);
+  EXPECT_NEAR(s.motions[1].tool_vector.y(), 0.6, kTol);
+  EXPECT_NEAR(s.motions[1].tool_vector.z(), 0.8, kTol);
+  EXPECT_FALSE(s.motions[1].orientation_machine_frame);
+  EXPECT_FALSE(s.motions[2].tool_vector_known);  // not programmed in that block
+  EXPECT_TRUE(s.motions[2].orientation_machine_frame);
+  EXPECT_FALSE(s.motions[3].tool_vector_known);  // A3 without TRAORI is no tool vector
+  const Program f(dialect("fanuc"), "G17 G0 X0 Y0 Z0\nG43.5 H1 X1 I0 J0 K2\nG1 X2 I1 J1 K0 F100\nG2 X4 I1 J0\n");
+  ASSERT_EQ(f.motions.size(), 4u);
+  EXPECT_NEAR(f.motions[1].tool_vector.z(), 1, kTol);
+  EXPECT_NEAR(f.motions[2].tool_vector.x(), std::sqrt(0.5), kTol);
+  EXPECT_NEAR(f.motions[2].tool_vector.y(), std::sqrt(0.5), kTol);
+  EXPECT_FALSE(f.motions[3].tool_vector_known);  // on an arc I J K are the centre
+  EXPECT_NEAR(f.motions[3].arc.centre.x(), 3, kTol);
+}
+
+}  // namespace

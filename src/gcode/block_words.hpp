@@ -35,6 +35,8 @@ struct Interpreter::BlockWords {
   std::array<double, 8> m;               ///< first m_count entries valid
   std::array<std::int16_t, 8> m_word;
 
+  Eigen::Vector3d vector = Eigen::Vector3d::Zero();  ///< Siemens A3/B3/C3 components (program values)
+  std::uint8_t vector_present = 0;        ///< bits 0..2 = A3 B3 C3 given literally
   bool polar = false;                     ///< Siemens AP=/RP= polar coordinates in this block
   bool siemens_motion_keyword = false;    ///< CIP, CT, BSPLINE, … in this block
   bool machine_frame = false;             ///< G53 / SUPA / G153 in this block

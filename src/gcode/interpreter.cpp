@@ -157,6 +157,11 @@ bool Interpreter::collect(const Block& b, BlockWords& w) {
         w.cr = v;
       }
       if (iequals(nm, "AP") || iequals(nm, "RP")) w.polar = true;
+      // A3 B3 C3: tool direction vector components under TRAORI.
+      if (word.index == 3 && word.name_len == 2 && resolved && word.letter >= 'A' && word.letter <= 'C') {
+        w.vector[word.letter - 'A'] = v;
+        w.vector_present = static_cast<std::uint8_t>(w.vector_present | (1u << (word.letter - 'A')));
+      }
       continue;
     }
     const char L = word.letter;
@@ -313,6 +318,8 @@ void Interpreter::siemens_token(const Block& b, const Token& t, BlockWords& w) {
     frame_span_ = t.span;
     frame_keyword_ = 3;
   } else {
+    if (iequals(name, "ORIMKS")) s_.ori_mks = true;
+    if (iequals(name, "ORIWKS")) s_.ori_mks = false;
     for (std::string_view k : kSiemensStateKeywords)
       if (iequals(name, k)) return;
     report(b, t.span, Severity::warning, codes::kSubprogramCall,

@@ -42,6 +42,7 @@ void Interpreter::fill_state(Motion& m) const {
   m.tool_length_h = s_.tool_length_h;
   m.tcp = s_.tcp;
   m.tilted_plane = s_.tilted_plane;
+  m.orientation_machine_frame = s_.ori_mks;
   m.diameter_mode = s_.diameter_mode;
   m.inch_source = s_.inch;
 }
@@ -211,6 +212,24 @@ void Interpreter::non_modal(const Block& b, BlockWords& w, MotionSink& out) {
   }
 }
 
+void Interpreter::tool_vector(const BlockWords& w, Motion& m) const {
+  // Siemens TRAORI: A3 B3 C3 (missing components are 0); Fanuc G43.5: I J K on linear moves.
+  Eigen::Vector3d v = Eigen::Vector3d::Zero();
+  bool given = false;
+  if (s_.tcp == TcpMode::siemens_traori && w.vector_present != 0) {
+    v = w.vector;
+    given = true;
+  } else if (s_.tcp == TcpMode::fanuc_g43_5 && (w.has('I') || w.has('J') || w.has('K')) &&
+             !(w.unresolved('I') || w.unresolved('J') || w.unresolved('K'))) {
+    v = Eigen::Vector3d(w.has('I') ? w.get('I') : 0.0, w.has('J') ? w.get('J') : 0.0, w.has('K') ? w.get('K') : 0.0);
+    given = true;
+  }
+  if (given && v.norm() > 1e-12) {
+    m.tool_vector = v.normalized();
+    m.tool_vector_known = true;
+  }
+}
+
 void Interpreter::do_motion(const Block& b, BlockWords& w, MotionSink& out) {
   // MillPlus G74 is a one-block rapid in machine coordinates.
   const GMeaning mode = w.has_meaning(GMeaning::machine_move_heidenhain) ? GMeaning::rapid
@@ -257,6 +276,7 @@ void Interpreter::do_motion(const Block& b, BlockWords& w, MotionSink& out) {
   }();
   m.column = b.words[static_cast<std::size_t>(first_word)].span.begin + 1;
   fill_state(m);
+  if (mode == GMeaning::rapid || mode == GMeaning::linear) tool_vector(w, m);  // arcs use I J K as centre
   switch (mode) {
     case GMeaning::rapid:
     case GMeaning::linear:

@@ -46,6 +46,7 @@ struct ModalState {
   std::uint16_t tool_length_h = 0;
   TcpMode tcp = TcpMode::off;
   bool tilted_plane = false;
+  bool ori_mks = false;             ///< Siemens ORIMKS: orientation vectors in the machine frame
   bool polar_interp = false;
   Eigen::Vector3d circle_centre = Eigen::Vector3d::Zero();  ///< Heidenhain CC (I J K), mm, modal
   std::uint8_t circle_centre_known = 0;  ///< bits 0..2 = X Y Z components set
@@ -82,6 +83,7 @@ class Interpreter {
                    const Eigen::Vector2d& c);
   void drill(const Block& b, const BlockWords& w, Motion& m, MotionSink& out);
   void fill_state(Motion& m) const;
+  void tool_vector(const BlockWords& w, Motion& m) const;
   void siemens_token(const Block& b, const Token& t, BlockWords& w);
   void non_modal(const Block& b, BlockWords& w, MotionSink& out);
   void unresolved_motion(const Block& b, const BlockWords& w, std::string_view code, std::string what);

@@ -81,6 +81,11 @@ struct Motion {
   std::uint16_t tool_length_h = 0;
   TcpMode tcp = TcpMode::off;
   bool tilted_plane = false;     ///< G68.2 / CYCLE800 / PLANE active
+  /// Tool-axis direction programmed as a vector in this block (Siemens A3/B3/C3 under TRAORI,
+  /// Fanuc I J K under G43.5), normalised; valid when tool_vector_known.
+  Eigen::Vector3d tool_vector = Eigen::Vector3d::UnitZ();
+  bool tool_vector_known = false;
+  bool orientation_machine_frame = false;  ///< Siemens ORIMKS (else ORIWKS: workpiece frame)
   bool diameter_mode = false;    ///< X was programmed as a diameter (end holds the radius)
   bool inch_source = false;      ///< the block was programmed in inches (end is converted to mm)
 };
