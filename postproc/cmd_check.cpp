@@ -43,6 +43,12 @@ std::string head_of(const std::string& path, std::size_t bytes = 1 << 18) {
 
 std::string unit_of(int axis) { return gcode::is_rotary(axis) ? "deg" : "mm"; }
 
+/// Four decimals without a "-0.0000" for values that round to zero.
+std::string fixed4(double v) {
+  std::string s = fmt::format("{:.4f}", v);
+  return s == "-0.0000" ? s.substr(1) : s;
+}
+
 void print_summary(const std::string& file, const gcode::Dialect& d, const std::string& how,
                    const gcode::ProgramSummary& s, const gcode::DiagnosticSink& sink) {
   using gcode::MotionType;
@@ -58,7 +64,7 @@ void print_summary(const std::string& file, const gcode::Dialect& d, const std::
   out += fmt::format("  axes: {}\n", axes.empty() ? "none" : axes);
   for (int a = 0; a < gcode::kAxisCount; ++a)
     if (s.min[a] <= s.max[a])
-      out += fmt::format("  extent {}: {:.4f} .. {:.4f} {}\n", gcode::kAxisLetters[a], s.min[a], s.max[a], unit_of(a));
+      out += fmt::format("  extent {}: {} .. {} {}\n", gcode::kAxisLetters[a], fixed4(s.min[a]), fixed4(s.max[a]), unit_of(a));
   constexpr const char* kFeedUnit[] = {"mm/min", "mm/rev", "1/min (inverse time)"};
   constexpr const char* kFeedName[] = {"per minute", "per revolution", "inverse time"};
   for (std::size_t k = 0; k < 3; ++k)

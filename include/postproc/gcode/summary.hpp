@@ -26,7 +26,8 @@ struct ProgramSummary {
   std::array<FeedRange, 3> feeds{};  ///< indexed by FeedMode; mm/min, mm/rev, 1/min
   std::uint64_t machine_frame_moves = 0;
 
-  /// Adds one motion (work-frame end points only enter the extents).
+  /// Adds one motion: work-frame end points, and the quadrant points arcs pass through, enter the
+  /// extents (machine-coordinate rows do not).
   void add(const Motion& m);
   [[nodiscard]] std::uint64_t motions() const;
 };
