@@ -15,13 +15,10 @@ namespace fs = std::filesystem;
 
 OutputFile::OutputFile(std::string path, std::string_view input_path, bool allow_overwrite) : path_(std::move(path)) {
   if (path_ == "-") {
-    // Standard output gets the same guarantee as a file: the bytes go to an anonymous temporary
-    // file first and are copied out on commit, so a refused program writes nothing. Memory stays
-    // bounded whatever the size.
+    // Standard output gets the same guarantee as a file: the bytes are held back and written on
+    // commit, so a refused program writes nothing. Up to kStdoutMemory in memory, beyond that in an
+    // anonymous temporary file, so memory stays bounded whatever the size.
     stdout_ = true;
-    f_ = std::tmpfile();
-    if (f_ == nullptr)
-      throw Error(ExitCode::cannot_write, fmt::format("cannot create a temporary file for stdout: {}", std::strerror(errno)));
     return;
   }
   std::error_code ec;
@@ -51,7 +48,7 @@ OutputFile::OutputFile(std::string path, std::string_view input_path, bool allow
 OutputFile::~OutputFile() {
   if (committed_) return;
   if (stdout_ || direct_) {
-    std::fclose(f_);
+    if (f_ != nullptr) std::fclose(f_);
     return;
   }
   if (f_ != nullptr) std::fclose(f_);
@@ -60,6 +57,22 @@ OutputFile::~OutputFile() {
 
 void OutputFile::write(std::string_view bytes) {
   if (bytes.empty()) return;
+  if (stdout_ && f_ == nullptr) {
+    if (held_.size() + bytes.size() <= kStdoutMemory) {
+      held_.append(bytes);
+      return;
+    }
+    f_ = std::tmpfile();
+    if (f_ == nullptr)
+      throw Error(ExitCode::cannot_write, fmt::format("cannot create a temporary file for stdout: {}", std::strerror(errno)));
+    write_all(held_);
+    held_.clear();
+    held_.shrink_to_fit();
+  }
+  write_all(bytes);
+}
+
+void OutputFile::write_all(std::string_view bytes) {
   if (std::fwrite(bytes.data(), 1, bytes.size(), f_) != bytes.size())
     throw Error(ExitCode::cannot_write, fmt::format("{}: write failed: {}", stdout_ ? "<stdout>" : direct_ ? path_ : temp_,
                                                     std::strerror(errno)));
@@ -67,14 +80,18 @@ void OutputFile::write(std::string_view bytes) {
 
 void OutputFile::commit() {
   if (stdout_) {
-    bool failed = std::fflush(f_) != 0 || std::fseek(f_, 0, SEEK_SET) != 0;
-    char buf[1 << 16];
-    std::size_t got = 0;
-    while (!failed && (got = std::fread(buf, 1, sizeof buf, f_)) > 0)
-      failed = std::fwrite(buf, 1, got, stdout) != got;
-    failed = failed || std::ferror(f_) != 0 || std::fflush(stdout) != 0;
-    std::fclose(f_);
-    f_ = nullptr;
+    bool failed = std::fwrite(held_.data(), 1, held_.size(), stdout) != held_.size();
+    if (f_ != nullptr) {
+      failed = failed || std::fflush(f_) != 0 || std::fseek(f_, 0, SEEK_SET) != 0;
+      char buf[1 << 16];
+      std::size_t got = 0;
+      while (!failed && (got = std::fread(buf, 1, sizeof buf, f_)) > 0)
+        failed = std::fwrite(buf, 1, got, stdout) != got;
+      failed = failed || std::ferror(f_) != 0;
+      std::fclose(f_);
+      f_ = nullptr;
+    }
+    failed = failed || std::fflush(stdout) != 0;
     committed_ = true;
     if (failed) throw Error(ExitCode::cannot_write, fmt::format("<stdout>: write failed: {}", std::strerror(errno)));
     return;

@@ -25,7 +25,10 @@ class OutputFile {
   [[nodiscard]] const std::string& path() const { return path_; }
 
  private:
-  std::string path_, temp_;
+  void write_all(std::string_view bytes);
+  /// Bytes of standard output held in memory before spilling to a temporary file.
+  static constexpr std::size_t kStdoutMemory = std::size_t{16} << 20;
+  std::string path_, temp_, held_;
   std::FILE* f_ = nullptr;
   bool stdout_ = false, direct_ = false, committed_ = false, backup_ = false;
 };
