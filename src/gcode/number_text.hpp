@@ -13,52 +13,45 @@ inline constexpr double kPow10[] = {1e0,  1e1,  1e2,  1e3,  1e4,  1e5,  1e6,  1e
                                     1e12, 1e13, 1e14, 1e15, 1e16, 1e17, 1e18, 1e19, 1e20, 1e21, 1e22};
 
 /// Scans a literal at `j` and converts it. Returns the end, or `j` if there is no literal (a literal
-/// needs at least one digit). `out` is set only when a literal was found.
-inline std::uint32_t lex_number(std::string_view s, std::uint32_t j, bool allow_space_after_sign, double& out,
-                                bool* has_point = nullptr) {
-  const auto n = static_cast<std::uint32_t>(s.size());
-  std::uint32_t k = j;
+/// needs at least one digit). `out` is set only when a literal was found; `has_point` (optional)
+/// tells whether it was written with a decimal point.
+[[gnu::always_inline]] inline std::uint32_t lex_number(std::string_view s, std::uint32_t j, bool allow_space_after_sign,
+                                                      double& out, bool* has_point = nullptr) {
+  const char* const base = s.data();
+  const char* const end = base + s.size();
+  const char* c = base + j;
   bool neg = false;
-  if (k < n && (s[k] == '+' || s[k] == '-')) {
-    neg = s[k] == '-';
-    ++k;
+  if (c < end && (*c == '+' || *c == '-')) {
+    neg = *c == '-';
+    ++c;
     if (allow_space_after_sign)
-      while (k < n && (s[k] == ' ' || s[k] == '\t')) ++k;
+      while (c < end && (*c == ' ' || *c == '\t')) ++c;
   }
-  const std::uint32_t digits_begin = k;
-  std::uint64_t mant = 0;
-  const char* p = s.data();
-  std::uint32_t int_end = k;
-  while (int_end < n && static_cast<unsigned>(p[int_end] - '0') < 10u) {
-    mant = mant * 10 + static_cast<std::uint64_t>(p[int_end] - '0');
-    ++int_end;
+  const char* const digits_begin = c;
+  // Signed accumulator: converts to double in one instruction; ≤ 15 digits cannot overflow it.
+  std::int64_t mant = 0;
+  while (c < end && static_cast<unsigned>(*c - '0') < 10u) mant = mant * 10 + (*c++ - '0');
+  const char* const int_end = c;
+  long decimals = 0;
+  const bool point = c < end && *c == '.';
+  if (point) {
+    const char* const frac_begin = ++c;
+    while (c < end && static_cast<unsigned>(*c - '0') < 10u) mant = mant * 10 + (*c++ - '0');
+    decimals = c - frac_begin;
   }
-  k = int_end;
-  std::uint32_t decimals = 0;
-  if (has_point) *has_point = k < n && p[k] == '.';
-  if (k < n && p[k] == '.') {
-    ++k;
-    const std::uint32_t frac_begin = k;
-    while (k < n && static_cast<unsigned>(p[k] - '0') < 10u) {
-      mant = mant * 10 + static_cast<std::uint64_t>(p[k] - '0');
-      ++k;
-    }
-    decimals = k - frac_begin;
-  }
-  const std::uint32_t digits = (int_end - digits_begin) + decimals;
+  const long digits = (int_end - digits_begin) + decimals;
   if (digits == 0) return j;
   double v;
-  // Exact when the mantissa fits in 53 bits (no overflow: ≤ 19 digits) and 10^decimals is exact.
-  if (digits <= 19 && mant <= (std::uint64_t{1} << 53) && decimals <= 22) {
-    v = static_cast<double>(mant) / kPow10[decimals];
+  if (digits <= 15 && decimals <= 22) {
+    v = static_cast<double>(mant) / kPow10[decimals];  // both exact: one correctly rounded division
   } else {
-    const char* first = p + digits_begin;
-    const char* last = p + k;
+    const char* last = c;
     if (last[-1] == '.') --last;
-    if (first == last || std::from_chars(first, last, v).ec != std::errc()) return j;
+    if (digits_begin == last || std::from_chars(digits_begin, last, v).ec != std::errc()) return j;
   }
+  if (has_point) *has_point = point;
   out = neg ? -v : v;
-  return k;
+  return static_cast<std::uint32_t>(c - base);
 }
 
 /// End of the number literal starting at `j` in `s`, or `j` if there is none.
