@@ -424,3 +424,17 @@ TEST(Interpreter, ToolVectorsUnderTraoriAndG43_5) {
 }
 
 }  // namespace
+
+namespace {
+
+TEST(Interpreter, FanucQIsALengthOnlyInDrillingCycles) {
+  // G5.1 Q1 is a mode switch, not 1 µm; G83 Q500 is a peck depth of 0.5 mm under standard input.
+  const Program mode_switch(dialect("fanuc", false, gc::Dialect::IntegerInput::unknown),
+                            "G21 G0 X0. Y0. Z10.\nG5.1 Q1\nG1 X1. F100.\n");
+  EXPECT_FALSE(mode_switch.has("PP-U218")) << mode_switch.all_codes();
+  const Program peck(dialect("fanuc", false, gc::Dialect::IntegerInput::unknown),
+                     "G21 G0 X0. Y0. Z10.\nG5.1 Q1\nG99 G83 X1. Y1. Z-5. R2. Q500 F100.\n");
+  expect_diag(peck, "PP-U218", 3, 26);
+}
+
+}  // namespace

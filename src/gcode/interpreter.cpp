@@ -31,11 +31,12 @@ bool starts_with_i(std::string_view s, std::string_view prefix) {
 /// inches could overflow, and no machine moves that far.
 constexpr double kMaxMagnitude = 1e9;
 
-/// Words whose whole-number values Fanuc reads in least input increments.
+/// Words whose whole-number values Fanuc reads in least input increments (Q too, but only as the
+/// peck depth of a drilling cycle: G5.1 Q1 or M98 Q are plain numbers).
 constexpr bool is_length_or_angle(char L) {
   switch (L) {
     case 'X': case 'Y': case 'Z': case 'U': case 'V': case 'W': case 'A': case 'B': case 'C':
-    case 'I': case 'J': case 'K': case 'R': case 'Q': return true;
+    case 'I': case 'J': case 'K': case 'R': return true;
     default: return false;
   }
 }
@@ -104,8 +105,14 @@ bool Interpreter::collect(const Block& b, BlockWords& w) {
   // Units for reading whole numbers as increments: a G20/G21 anywhere in this block applies.
   bool inch = s_.inch;
   bool any_whole = false;
+  bool drilling = s_.motion == GMeaning::drill_cycle;
   if (d_.integer_input != Dialect::IntegerInput::calculator)
-    for (const Word& word : b.words) any_whole = any_whole || (word.whole && is_length_or_angle(word.letter));
+    for (const Word& word : b.words) {
+      any_whole = any_whole || (word.whole && (is_length_or_angle(word.letter) || word.letter == 'Q'));
+      if (word.letter == 'G' && word.kind == ValueKind::number && word.number >= 0 && word.number < 2000)
+        if (const GCodeDef* def = d_.find_g(static_cast<std::uint16_t>(std::lround(word.number * 10))))
+          if (def->group == GGroup::motion) drilling = def->meaning == GMeaning::drill_cycle;
+    }
   if (any_whole)
     for (const Word& word : b.words)
       if (word.letter == 'G' && word.kind == ValueKind::number && word.number >= 0 && word.number < 2000)
@@ -123,7 +130,7 @@ bool Interpreter::collect(const Block& b, BlockWords& w) {
       fn_inc = !fn_abs;
     }
     if (resolved && word.kind == ValueKind::number && d_.integer_input != Dialect::IntegerInput::calculator &&
-        v != 0 && word.whole && is_length_or_angle(word.letter)) {
+        v != 0 && word.whole && (is_length_or_angle(word.letter) || (word.letter == 'Q' && drilling))) {
       // Fanuc with standard input (DPI=0): X100 means 100 least input increments.
       const bool angle = word.letter >= 'A' && word.letter <= 'C';
       v *= angle ? 0.001 : (inch ? 0.0001 : 0.001);
