@@ -13,18 +13,6 @@ namespace {
 
 constexpr AxisMask kAllAxes = (1u << kAxisCount) - 1;
 
-/// Plane axes (first, second) and normal axis indices.
-struct PlaneAxes {
-  int u, v, n;
-};
-constexpr PlaneAxes plane_axes(Plane p) {
-  switch (p) {
-    case Plane::xy: return {0, 1, 2};
-    case Plane::zx: return {2, 0, 1};
-    case Plane::yz: return {1, 2, 0};
-  }
-  return {0, 1, 2};
-}
 /// Centre-offset letters for each plane axis (I J K belong to X Y Z).
 constexpr char centre_letter(int axis) { return static_cast<char>('I' + axis); }
 

@@ -17,17 +17,6 @@ namespace {
 
 constexpr std::uint64_t kMaxSegments = 1'000'000;
 
-struct PlaneAxes {
-  int u, v, n;
-};
-constexpr PlaneAxes plane_axes(Plane p) {
-  switch (p) {
-    case Plane::xy: return {0, 1, 2};
-    case Plane::zx: return {2, 0, 1};
-    case Plane::yz: return {1, 2, 0};
-  }
-  return {0, 1, 2};
-}
 
 std::string upper(std::string_view s) {
   std::string u(s);

@@ -8,9 +8,8 @@ namespace {
 
 /// Widens [min, max] by the quadrant points an arc passes through (its bulge beyond its ends).
 void add_arc_bulge(const Motion& m, AxisVector& min, AxisVector& max) {
-  int u = 0, v = 1;
-  if (m.plane == Plane::zx) u = 2, v = 0;
-  if (m.plane == Plane::yz) u = 1, v = 2;
+  const PlaneAxes axes = plane_axes(m.plane);
+  const int u = axes.u, v = axes.v;
   const double a0 = std::atan2(m.start[v] - m.arc.centre[v], m.start[u] - m.arc.centre[u]);
   const double lo = std::min(a0, a0 + m.arc.sweep), hi = std::max(a0, a0 + m.arc.sweep);
   const double quarter = std::numbers::pi / 2;

@@ -35,6 +35,20 @@ enum class TcpMode : std::uint8_t {
 };
 enum class Frame : std::uint8_t { work, machine };  ///< machine = G53 / SUPA block
 
+/// Axis indices of a plane: first and second in-plane axis (counter-clockwise order seen from the
+/// normal's positive side: X→Y for G17, Z→X for G18, Y→Z for G19) and the normal axis.
+struct PlaneAxes {
+  int u, v, n;
+};
+[[nodiscard]] constexpr PlaneAxes plane_axes(Plane p) {
+  switch (p) {
+    case Plane::xy: return {0, 1, 2};
+    case Plane::zx: return {2, 0, 1};
+    case Plane::yz: return {1, 2, 0};
+  }
+  return {0, 1, 2};
+}
+
 [[nodiscard]] std::string_view to_string(MotionType);
 [[nodiscard]] std::string_view to_string(Plane);
 [[nodiscard]] std::string_view to_string(FeedMode);
