@@ -2,7 +2,6 @@
 // --renumber, --decimals/--units, --linearize) and the second pass that re-reads converted text.
 #include "postproc/gcode/convert.hpp"
 
-#include <cctype>
 #include <functional>
 #include <memory>
 #include <string>
@@ -16,11 +15,12 @@
 #include "src/gcode/convert_support.hpp"
 #include "src/gcode/convert_units.hpp"
 #include "src/gcode/linearize.hpp"
+#include "src/gcode/text.hpp"
 
 namespace postproc::gcode {
 namespace {
+using text::is_space;
 
-bool is_space(char c) { return c == ' ' || c == '\t'; }
 
 /// LinuxCNC comments that act (operator message, debug/print output, probe and log files): kept by
 /// --strip-comments like Siemens MSG().
@@ -28,13 +28,8 @@ bool active_comment(std::string_view body) {
   while (!body.empty() && is_space(body.front())) body.remove_prefix(1);
   constexpr std::string_view kActive[] = {"MSG,", "DEBUG,", "PRINT,", "PROBEOPEN", "PROBECLOSE",
                                           "LOGOPEN", "LOGAPPEND", "LOGCLOSE", "LOG,"};
-  for (std::string_view k : kActive) {
-    if (body.size() < k.size()) continue;
-    bool same = true;
-    for (std::size_t i = 0; i < k.size() && same; ++i)
-      same = std::toupper(static_cast<unsigned char>(body[i])) == k[i];
-    if (same) return true;
-  }
+  for (std::string_view k : kActive)
+    if (text::starts_with_i(body, k)) return true;
   return false;
 }
 

@@ -1,11 +1,11 @@
 // Convert helpers: modal tracking over G words, literal spans of words.
 #include "src/gcode/convert_support.hpp"
 
-#include <cctype>
 #include <cmath>
 #include <string>
 
 #include "src/gcode/number_text.hpp"
+#include "src/gcode/text.hpp"
 
 namespace postproc::gcode {
 
@@ -51,8 +51,7 @@ void ModalTrack::update(const Block& b) {
   if (siemens)
     for (const Token& t : b.tokens) {
       if (t.kind != TokenKind::keyword) continue;
-      std::string name(b.text(t.name));
-      for (char& c : name) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+      const std::string name = text::upper(b.text(t.name));
       if (name == "DIAMON" || name == "DIAM90") diameter = true;
       if (name == "DIAMOF") diameter = false;
     }

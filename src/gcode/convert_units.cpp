@@ -3,24 +3,20 @@
 #include "src/gcode/convert_units.hpp"
 
 #include <algorithm>
-#include <cctype>
 #include <cmath>
 
 #include <fmt/format.h>
 
 #include "postproc/gcode/lexer.hpp"
 #include "src/gcode/number_text.hpp"
+#include "src/gcode/text.hpp"
 
 namespace postproc::gcode {
 namespace {
+using text::upper;
 
 constexpr double kInch = 25.4;
 
-std::string upper(std::string_view s) {
-  std::string u(s);
-  for (char& c : u) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
-  return u;
-}
 
 /// Reads a literal that may contain blanks (LinuxCNC "- 1.5").
 double literal_value(std::string_view t) {

@@ -2,8 +2,11 @@
 
 #include <array>
 
+#include "src/gcode/text.hpp"
+
 namespace postproc::gcode {
 namespace {
+using text::upper;
 
 struct Marker {
   std::string_view text;  // matched case-insensitively
@@ -26,7 +29,6 @@ constexpr std::array<Marker, 22> kMarkers = {{
     {"BEGIN PGM", DialectId::heidenhain_iso, true}, {"G65 P", DialectId::fanuc, false},
 }};
 
-constexpr char upper(char c) { return (c >= 'a' && c <= 'z') ? static_cast<char>(c - 32) : c; }
 
 bool match_at(std::string_view line, std::size_t pos, std::string_view pat) {
   if (pos + pat.size() > line.size() || upper(line[pos]) != pat[0]) return false;

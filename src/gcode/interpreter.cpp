@@ -10,22 +10,13 @@
 #include "src/gcode/block_words.hpp"
 #include "src/gcode/codes.hpp"
 #include "src/gcode/number_text.hpp"
+#include "src/gcode/text.hpp"
 
 namespace postproc::gcode {
 namespace {
+using text::iequals;
+using text::starts_with_i;
 
-constexpr char upper(char c) { return (c >= 'a' && c <= 'z') ? static_cast<char>(c - 32) : c; }
-
-bool iequals(std::string_view a, std::string_view b) {
-  if (a.size() != b.size()) return false;
-  for (std::size_t i = 0; i < a.size(); ++i)
-    if (upper(a[i]) != upper(b[i])) return false;
-  return true;
-}
-
-bool starts_with_i(std::string_view s, std::string_view prefix) {
-  return s.size() >= prefix.size() && iequals(s.substr(0, prefix.size()), prefix);
-}
 
 /// Largest magnitude accepted for any word value (1e9 mm = 1000 km): beyond it, arithmetic in mm or
 /// inches could overflow, and no machine moves that far.
@@ -490,7 +481,6 @@ void Interpreter::apply_modes(const Block& b, BlockWords& w) {
   for (int i = 0; i < w.m_count; ++i) {
     const double m = w.m[static_cast<std::size_t>(i)];
     const Span at = b.words[static_cast<std::size_t>(w.m_word[static_cast<std::size_t>(i)])].span;
-    if (m == 2 || m == 30) ended_ = true;
     if (d_.id == DialectId::heidenhain_iso && m == 128) s_.tcp = TcpMode::heidenhain_m128;
     if (d_.id == DialectId::heidenhain_iso && m == 129) s_.tcp = TcpMode::off;
     if ((m == 98 || m == 99) && d_.id != DialectId::siemens) {

@@ -7,22 +7,17 @@
 #include <fmt/format.h>
 
 #include "src/gcode/number_text.hpp"
+#include "src/gcode/text.hpp"
 
 namespace postproc::gcode {
 namespace {
+using text::is_space;
+using text::iequals;
+using text::upper;
 
-constexpr bool is_space(char c) { return c == ' ' || c == '\t'; }
 constexpr bool is_digit(char c) { return c >= '0' && c <= '9'; }
 constexpr bool is_alpha(char c) { return (c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z'); }
 constexpr bool is_ident(char c) { return is_alpha(c) || is_digit(c) || c == '_'; }
-constexpr char upper(char c) { return (c >= 'a' && c <= 'z') ? static_cast<char>(c - 32) : c; }
-
-bool iequals(std::string_view a, std::string_view b) {
-  if (a.size() != b.size()) return false;
-  for (std::size_t i = 0; i < a.size(); ++i)
-    if (upper(a[i]) != upper(b[i])) return false;
-  return true;
-}
 
 /// Fanuc macro B statement keywords (multi-letter in otherwise single-letter dialects).
 constexpr std::string_view kFanucKeywords[] = {"IF", "GOTO", "WHILE", "THEN", "DO", "END"};

@@ -4,25 +4,21 @@
 #include "src/gcode/linearize.hpp"
 
 #include <algorithm>
-#include <cctype>
 #include <cmath>
 #include <numbers>
 
 #include <fmt/format.h>
 
 #include "postproc/gcode/lexer.hpp"
+#include "src/gcode/text.hpp"
 
 namespace postproc::gcode {
 namespace {
+using text::upper;
 
 constexpr std::uint64_t kMaxSegments = 1'000'000;
 
 
-std::string upper(std::string_view s) {
-  std::string u(s);
-  for (char& c : u) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
-  return u;
-}
 
 /// Span of the word at 1-based `column` (the motion's G or first axis word), for diagnostics.
 Span word_at(const Block& b, std::uint32_t column) {

@@ -68,7 +68,6 @@ class Interpreter {
   void execute(const Block& block, MotionSink& out);
   [[nodiscard]] const ModalState& state() const { return s_; }
   [[nodiscard]] const Dialect& dialect() const { return d_; }
-  [[nodiscard]] bool program_ended() const { return ended_; }
 
  private:
   struct BlockWords;
@@ -94,7 +93,6 @@ class Interpreter {
   DiagnosticSink& sink_;
   InterpreterOptions opt_;
   ModalState s_;
-  bool ended_ = false;
   bool warned_integer_input_ = false;
   bool mcall_active_ = false;  ///< Siemens modal cycle call
   bool mcall_pending_ = false; ///< MCALL seen in this block
