@@ -14,6 +14,7 @@ struct Converted {
   gc::DiagnosticSink sink;
   bool committed = false;
   std::vector<gc::Diagnostic> errors;
+  std::vector<std::string> leftover;  ///< files in the output folder afterwards (no temporaries expected)
   [[nodiscard]] bool refused_with(std::string_view code) const {
     if (committed || errors.empty()) return false;
     for (const auto& e : errors)
@@ -40,6 +41,7 @@ inline void run_convert(const gc::Dialect& d, const std::string& input, const gc
     }
   }
   c.out = fs::exists(path) ? read_file(path) : std::string();
+  c.leftover = dir.entries();
   for (const auto& e : c.sink.stored())
     if (e.severity == gc::Severity::error) c.errors.push_back(e);
 }

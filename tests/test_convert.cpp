@@ -2,38 +2,18 @@
 #include <gtest/gtest.h>
 
 #include "postproc/gcode/convert.hpp"
+#include "convert_run.hpp"
 #include "support.hpp"
 
 namespace {
 
 using namespace pptest;
 
-struct Converted {
-  std::string out;
-  gc::ConvertResult result;
-  gc::DiagnosticSink sink;
-  bool committed = false;
-  std::vector<gc::Diagnostic> errors;
-};
-
 /// Runs convert() from memory into a temp file; commits only when there is no error, as the CLI does.
 void convert(const std::string& name, const std::string& input, const gc::ConvertOptions& opt, Converted& c,
              bool lathe = false) {
-  TempDir dir;
-  const std::string path = dir.file("out.nc");
-  {
-    gc::LineReader reader{std::string_view(input)};
-    postproc::io::OutputFile out(path);
-    c.result = gc::convert(reader, "in.nc", dialect(name, lathe), opt, out, c.sink);
-    if (!c.sink.has_errors()) {
-      out.commit();
-      c.committed = true;
-    }
-  }
-  c.out = fs::exists(path) ? read_file(path) : std::string();
-  for (const auto& d : c.sink.stored())
-    if (d.severity == gc::Severity::error) c.errors.push_back(d);
-  EXPECT_EQ(dir.entries(), c.committed ? std::vector<std::string>{"out.nc"} : std::vector<std::string>{});
+  run_convert(dialect(name, lathe), input, opt, c);
+  EXPECT_EQ(c.leftover, c.committed ? std::vector<std::string>{"out.nc"} : std::vector<std::string>{});
 }
 
 gc::ConvertOptions strip() {
