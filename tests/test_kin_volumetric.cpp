@@ -1,0 +1,1 @@
+// placeholder: filled by the kinematics work of issue 4
