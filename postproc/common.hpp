@@ -41,5 +41,6 @@ ExitCode exit_code_for(const gcode::DiagnosticSink& sink);
 void setup_check(CLI::App& app, int& rc);
 void setup_dump(CLI::App& app, int& rc);
 void setup_convert(CLI::App& app, int& rc);
+void setup_compensate(CLI::App& app, int& rc);
 
 }  // namespace postproc::cli

@@ -8,14 +8,14 @@
 #include "common.hpp"
 
 int main(int argc, char** argv) {
-  CLI::App app{"postproc: read, check and rewrite NC programs (compensation through calibrated machine models "
-               "follows)"};
+  CLI::App app{"postproc: read, check, rewrite and compensate NC programs through calibrated machine models"};
   app.set_version_flag("--version", std::string("postproc ") + POSTPROC_VERSION);
   app.require_subcommand(1);
   int rc = 0;
   postproc::cli::setup_check(app, rc);
   postproc::cli::setup_dump(app, rc);
   postproc::cli::setup_convert(app, rc);
+  postproc::cli::setup_compensate(app, rc);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

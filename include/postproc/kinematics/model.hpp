@@ -51,7 +51,7 @@ struct Joint {
 struct Parameter {
   std::string name;         ///< unique within the model, e.g. "EX0C", "limb2.dl", "base3.x"
   std::string unit;         ///< "mm" or "rad"
-  double nominal = 0;       ///< the value of the nominal machine (0 for every error parameter)
+  double nominal = 0;       ///< the value of the nominal machine (0 for deviation-type error parameters)
   bool error = true;        ///< an error parameter (false: nominal geometry, e.g. a link length)
   std::string description;  ///< one line: what it is, in which frame
 };

@@ -8,18 +8,46 @@
 /// (bed → … → tool, e.g. bed → Z → B → tool). The workpiece frame is the frame of the last
 /// workpiece-side body; it coincides with the machine (bed) frame when every joint is at zero.
 ///
-/// Error parameters (all nominal 0; mm or rad), named as ISO 230-1 / 230-7 name them:
-/// - per rotary axis K with nominal direction along the machine axis I ∈ {X, Y, Z} (A ∥ X, B ∥ Y,
-///   C ∥ Z): the location errors of its axis line, E<J>0<K> for the two directions J ≠ I
-///   (e.g. EX0C, EY0C), its orientation errors E<R>0<K> for the two rotations about J ≠ I (EA0C,
-///   EB0C), and its zero-position error E<I-rotation>0<K> (EC0C);
-/// - per linear axis K: its zero-point (positioning) offset E<K>0<K> (EX0X, …);
-/// - squareness of the linear axes, X the reference: EC0Y (Y to X, about Z), EB0Z (Z to X, about
-///   Y), EA0Z (Z to Y, about X) — present when the machine has both axes;
-/// - the tool: "tool.length" (not an error parameter; nominal = the configured length, mm).
+/// Parameter vector (SerialModel::parameters()), in this order:
+/// 1. per joint, in joint order (workpiece side bed outward, then tool side bed outward):
+///    - rotary axis K about machine axis I (A ∥ X, B ∥ Y, C ∥ Z; the direction may be ±): the two
+///      location errors E<J>0<K> then the two orientation errors E<rot J>0<K> for the two axes
+///      J ≠ I in X, Y, Z order, then the zero-position error E<rot I>0<K>. C: EX0C EY0C EA0C EB0C
+///      EC0C; A: EY0A EZ0A EB0A EC0A EA0A; B: EX0B EZ0B EA0B EC0B EB0B;
+///    - linear axis K: its zero offset E<K>0<K> (EX0X, …; EU0U for a U axis);
+/// 2. the squareness errors present, X the reference: EC0Y (axes X and Y present), EB0Z (X and Z),
+///    EA0Z (Y and Z) — only for linear axes named exactly X, Y, Z;
+/// 3. "tool.length" (error = false, nominal = SerialConfig::tool_length, mm).
+/// Every error parameter has nominal 0; units mm (locations, offsets) or rad (angles).
+///
+/// How each error acts (machine frame = the bed frame, which is the frame of every body when all
+/// joints are at zero; all rotations are exact, exp of a rotation vector, never first order):
+/// - location E<J>0<K>: shifts the axis line of K by that amount along machine axis J (so
+///   perpendicular to its direction): the line passes through pivot + Σ E<J>0<K>·e_J;
+/// - orientation E<rot J>0<K>: tilts the direction of K by a right-handed rotation of that angle
+///   about machine axis J: d = exp([E<A…>·e_J1 + E<…>·e_J2]×)·d_nominal, the line still passing
+///   through the (shifted) pivot; e.g. EA0C > 0 turns C's +Z toward −Y, EB0C > 0 toward +X;
+/// - zero position E<rot I>0<K>: added to the commanded angle (rad): θ = q·π/180 + EC0C, in the
+///   axis's own right-handed sense about its (signed) direction;
+/// - linear zero offset E<K>0<K>: added to the commanded value: the carriage moves by d·(q + EX0X);
+/// - squareness: turns a linear axis's direction by an exact rotation: d_Y = exp(EC0Y·[e_Z]×)·d_Y,
+///   d_Z = exp([EA0Z·e_X + EB0Z·e_Y]×)·d_Z; EC0Y > 0 turns +Y toward −X, EB0Z > 0 turns +Z toward
+///   +X, EA0Z > 0 turns +Z toward −Y;
+/// - error-motion table of an axis (ErrorMotionTable), looked up at the commanded joint value,
+///   interpolated linearly between rows, constant beyond the first and last rows: after its
+///   nominal (parameter-erroneous) motion the moving body is turned by exp([ε]×), ε = (rotation
+///   errors about X, Y, Z), about a reference point c, then translated by δ = (translation
+///   errors), both in the frame of the body that carries the axis (= machine frame at zero). c is
+///   the carriage's image of the machine origin (d·s) for a linear axis and the (shifted) axis
+///   point for a rotary one: x ↦ exp([ε]×)(M(q)·x − c) + c + δ.
+///
+/// Rotary axes must be nominally parallel to X, Y or Z (either sense) so that their ISO 230-7
+/// names are defined; an axis named A, B or C must be parallel to X, Y or Z respectively. Other
+/// directions (a 45° nutating head) are rejected with postproc::Error(usage); linear axes may have
+/// any direction.
 /// Position-dependent errors — the six error motions of each axis (for X: EXX positioning, EYX and
-/// EZX straightness, EAX roll, EBX pitch, ECX yaw) — are tables over the axis's travel,
-/// interpolated linearly between rows, constant beyond the ends; they are data, not parameters.
+/// EZX straightness, EAX roll, EBX pitch, ECX yaw) — are tables over the axis's travel; they are
+/// data, not parameters, so nominal() keeps them: use without_tables() for the ideal machine.
 
 #include <array>
 #include <string>
@@ -68,6 +96,18 @@ struct SerialConfig {
 
 /// A serial-chain model. Joints are ordered workpiece side first, then tool side, each bed
 /// outward; `joint_order` of the machine file maps program letters to them.
+///
+/// inverse(): Newton from `start` on the analytic Jacobian, then (if it fails, or ends outside
+/// the travel) Newton from each orientation_candidates() seed; the converged solution nearest
+/// `start` (Euclidean in mm / degrees) within the travel is kept. Conditions matched:
+/// - no rotary joint (3-axis): the point only; the tool axis cannot change, residual_rad reports
+///   its deviation and does not affect the status;
+/// - PoseMatch::full with ≥ 6 joints: P and R; otherwise P and the tool axis O (full with fewer
+///   than 6 joints falls back to point_and_axis: the spin about O is not controllable);
+/// - fewer joints than conditions (the 4-axis lathe, a 4-axis mill with one rotary): the point is
+///   matched exactly and the tool axis in least squares (status ok when the point is within
+///   tolerance and the step has converged; residual_rad then reports the unavoidable deviation);
+/// - more joints than conditions: the minimum-norm step, so the extra joints stay near `start`.
 class SerialModel final : public Model {
  public:
   /// Builds the nominal model (every error parameter 0). Throws postproc::Error (usage) naming
@@ -87,11 +127,14 @@ class SerialModel final : public Model {
   /// unreachable. Linear joints keep their `start` values. Used to seed inverse() when a program
   /// gives only a tool vector.
   [[nodiscard]] std::vector<JointVector> orientation_candidates(const Eigen::Vector3d& o, const JointVector& start) const;
+  /// The same model (same parameter values) without its error-motion tables; with nominal(), the
+  /// ideal machine.
+  [[nodiscard]] std::shared_ptr<const SerialModel> without_tables() const;
 
  private:
   SerialModel(SerialConfig cfg, std::vector<double> values);
   SerialConfig cfg_;
-  // implementation data (precomputed parameter indices, per-axis transforms) is the implementer's
+  // Per-axis geometry resolved from the parameter values (src/kinematics/serial_impl.hpp).
   struct Impl;
   std::shared_ptr<const Impl> impl_;
 };

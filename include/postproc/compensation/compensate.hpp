@@ -1,0 +1,62 @@
+#pragma once
+/// @file
+/// `postproc compensate --mode geometric`: rewrites a program so that the real (calibrated)
+/// machine puts the tool where the nominal machine would have (see program_map.hpp for the
+/// remap per program form). Blocks that need no change are copied byte for byte.
+
+#include <cstdint>
+#include <string>
+
+#include "postproc/gcode/diagnostic.hpp"
+#include "postproc/gcode/dialect.hpp"
+#include "postproc/gcode/line_reader.hpp"
+#include "postproc/io/output_file.hpp"
+#include "postproc/machine/machine.hpp"
+
+namespace postproc::comp {
+
+struct CompensateOptions {
+  /// Largest distance allowed between the real tool-tip path of the corrected program and the
+  /// intended path, between corrected end points (mm); longer moves are subdivided.
+  double max_deviation_mm = 0.001;
+  /// Largest tool-axis angle allowed between the two paths (rad).
+  double max_angle_rad = 2e-5;
+  bool header = true;          ///< write the header comment naming tool, machine file, hash, mode
+  std::string tool_version;    ///< for the header and the report
+  std::string mode = "geometric";
+};
+
+/// Figures of one run (the --report JSON carries them).
+struct CompensateResult {
+  std::uint64_t blocks = 0;
+  std::uint64_t motions = 0;
+  std::uint64_t changed_blocks = 0;
+  std::uint64_t words_changed = 0;
+  std::uint64_t words_inserted = 0;
+  std::uint64_t subdivided_blocks = 0;   ///< moves split because joint interpolation left the path
+  std::uint64_t segments_added = 0;      ///< lines added by subdivision
+  std::uint64_t arcs_kept = 0;           ///< arcs whose correction is rigid: end point rewritten
+  std::uint64_t arcs_linearized = 0;     ///< arcs replaced by corrected G1 chords
+  std::uint64_t reference_moves = 0;     ///< G28/G30 blocks (machine reference: left as written)
+  std::uint64_t rapids_as_written = 0;   ///< rapids before every axis was known (left as written, PP-W601)
+  std::uint64_t bytes_in = 0;
+  double max_correction_mm = 0;          ///< largest change of a linear axis / tool-tip word, mm
+  double max_correction_deg = 0;         ///< … of a rotary axis word, degrees
+  double max_error_before_mm = 0;        ///< tool-tip error of the original program on the real machine, mm
+  double max_error_before_rad = 0;       ///< … tool-axis angle, rad
+  double max_residual_mm = 0;            ///< tool-tip error of the corrected (written) end points, mm
+  double max_residual_rad = 0;           ///< … tool-axis angle, rad
+  std::uint64_t worst_line = 0;          ///< line of max_error_before_mm
+};
+
+/// Compensates the program read by `in` into `out`. Refusals go to `sink` as errors (the caller
+/// must not commit `out` when sink.has_errors()).
+CompensateResult compensate(gcode::LineReader& in, std::string_view file, const gcode::Dialect& dialect,
+                            const machine::Machine& m, const CompensateOptions& opt, io::OutputFile& out,
+                            gcode::DiagnosticSink& sink);
+
+/// The header comment line in the dialect's comment syntax (no end of line).
+[[nodiscard]] std::string header_comment(const gcode::Dialect& d, const machine::Machine& m,
+                                         const CompensateOptions& opt);
+
+}  // namespace postproc::comp

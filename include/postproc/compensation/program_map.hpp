@@ -1,0 +1,83 @@
+#pragma once
+/// @file
+/// How a controller turns a block's command into joint values, and the geometric remap that
+/// makes the real machine do what the nominal one would have done.
+///
+/// Let C(c) be the controller's map from a command c (program coordinates) to joint values:
+/// - axis programs: q = c + work offset (+ the tool length on Z while G43 is active);
+/// - tool-tip programs (TCP: G43.4, G43.5, TRAORI, M128; parallel machines): q = IK_nominal(c).
+/// The intended pose is I(c) = FK_nominal(C(c)); the real machine reaches R(c) = FK_actual(C(c)).
+/// The corrected command c' solves R(c') = I(c):
+/// - axis programs: c' = IK_actual(FK_nominal(q)) − offsets;
+/// - tool-tip programs: c' = FK_nominal(IK_actual(I(c))) written back in the program's form (tool
+///   tip + rotary axis values, + tool vector, or + virtual angles), because the controller applies
+///   its nominal model to c' and so commands exactly the joints IK_actual found.
+
+#include <cstdint>
+#include <optional>
+#include <string>
+
+#include "postproc/gcode/motion.hpp"
+#include "postproc/kinematics/model.hpp"
+#include "postproc/machine/machine.hpp"
+
+namespace postproc::comp {
+
+/// What a block's axis words mean.
+enum class Form : std::uint8_t {
+  axes,        ///< machine axis positions (TCP off)
+  tcp_rotary,  ///< tool tip + the machine's rotary axis values (G43.4, TRAORI with A/B/C, M128)
+  tcp_vector,  ///< tool tip + tool vector (G43.5 I J K, TRAORI A3 B3 C3, parallel machines "vector")
+  tcp_virtual, ///< tool tip + virtual angles A B (parallel machines "virtual-ab")
+};
+[[nodiscard]] std::string_view to_string(Form f);
+
+/// A command in program coordinates: axis values (mm / degrees, work coordinates as the
+/// interpreter resolved them) and, for vector forms, the tool vector (workpiece frame, unit).
+struct Command {
+  gcode::AxisVector c = gcode::AxisVector::Zero();
+  Eigen::Vector3d vector = Eigen::Vector3d::UnitZ();
+};
+
+/// The controller's map for one modal context (form, work offset, tool length).
+class ProgramMap {
+ public:
+  /// `offset`: the work offset (+ G52/G92 shifts) of the block, mm / degrees per program axis;
+  /// `tool_length`: mm; `length_on_z`: G43 adds the tool length to the Z joint (axis programs).
+  ProgramMap(const machine::Machine& m, kin::ModelPtr nominal, kin::ModelPtr actual, Form form,
+             const gcode::AxisVector& offset, bool length_on_z, double tool_length);
+
+  [[nodiscard]] Form form() const { return form_; }
+  /// C(c): the joints the controller commands; `start` picks the branch / turn for tool-tip forms.
+  [[nodiscard]] kin::Solve joints(const Command& cmd, const kin::JointVector& start, kin::JointVector& q) const;
+  /// The inverse of C on the nominal model: the command whose controller joints are q.
+  [[nodiscard]] kin::Solve command(const kin::JointVector& q, const Command& like, Command& out) const;
+  /// The geometric remap of one command: corrected command, the actual joints it commands.
+  [[nodiscard]] kin::Solve correct(const Command& cmd, const kin::JointVector& start, Command& out,
+                                   kin::JointVector& q_actual) const;
+  /// Poses I(c) (nominal) and R(c) (actual) of a command.
+  [[nodiscard]] kin::Solve intended(const Command& cmd, const kin::JointVector& start, kin::Pose& p,
+                                    kin::JointVector& q) const;
+  [[nodiscard]] kin::Solve real(const Command& cmd, const kin::JointVector& start, kin::Pose& p,
+                                kin::JointVector& q) const;
+  [[nodiscard]] const kin::Model& nominal() const { return *nominal_; }
+  [[nodiscard]] const kin::Model& actual() const { return *actual_; }
+  /// Program axis of joint j (-1 for joints that are not program axes, e.g. hexapod struts).
+  [[nodiscard]] int axis_of_joint(int j) const { return axis_of_joint_[static_cast<std::size_t>(j)]; }
+
+ private:
+  [[nodiscard]] kin::Pose target_of(const Command& cmd) const;
+  const machine::Machine* m_;
+  kin::ModelPtr nominal_, actual_;
+  Form form_;
+  gcode::AxisVector offset_;
+  double length_z_ = 0;  ///< added to the Z joint
+  std::array<int, kin::kMaxJoints> axis_of_joint_{};
+  std::array<int, gcode::kAxisCount> joint_of_axis_{};
+};
+
+/// Virtual angles (degrees) ↔ tool axis: O = Rx(A)·Ry(B)·ẑ = (sin B, −sin A cos B, cos A cos B).
+[[nodiscard]] Eigen::Vector3d virtual_ab_axis(double a_deg, double b_deg);
+[[nodiscard]] Eigen::Vector2d virtual_ab_angles(const Eigen::Vector3d& o);
+
+}  // namespace postproc::comp

@@ -1,0 +1,91 @@
+#pragma once
+/// @file
+/// Machine files (TOML, schema in docs/machine-file.md): the controller dialect, what the
+/// program's axis words carry, how F is read, the calibrated (actual) and nominal kinematic
+/// models, axis travel, output decimals, work offsets, tool lengths and the servo data of each
+/// axis. Loading validates everything and reports located diagnostics (codes PP-M…).
+
+#include <array>
+#include <cstdint>
+#include <map>
+#include <optional>
+#include <string>
+
+#include "postproc/gcode/diagnostic.hpp"
+#include "postproc/gcode/dialect.hpp"
+#include "postproc/gcode/motion.hpp"
+#include "postproc/kinematics/model.hpp"
+
+namespace postproc::machine {
+
+/// What the program's axis words carry.
+enum class ProgramCoordinates : std::uint8_t {
+  axes,      ///< machine axis positions (plus work offset and tool length); TCP blocks are tool-tip anyway
+  tool_tip,  ///< tool-tip point and tool orientation in the workpiece frame (parallel machines)
+};
+
+/// How a tool-tip program states the tool orientation.
+enum class Orientation : std::uint8_t {
+  rotary_axes,  ///< the machine's rotary axis values (Fanuc G43.4, TRAORI with A B C, M128)
+  vector,       ///< a tool vector: Fanuc G43.5 I J K, Siemens A3 B3 C3
+  virtual_ab,   ///< virtual angles A, B (deg): O = Rx(A)·Ry(B)·ẑ (parallel heads)
+};
+
+/// What an F word (per minute) measures.
+enum class FeedReference : std::uint8_t {
+  tool_tip,       ///< path speed of the tool tip in the workpiece frame (TCP, parallel machines)
+  combined_axes,  ///< √Σ axis rates² with degrees counted as mm (Fanuc/Siemens without TCP)
+};
+
+/// Per program axis: output and servo data (the servo data is used by `predict`/contour work).
+struct AxisSettings {
+  int decimals = 3;                          ///< decimals written for this axis
+  std::optional<double> kv;                  ///< position-loop gain, 1/s
+  double feed_forward = 0;                   ///< velocity feed-forward fraction 0…1
+  double acceleration_feed_forward = 0;      ///< 0…1
+  std::optional<double> velocity_loop_time;  ///< equivalent velocity-loop time constant, s
+  std::optional<double> max_velocity;        ///< mm/min (deg/min for rotary axes)
+  std::optional<double> max_acceleration;    ///< mm/s² (deg/s²)
+  std::optional<double> max_jerk;            ///< mm/s³ (deg/s³)
+};
+
+struct Machine {
+  std::string file;        ///< path as given
+  std::string sha256;      ///< of the file's bytes, lowercase hex
+  std::string name;
+  std::string dialect_name;  ///< as written: fanuc, siemens, linuxcnc, heidenhain-iso
+  gcode::DialectOptions dialect_options;
+  std::string model_kind;  ///< serial, prs-hybrid, hexapod
+  ProgramCoordinates coordinates = ProgramCoordinates::axes;
+  Orientation orientation = Orientation::rotary_axes;
+  FeedReference feed = FeedReference::combined_axes;
+  double interpolation_period = 0.001;  ///< s
+  /// Program axes the machine has (index gcode::Axis), with their settings.
+  std::array<std::optional<AxisSettings>, gcode::kAxisCount> axes;
+  kin::ModelPtr actual;   ///< the calibrated machine (with its volumetric map, if any)
+  kin::ModelPtr nominal;  ///< the controller's model: the drawing, no errors, no map
+  /// Work offsets by name ("G54", "G55", … "G54.1P1", "G59.1"): mm / degrees per axis.
+  std::map<std::string, gcode::AxisVector> work_offsets;
+  double tool_length = 0;                     ///< mm, when no H/D number names another
+  std::map<std::uint32_t, double> tool_lengths;  ///< by H (or D) number, mm
+  /// For serial machines: the joint index of each program axis, -1 if the machine has none.
+  std::array<int, gcode::kAxisCount> joint_of_axis{};
+
+  [[nodiscard]] int decimals(int axis) const {
+    const auto& a = axes[static_cast<std::size_t>(axis)];
+    return a ? a->decimals : 3;
+  }
+};
+
+/// Name of a work offset as machine files write it: "G54", "G54.1P3", "G59.2".
+[[nodiscard]] std::string work_offset_name(const gcode::WorkOffset& w);
+
+/// Parses and validates a machine file's text; nullopt when any error was reported to `sink`.
+[[nodiscard]] std::optional<Machine> parse_machine(std::string file, std::string text, gcode::DiagnosticSink& sink);
+/// Reads `path` and parses it. Throws postproc::Error (no_input) when it cannot be read.
+[[nodiscard]] std::optional<Machine> load_machine(const std::string& path, gcode::DiagnosticSink& sink);
+
+/// SHA-256 of `bytes`, lowercase hex.
+[[nodiscard]] std::string sha256_hex(std::string_view bytes);
+
+}  // namespace postproc::machine

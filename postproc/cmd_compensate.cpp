@@ -1,0 +1,155 @@
+// postproc compensate IN -m MACHINE -o OUT: geometric remap through the calibrated machine model.
+#include <chrono>
+#include <cmath>
+#include <memory>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include "common.hpp"
+#include "postproc/compensation/compensate.hpp"
+#include "postproc/machine/machine.hpp"
+
+namespace postproc::cli {
+namespace {
+
+struct CompensateArgs {
+  std::string input;
+  std::string output;
+  std::string machine;
+  std::string report;
+  std::string mode = "geometric";
+  std::string integer_input;
+  double max_deviation_um = 1.0;
+  double max_angle_arcsec = 4.0;
+  bool no_header = false;
+  bool in_place = false;
+  std::size_t max_per_code = 20;
+};
+
+nlohmann::json report_json(const CompensateArgs& a, const machine::Machine& m, const comp::CompensateResult& r,
+                           double seconds, bool ok, const gcode::DiagnosticSink& sink) {
+  nlohmann::json j;
+  j["tool"] = {{"name", "postproc"}, {"version", POSTPROC_VERSION}};
+  j["input"] = a.input;
+  j["output"] = a.output;
+  j["machine"] = {{"file", m.file}, {"sha256", m.sha256}, {"name", m.name}, {"model", m.model_kind}};
+  j["mode"] = a.mode;
+  j["status"] = ok ? "written" : "refused";
+  j["limits"] = {{"max_deviation_mm", a.max_deviation_um / 1000.0}, {"max_angle_deviation_deg", a.max_angle_arcsec / 3600.0}};
+  j["counts"] = {{"blocks", r.blocks},
+                 {"motions", r.motions},
+                 {"changed_blocks", r.changed_blocks},
+                 {"words_changed", r.words_changed},
+                 {"words_inserted", r.words_inserted},
+                 {"subdivided_blocks", r.subdivided_blocks},
+                 {"segments_added", r.segments_added},
+                 {"arcs_kept", r.arcs_kept},
+                 {"arcs_linearized", r.arcs_linearized},
+                 {"reference_moves", r.reference_moves},
+                 {"rapids_as_written", r.rapids_as_written}};
+  j["figures"] = {{"max_correction_mm", r.max_correction_mm},
+                  {"max_correction_deg", r.max_correction_deg},
+                  {"max_error_before_mm", r.max_error_before_mm},
+                  {"max_error_before_deg", r.max_error_before_rad * 180.0 / 3.14159265358979323846},
+                  {"worst_line_before", r.worst_line},
+                  {"max_residual_after_mm", r.max_residual_mm},
+                  {"max_residual_after_deg", r.max_residual_rad * 180.0 / 3.14159265358979323846}};
+  j["seconds"] = seconds;
+  nlohmann::json diags = nlohmann::json::array();
+  for (const auto& d : sink.stored())
+    diags.push_back({{"severity", std::string(gcode::to_string(d.severity))},
+                     {"code", d.code},
+                     {"file", d.file},
+                     {"line", d.where.line},
+                     {"column", d.where.column},
+                     {"message", d.message}});
+  j["diagnostics"] = diags;
+  return j;
+}
+
+}  // namespace
+
+void setup_compensate(CLI::App& app, int& rc) {
+  auto o = std::make_shared<CompensateArgs>();
+  auto* cmd = app.add_subcommand("compensate", "rewrite a program so the calibrated machine cuts what the nominal "
+                                               "machine would have");
+  cmd->add_option("input", o->input, "NC program ('-' = stdin)")->required();
+  cmd->add_option("-m,--machine", o->machine, "machine file (TOML, docs/machine-file.md)")->required();
+  cmd->add_option("-o,--output", o->output, "output file ('-' = stdout)")->required();
+  cmd->add_option("--report", o->report, "write a JSON report of the run here");
+  cmd->add_option("--mode", o->mode, "geometric (contour and all come with the servo model)")
+      ->check(CLI::IsMember({"geometric", "contour", "all"}))
+      ->capture_default_str();
+  cmd->add_option("--max-deviation", o->max_deviation_um,
+                  "largest tool-tip deviation from the intended path between corrected points, µm; longer moves are "
+                  "subdivided")
+      ->capture_default_str();
+  cmd->add_option("--max-angle-deviation", o->max_angle_arcsec, "largest tool-axis deviation, arcsec")->capture_default_str();
+  cmd->add_option("--integer-input", o->integer_input,
+                  "Fanuc: whole numbers without a point are 'increment' (X100 = 0.1 mm) or 'calculator' (100 mm); "
+                  "overrides the machine file")
+      ->check(CLI::IsMember({"increment", "calculator"}));
+  cmd->add_flag("--no-header", o->no_header, "do not write the header comment naming tool, machine file and hash");
+  cmd->add_flag("--in-place", o->in_place, "allow -o to name the input (a .bak backup is kept)");
+  cmd->add_option("--max-per-code", o->max_per_code, "show at most this many diagnostics per code")->capture_default_str();
+  cmd->callback([o, &rc] {
+    if (o->mode != "geometric")
+      throw Error(ExitCode::usage, fmt::format("--mode {}: the contour (servo) compensation is not available in this "
+                                               "version; use --mode geometric",
+                                               o->mode));
+    if (!(o->max_deviation_um > 0) || !std::isfinite(o->max_deviation_um))
+      throw Error(ExitCode::usage, "--max-deviation must be a positive number of µm, e.g. 1");
+    if (!(o->max_angle_arcsec > 0) || !std::isfinite(o->max_angle_arcsec))
+      throw Error(ExitCode::usage, "--max-angle-deviation must be a positive number of arcsec, e.g. 4");
+    const auto t0 = std::chrono::steady_clock::now();
+    gcode::DiagnosticSink sink;
+    DiagnosticPrinter printer(sink, o->max_per_code);
+    const auto machine = machine::load_machine(o->machine, sink);
+    if (!machine) {
+      printer.finish();
+      std::fputs(fmt::format("postproc: {}: machine file refused; nothing was written\n", o->machine).c_str(), stderr);
+      rc = static_cast<int>(ExitCode::refused);
+      return;
+    }
+    gcode::DialectOptions dopt = machine->dialect_options;
+    if (!o->integer_input.empty())
+      dopt.integer_input = o->integer_input == "increment" ? gcode::Dialect::IntegerInput::increment
+                                                            : gcode::Dialect::IntegerInput::calculator;
+    const gcode::Dialect d = *gcode::make_dialect(machine->dialect_name, dopt);
+    comp::CompensateOptions opt;
+    opt.max_deviation_mm = o->max_deviation_um / 1000.0;
+    opt.max_angle_rad = o->max_angle_arcsec / 3600.0 * 3.14159265358979323846 / 180.0;
+    opt.header = !o->no_header;
+    opt.tool_version = POSTPROC_VERSION;
+    opt.mode = o->mode;
+    gcode::LineReader reader(o->input);
+    io::OutputFile out(o->output, o->input, o->in_place);
+    const comp::CompensateResult r = comp::compensate(reader, o->input, d, *machine, opt, out, sink);
+    printer.finish();
+    const bool ok = !sink.has_errors();
+    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    if (!o->report.empty()) {
+      io::OutputFile rep(o->report, o->input, false);
+      rep.write(report_json(*o, *machine, r, seconds, ok, sink).dump(2) + "\n");
+      rep.commit();
+    }
+    if (!ok) {
+      std::fputs(fmt::format("postproc: {}: refused; nothing was written\n", o->input).c_str(), stderr);
+      rc = static_cast<int>(ExitCode::refused);
+      return;
+    }
+    out.commit();
+    std::fputs(fmt::format("postproc: {} blocks, {} moves, {} blocks changed ({} words changed, {} inserted), {} moves "
+                           "subdivided, {} arcs kept, {} linearised (+{} lines); largest correction {:.4f} mm / {:.5f} deg; error "
+                           "before {:.4f} mm (line {}), predicted residual after {:.5f} mm\n",
+                           r.blocks, r.motions, r.changed_blocks, r.words_changed, r.words_inserted,
+                           r.subdivided_blocks, r.arcs_kept, r.arcs_linearized, r.segments_added, r.max_correction_mm,
+                           r.max_correction_deg, r.max_error_before_mm, r.worst_line, r.max_residual_mm)
+                   .c_str(),
+               stderr);
+    rc = 0;
+  });
+}
+
+}  // namespace postproc::cli

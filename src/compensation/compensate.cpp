@@ -1,0 +1,769 @@
+// postproc compensate --mode geometric: every motion's end point is remapped through the machine
+// (program_map.hpp), written back in the word's own style, moves whose interpolation would leave
+// the intended path are subdivided, and anything that cannot be resolved exactly is refused.
+#include "postproc/compensation/compensate.hpp"
+
+#include <cmath>
+#include <map>
+#include <memory>
+#include <optional>
+#include <tuple>
+
+#include <fmt/format.h>
+
+#include "postproc/compensation/program_map.hpp"
+#include "postproc/gcode/block_writer.hpp"
+#include "postproc/gcode/lexer.hpp"
+#include "postproc/gcode/number_style.hpp"
+#include "postproc/gcode/program.hpp"
+#include "src/compensation/compensate_support.hpp"
+#include "src/gcode/convert_support.hpp"
+#include "src/gcode/linearize.hpp"
+
+namespace postproc::comp {
+using gcode::AxisMask;
+using gcode::AxisVector;
+using gcode::Block;
+using gcode::Motion;
+using gcode::MotionType;
+using gcode::Word;
+
+namespace {
+
+constexpr std::string_view kRefused = "PP-E601";      // a block cannot be compensated exactly
+constexpr std::string_view kMachine = "PP-E602";      // the program needs data the machine file lacks
+constexpr std::string_view kTravel = "PP-E603";       // the corrected block leaves the axis travel
+constexpr std::string_view kKinematics = "PP-E604";   // the kinematics failed (singular, no convergence)
+constexpr std::string_view kRapidAsWritten = "PP-W601";  // a rapid left uncorrected (positions unknown)
+constexpr int kMaxSegments = 4096;
+
+class Compensator final : public gcode::BlockVisitor {
+ public:
+  Compensator(std::string_view file, const gcode::Dialect& d, const machine::Machine& m, const CompensateOptions& opt,
+              io::OutputFile& out, gcode::DiagnosticSink& sink, CompensateResult& r)
+      : file_(file), d_(d), m_(m), opt_(opt), out_(out), sink_(sink), r_(r), track_(d), models_(m) {
+    collect_.on_report = [this](const gcode::Diagnostic& diag) {
+      if (diag.severity == gcode::Severity::error) block_error_ = true;
+      sink_.report(diag);
+    };
+    joints_ = kin::JointVector::Zero(m.nominal->joint_count());
+    for (int j = 0; j < m.nominal->joint_count(); ++j) {
+      const kin::Joint& jt = m.nominal->joints()[static_cast<std::size_t>(j)];
+      joints_[j] = std::clamp(0.0, jt.min, jt.max);
+    }
+    written_.setZero();
+  }
+  gcode::DiagnosticSink& collector() { return collect_; }
+
+  void block(const Block& b, std::span<const Motion> motions, bool lexed_ok) override {
+    ++r_.blocks;
+    if (!b.eol.empty()) eol_ = std::string(b.eol);
+    maybe_header(b);
+    track_.update(b);
+    after_.clear();
+    gcode::BlockEditor ed(b, d_.decimal_point_required);
+    if (lexed_ok && !block_error_ && track_.has(gcode::GMeaning::home_return)) {
+      // G28/G30 go to the machine's reference position (through an intermediate point): machine
+      // positions, not part geometry, so they stay as written and the positions become unknown.
+      written_known_ = 0;
+      ++r_.reference_moves;
+    } else if (lexed_ok && !block_error_) {
+      if (motions.size() > 1) {
+        for (const Motion& m : motions) check_unchanged(b, m);
+      } else if (motions.size() == 1) {
+        motion(b, motions.front(), ed);
+      }
+    }
+    block_error_ = false;
+    if (!motions.empty()) {
+      known_ = motions.back().known;
+    } else {
+      known_ &= static_cast<AxisMask>(motions_keep_known(b) ? 0xFFFF : 0);
+    }
+    if (ed.empty()) {
+      emit(b.raw, after_.empty() ? b.eol : std::string_view(eol_));
+    } else {
+      line_.clear();
+      ed.render(line_);
+      ++r_.changed_blocks;
+      emit(line_, after_.empty() ? b.eol : std::string_view(eol_));
+    }
+    for (std::size_t i = 0; i < after_.size(); ++i) emit(after_[i], i + 1 == after_.size() ? b.eol : std::string_view(eol_));
+    r_.segments_added += after_.size();
+  }
+
+  void flush() {
+    out_.write(buffer_);
+    buffer_.clear();
+  }
+
+ private:
+  /// Blocks without motion that make positions unknown (G28, G53 without axes, a new offset).
+  bool motions_keep_known(const Block&) const {
+    return !(track_.has(gcode::GMeaning::home_return) || track_.has(gcode::GMeaning::work_offset) ||
+             track_.has(gcode::GMeaning::set_offsets_g10));
+  }
+
+  void emit(std::string_view raw, std::string_view eol) {
+    buffer_.append(raw);
+    buffer_.append(eol);
+    if (buffer_.size() > (1u << 20)) flush();
+  }
+
+  void maybe_header(const Block& b) {
+    if (header_done_ || !opt_.header) return;
+    // The header goes after a leading '%' line and the program number / name line.
+    bool leading = b.leader || b.raw.empty();
+    for (const gcode::Token& t : b.tokens)
+      leading = leading || t.kind == gcode::TokenKind::percent || t.kind == gcode::TokenKind::program_number;
+    if (leading && b.words.empty() && b.line <= 3) return;
+    header_done_ = true;
+    emit(header_comment(d_, m_, opt_), eol_);
+  }
+
+  void refuse(const Block& b, std::uint32_t column, std::string_view code, std::string why) {
+    const gcode::Span s{column > 0 ? column - 1 : 0, column > 0 ? column : 1};
+    gcode::report_at(gcode::LexContext{file_, &sink_}, b, s, gcode::Severity::error, code, std::move(why));
+    block_error_ = true;
+    written_known_ = 0;
+  }
+  void note(const Block& b, std::uint32_t column, std::string_view code, std::string why) {
+    const gcode::Span s{column > 0 ? column - 1 : 0, column > 0 ? column : 1};
+    gcode::report_at(gcode::LexContext{file_, &sink_}, b, s, gcode::Severity::warning, code, std::move(why));
+  }
+
+  /// The form of a motion's axis words.
+  Form form_of(const Motion& m) const {
+    if (m_.coordinates == machine::ProgramCoordinates::tool_tip)
+      return m_.orientation == machine::Orientation::virtual_ab ? Form::tcp_virtual : Form::tcp_vector;
+    if (m.frame == gcode::Frame::machine) return Form::axes;
+    switch (m.tcp) {
+      case gcode::TcpMode::off: return Form::axes;
+      case gcode::TcpMode::fanuc_g43_5: return Form::tcp_vector;
+      case gcode::TcpMode::siemens_traori: return m.tool_vector_known ? Form::tcp_vector : Form::tcp_rotary;
+      default: return Form::tcp_rotary;
+    }
+  }
+
+  /// The controller map of this motion, or nullopt after a refusal.
+  std::optional<ProgramMap> map_of(const Block& b, const Motion& m, Form form) {
+    AxisVector offset = m.local_offset + m.position_offset;
+    if (m.frame == gcode::Frame::work) {
+      const std::string name = machine::work_offset_name(m.work_offset);
+      const auto it = m_.work_offsets.find(name);
+      if (it == m_.work_offsets.end()) {
+        refuse(b, m.column, kMachine,
+               fmt::format("work offset {} is not in machine file {}; add [work_offsets] {} = {{ X = …, Y = …, Z = … }} "
+                           "with the controller's values",
+                           name, m_.file, name));
+        return std::nullopt;
+      }
+      offset += it->second;
+    } else {
+      offset.setZero();
+    }
+    double length = m_.tool_length;
+    if (m.tool_length_active && m.tool_length_h != 0) {
+      const auto it = m_.tool_lengths.find(m.tool_length_h);
+      if (it == m_.tool_lengths.end()) {
+        refuse(b, m.column, kMachine,
+               fmt::format("tool length H{} is not in machine file {}; add [tool.lengths] {} = \"<length> mm\"",
+                           m.tool_length_h, m_.file, m.tool_length_h));
+        return std::nullopt;
+      }
+      length = it->second;
+    }
+    const auto& [nom, act] = models_.with_tool_length(length);
+    return ProgramMap(m_, nom, act, form, offset, form == Form::axes && m.tool_length_active, length);
+  }
+
+  /// Axes whose words this form writes.
+  AxisMask written_axes(Form form) const {
+    AxisMask mask = 0;
+    if (form == Form::axes || form == Form::tcp_rotary) {
+      for (int a = 0; a < gcode::kAxisCount; ++a)
+        if (m_.joint_of_axis[static_cast<std::size_t>(a)] >= 0 && (form == Form::axes || a < 3 || gcode::is_rotary(a)))
+          mask |= static_cast<AxisMask>(1u << a);
+    } else {
+      mask = 0b111;
+      if (form == Form::tcp_virtual) mask |= 0b11000;
+    }
+    return mask;
+  }
+
+  void check_unchanged(const Block& b, const Motion& m) {
+    // Several motions in one block (G28 intermediate points, cycles): accepted only when the
+    // correction rounds away at every end point.
+    Command out;
+    if (!endpoint(b, m, out, nullptr)) return;
+    for (int a = 0; a < gcode::kAxisCount; ++a)
+      if ((mask_ >> a) & 1u)
+        if (rounded_change(a, m.end[a], out.c[a], m)) {
+          refuse(b, m.column, kRefused,
+                 "this block makes several moves (a cycle or an intermediate point) and the machine needs a "
+                 "correction on them; write the moves out as G0/G1 blocks to compensate them");
+          return;
+        }
+  }
+
+  /// True when the corrected value prints differently from the source value at the axis's decimals.
+  bool rounded_change(int a, double from, double to, const Motion& m) const {
+    const double s = std::pow(10.0, m_.decimals(a));
+    return std::llround(program_units(a, from, m) * s) != std::llround(program_units(a, to, m) * s);
+  }
+
+  /// mm (or degrees) per program unit of axis a.
+  static double unit_scale(int a, const Motion& m) {
+    double k = 1.0;
+    if (!gcode::is_rotary(a) && m.inch_source) k *= 25.4;
+    if (a == 0 && m.diameter_mode) k /= 2;
+    return k;
+  }
+
+  static double program_units(int a, double v, const Motion& m) {
+    if (!gcode::is_rotary(a) && m.inch_source) v /= 25.4;
+    if (a == 0 && m.diameter_mode) v *= 2;
+    return v;
+  }
+
+  /// Corrects the end point of `m` into `out`; fills q_actual. False after a refusal.
+  bool endpoint(const Block& b, const Motion& m, Command& out, kin::JointVector* q_actual) {
+    const Form form = form_of(m);
+    map_.reset();
+    auto map = map_of(b, m, form);
+    if (!map) return false;
+    mask_ = written_axes(form);
+    const AxisMask foreign = static_cast<AxisMask>(m.programmed & ~mask_ & ~((form != Form::axes) ? 0b111000 : 0));
+    if (foreign != 0) {
+      for (int a = 0; a < gcode::kAxisCount; ++a)
+        if ((foreign >> a) & 1u) {
+          refuse(b, m.column, kMachine,
+                 fmt::format("axis {} is not an axis of machine '{}' ({}); check the machine file or the program",
+                             gcode::kAxisLetters[static_cast<std::size_t>(a)], m_.name, m_.file));
+          return false;
+        }
+    }
+    Command cmd{m.end, m.tool_vector};
+    if ((form == Form::tcp_vector) && !m.tool_vector_known && m_.coordinates == machine::ProgramCoordinates::tool_tip) {
+      refuse(b, m.column, kRefused, "the tool orientation of this move is not known (no tool vector programmed yet)");
+      return false;
+    }
+    const AxisMask unknown = static_cast<AxisMask>(mask_ & ~m.known);
+    kin::JointVector q;
+    if (unknown == 0) {
+      const kin::Solve s = map->correct(cmd, joints_, out, q);
+      if (!s.ok()) return kin_failure(b, m, s);
+    } else if (!invariant(b, m, *map, cmd, unknown, out, q)) {
+      return false;
+    }
+    if (const int j = kin::joint_outside_limits(map->actual(), q); j >= 0) {
+      const kin::Joint& jt = map->actual().joints()[static_cast<std::size_t>(j)];
+      refuse(b, m.column, kTravel,
+             fmt::format("after correction joint {} would be at {:.6f} {}, outside its travel {} … {} {}; the block "
+                         "cannot be compensated on this machine (move the part or the work offset)",
+                         jt.name, q[j], jt.type == kin::JointType::rotary ? "deg" : "mm", jt.min, jt.max,
+                         jt.type == kin::JointType::rotary ? "deg" : "mm"));
+      return false;
+    }
+    if (q_actual != nullptr) *q_actual = q;
+    map_.emplace(std::move(*map));
+    return true;
+  }
+
+  bool kin_failure(const Block& b, const Motion& m, const kin::Solve& s) {
+    refuse(b, m.column, kKinematics,
+           fmt::format("the kinematics failed for this position ({}, {} iterations, residual {:.3g} mm / {:.3g} rad); "
+                       "the pose may be singular or unreachable on this machine",
+                       kin::to_string(s.status), s.iterations, s.residual_mm, s.residual_rad));
+    return false;
+  }
+
+  /// Axes whose position is unknown (nothing programmed them yet): the correction is accepted
+  /// only if it does not depend on them, checked at the ends of their travel.
+  bool invariant(const Block& b, const Motion& m, const ProgramMap& map, const Command& cmd, AxisMask unknown,
+                 Command& out, kin::JointVector& q) {
+    std::vector<int> axes;
+    for (int a = 0; a < gcode::kAxisCount; ++a)
+      if ((unknown >> a) & 1u) axes.push_back(a);
+    std::optional<Command> first;
+    for (unsigned combo = 0; combo < (1u << axes.size()); ++combo) {
+      Command c = cmd;
+      for (std::size_t i = 0; i < axes.size(); ++i) {
+        const int a = axes[i];
+        const int j = m_.joint_of_axis[static_cast<std::size_t>(a)];
+        double lo = -100, hi = 100;
+        if (j >= 0) {
+          const kin::Joint& jt = map.nominal().joints()[static_cast<std::size_t>(j)];
+          lo = std::isfinite(jt.min) ? jt.min : 0.0;
+          hi = std::isfinite(jt.max) ? jt.max : 180.0;
+        }
+        c.c[a] = ((combo >> i) & 1u) ? hi : lo;
+      }
+      Command o;
+      kin::JointVector qq;
+      const kin::Solve s = map.correct(c, joints_, o, qq);
+      if (!s.ok()) return kin_failure(b, m, s);
+      bool depends = false;
+      for (int a = 0; a < gcode::kAxisCount && !depends; ++a) {
+        if (!((mask_ >> a) & 1u)) continue;
+        if ((unknown >> a) & 1u) depends = rounded_change(a, c.c[a], o.c[a], m);
+        else if (first) depends = rounded_change(a, first->c[a], o.c[a], m);
+      }
+      if (depends) {
+        std::string names;
+        for (int a : axes) names += gcode::kAxisLetters[static_cast<std::size_t>(a)];
+        if (m.type == MotionType::rapid) {
+          // A positioning move before every axis is known: it cuts nothing, so it stays as
+          // written; the controller then holds the uncorrected values, which the next moves
+          // (tracked through written_) take into account.
+          note(b, m.column, kRapidAsWritten,
+               fmt::format("rapid move left as written: the position of axis {} is not known here and the "
+                           "correction depends on it; the following moves are corrected",
+                           names));
+          ++r_.rapids_as_written;
+          rapid_as_written_ = true;
+          return false;
+        }
+        refuse(b, m.column, kRefused,
+               fmt::format("the position of axis {} is not known here (no earlier block sets it) and the correction "
+                           "of this move depends on it; program {} before this move",
+                           names, names));
+        return false;
+      }
+      if (!first) {
+        first = o;
+        q = qq;
+      }
+    }
+    out = *first;
+    for (int a : axes) out.c[a] = cmd.c[a];
+    return true;
+  }
+
+  void motion(const Block& b, const Motion& m, gcode::BlockEditor& ed) {
+    ++r_.motions;
+    Command out;
+    kin::JointVector q;
+    rapid_as_written_ = false;
+    if (!endpoint(b, m, out, &q)) {
+      if (rapid_as_written_) note_written(m, m.end);
+      else written_known_ = 0;
+      return;
+    }
+    const ProgramMap& map = *map_;
+    if (m.tilted_plane) {
+      check_unchanged(b, m);
+      note_written(m, m.end);
+      return;
+    }
+    if (m.type == MotionType::drill_cycle) {
+      drill(b, m, map, ed);
+      return;
+    }
+    const bool arc = m.type == MotionType::arc_cw || m.type == MotionType::arc_ccw;
+    if (arc) {
+      const ArcCheck k = arc_check(b, m, out);
+      if (k == ArcCheck::refused) return;
+      if (k == ArcCheck::linearize) {
+        measure(m, map, out);
+        if (linearize_arc(b, m, map, out, ed)) joints_ = q;
+        return;
+      }
+      ++r_.arcs_kept;
+      restore_arc_mode(b, ed);
+    }
+    measure(m, map, out);
+    // Subdivide feed moves whose joint-space interpolation would leave the intended path.
+    std::vector<Command> points;
+    if (m.type == MotionType::linear && (written_known_ & mask_) == mask_ && (m.known & mask_) == mask_) {
+      if (!subdivide(b, m, map, out, points)) return;
+    }
+    if (m.type != MotionType::rapid && !arc) restore_arc_mode(b, ed);
+    if (!points.empty()) {
+      ++r_.subdivided_blocks;
+      write_segments(b, m, ed, points, out);
+    } else {
+      write_end(b, m, ed, out);
+    }
+    joints_ = q;
+  }
+
+  /// Error of the original program on the real machine and the residual of the corrected one.
+  void measure(const Motion& m, const ProgramMap& map, const Command& out) {
+    kin::Pose want, before, after;
+    kin::JointVector qn, qa;
+    const Command src{m.end, m.tool_vector};
+    if (!map.intended(src, joints_, want, qn).ok() || !map.real(src, joints_, before, qa).ok()) return;
+    const double e = (before.p - want.p).norm();
+    const double ea = std::acos(std::clamp(before.axis().dot(want.axis()), -1.0, 1.0));
+    if (e > r_.max_error_before_mm) {
+      r_.max_error_before_mm = e;
+      r_.worst_line = m.line;
+    }
+    r_.max_error_before_rad = std::max(r_.max_error_before_rad, ea);
+    Command printed = out;
+    for (int a = 0; a < gcode::kAxisCount; ++a) {
+      if (!((mask_ >> a) & 1u)) continue;
+      const double s = std::pow(10.0, m_.decimals(a));
+      // The value the controller will read: rounded in program units, back to mm / degrees.
+      const double pu = program_units(a, out.c[a], m);
+      printed.c[a] = out.c[a] + (static_cast<double>(std::llround(pu * s)) / s - pu) * unit_scale(a, m);
+      const double dc = std::abs(out.c[a] - m.end[a]);
+      if (gcode::is_rotary(a)) r_.max_correction_deg = std::max(r_.max_correction_deg, dc);
+      else r_.max_correction_mm = std::max(r_.max_correction_mm, dc);
+    }
+    if (map.real(printed, joints_, after, qa).ok()) {
+      r_.max_residual_mm = std::max(r_.max_residual_mm, (after.p - want.p).norm());
+      r_.max_residual_rad =
+          std::max(r_.max_residual_rad, std::acos(std::clamp(after.axis().dot(want.axis()), -1.0, 1.0)));
+    }
+  }
+
+  /// Deviation between the real path of the corrected move and the intended path at fraction t.
+  bool deviation(const ProgramMap& map, const Command& c0, const Command& c1, const Command& k0, const Command& k1,
+                 double t, double& mm, double& rad) {
+    Command c = lerp(c0, c1, t);
+    Command k = lerp(k0, k1, t);
+    kin::Pose want, got;
+    kin::JointVector q1, q2;
+    if (!map.intended(c, joints_, want, q1).ok() || !map.real(k, joints_, got, q2).ok()) return false;
+    mm = (got.p - want.p).norm();
+    rad = std::acos(std::clamp(got.axis().dot(want.axis()), -1.0, 1.0));
+    return true;
+  }
+
+  bool subdivide(const Block& b, const Motion& m, const ProgramMap& map, const Command& out, std::vector<Command>& pts) {
+    const Command c0{m.start, prev_vector_};
+    const Command c1{m.end, m.tool_vector};
+    Command k0{written_, prev_written_vector_};
+    std::uint32_t n = 1;
+    for (int round = 0; round < 13; ++round) {
+      bool ok = true;
+      Command prev_k = k0;
+      std::vector<Command> cand;
+      for (std::uint32_t i = 1; i <= n && ok; ++i) {
+        const double t0 = static_cast<double>(i - 1) / n, t1 = static_cast<double>(i) / n;
+        Command ki = out;
+        if (i < n) {
+          kin::JointVector qq;
+          if (!map.correct(lerp(c0, c1, t1), joints_, ki, qq).ok()) return kin_failure(b, m, {kin::Status::no_convergence});
+          cand.push_back(ki);
+        }
+        for (double f : {0.25, 0.5, 0.75}) {
+          double mm = 0, rad = 0;
+          if (!deviation(map, lerp(c0, c1, t0), lerp(c0, c1, t1), prev_k, ki, f, mm, rad)) return false;
+          if (mm > opt_.max_deviation_mm || rad > opt_.max_angle_rad) ok = false;
+        }
+        prev_k = ki;
+      }
+      if (ok) {
+        pts = std::move(cand);
+        return true;
+      }
+      n *= 2;
+      if (n > kMaxSegments) break;
+    }
+    refuse(b, m.column, kRefused,
+           fmt::format("even {} segments leave the intended path by more than --max-deviation {} mm; raise the limit",
+                       kMaxSegments, opt_.max_deviation_mm));
+    return false;
+  }
+
+  static Command lerp(const Command& a, const Command& b, double t) {
+    Command c;
+    c.c = a.c + (b.c - a.c) * t;
+    c.vector = (a.vector + (b.vector - a.vector) * t).normalized();
+    return c;
+  }
+
+  enum class ArcCheck : std::uint8_t { rigid, linearize, refused };
+
+  /// An arc stays an arc when its correction is a rigid shift (within --max-deviation) over it;
+  /// otherwise it is replaced by corrected chords.
+  ArcCheck arc_check(const Block& b, const Motion& m, const Command& out) {
+    if ((written_known_ & mask_) != mask_) {
+      if ((out.c - m.end).cwiseAbs().maxCoeff() < 1e-12) return ArcCheck::rigid;
+      refuse(b, m.column, kRefused, "the start of this arc is not known, so its correction cannot be checked");
+      return ArcCheck::refused;
+    }
+    const AxisVector shift0 = written_ - m.start;
+    for (double t : {0.25, 0.5, 0.75, 1.0}) {
+      Command c{gcode::arc_point(m, t), m.tool_vector};
+      Command o;
+      kin::JointVector qq;
+      if (t < 1.0) {
+        if (!map_->correct(c, joints_, o, qq).ok()) {
+          kin_failure(b, m, {kin::Status::no_convergence});
+          return ArcCheck::refused;
+        }
+      } else {
+        o = out;
+      }
+      const AxisVector d = (o.c - c.c) - shift0;
+      double lin = 0, rot = 0;
+      for (int a = 0; a < gcode::kAxisCount; ++a)
+        if ((mask_ >> a) & 1u) (gcode::is_rotary(a) ? rot : lin) = std::max(gcode::is_rotary(a) ? rot : lin, std::abs(d[a]));
+      if (lin > opt_.max_deviation_mm || rot * kin::kDeg > opt_.max_angle_rad) return ArcCheck::linearize;
+    }
+    return ArcCheck::rigid;
+  }
+
+  /// After an arc was replaced by G1 chords, the next arc block that relied on the modal G2/G3
+  /// gets its motion word back.
+  void restore_arc_mode(const Block& b, gcode::BlockEditor& ed) {
+    if (const auto* g = track_.block_motion()) {
+      if (g->def->meaning == gcode::GMeaning::arc_cw || g->def->meaning == gcode::GMeaning::arc_ccw)
+        arc_word_ = std::string(b.text(b.words[g->word].span));
+      arc_mode_broken_ = false;
+      return;
+    }
+    if (!arc_mode_broken_ || b.words.empty()) return;
+    const std::string sep = b.raw.find_first_of(" \t") == std::string_view::npos ? "" : " ";
+    ed.insert_before(b.words.front().span, arc_word_ + sep);
+    arc_mode_broken_ = false;
+  }
+
+  bool linearize_arc(const Block& b, const Motion& m, const ProgramMap& map, const Command& out, gcode::BlockEditor& ed) {
+    const double tol = opt_.max_deviation_mm / 2;
+    const auto n0 = gcode::arc_segments(m.arc.radius, m.arc.sweep, tol, 0.0);
+    std::uint64_t n = n0 ? std::max<std::uint64_t>(*n0, 2) : 2;
+    std::vector<Command> pts;
+    const Command k0{written_, prev_written_vector_};
+    for (; n <= kMaxSegments; n *= 2) {
+      pts.clear();
+      bool ok = true;
+      Command prev = k0;
+      for (std::uint64_t i = 1; i <= n && ok; ++i) {
+        const double t0 = static_cast<double>(i - 1) / static_cast<double>(n);
+        const double t1 = static_cast<double>(i) / static_cast<double>(n);
+        const Command c1{gcode::arc_point(m, t1), m.tool_vector};
+        Command k = out;
+        kin::JointVector qq;
+        if (i < n) {
+          if (!map.correct(c1, joints_, k, qq).ok()) {
+            kin_failure(b, m, {kin::Status::no_convergence});
+            return false;
+          }
+          pts.push_back(k);
+        }
+        for (double f : {0.25, 0.5, 0.75}) {
+          double mm = 0, rad = 0;
+          if (!deviation(map, Command{gcode::arc_point(m, t0), m.tool_vector}, c1, prev, k, f, mm, rad)) return false;
+          if (mm > tol || rad > opt_.max_angle_rad) ok = false;
+        }
+        prev = k;
+      }
+      if (ok) break;
+    }
+    if (n > kMaxSegments) {
+      refuse(b, m.column, kRefused, fmt::format("the arc needs more than {} chords at --max-deviation {} mm", kMaxSegments,
+                                                opt_.max_deviation_mm));
+      return false;
+    }
+    // The block becomes the first chord: G2/G3 → G1 (inserted when the arc was modal), centre,
+    // radius and turn words go; the other chords follow as new lines.
+    const std::string sep = b.raw.find_first_of(" \t") == std::string_view::npos ? "" : " ";
+    if (const auto* g = track_.block_motion()) {
+      const Word& w = b.words[g->word];
+      arc_word_ = std::string(b.text(w.span));
+      std::string v(b.text(w.value));
+      const auto int_end = std::min(v.find('.'), v.size());
+      if (int_end > 0) v[int_end - 1] = '1';
+      ed.replace(w.value, std::move(v));
+    } else if (!b.words.empty()) {
+      ed.insert_before(b.words.front().span, "G1" + sep);
+    }
+    arc_mode_broken_ = true;
+    for (std::size_t i = 0; i < b.words.size(); ++i) {
+      const Word& w = b.words[i];
+      const bool centre = gcode::plain_letter(w) && (w.letter == 'I' || w.letter == 'J' || w.letter == 'K' || w.letter == 'R');
+      const bool turns = gcode::plain_letter(w) && w.letter == 'P' && d_.id == gcode::DialectId::linuxcnc;
+      const bool cr = !gcode::plain_letter(w) && w.name_len == 2 && (b.raw[w.span.begin] == 'C' || b.raw[w.span.begin] == 'c') &&
+                      (b.raw[w.span.begin + 1] == 'R' || b.raw[w.span.begin + 1] == 'r');
+      if (centre || turns || cr) ed.remove_word(i);
+    }
+    ++r_.arcs_linearized;
+    write_segments(b, m, ed, pts, out);
+    return !block_error_;
+  }
+
+  /// A drilling cycle: the hole is corrected at its bottom; the hole axis must stay square to
+  /// the work plane on the real machine (the X Y correction at the R plane and at the bottom
+  /// agree within --max-deviation), the bottom and R levels are corrected along the normal.
+  void drill(const Block& b, const Motion& m, const ProgramMap& map, gcode::BlockEditor& ed) {
+    const gcode::PlaneAxes p = gcode::plane_axes(m.plane);
+    Command bottom{m.end, m.tool_vector}, rplane{m.end, m.tool_vector}, cb, cr;
+    bottom.c[p.n] = m.cycle_bottom;
+    rplane.c[p.n] = m.cycle_r;
+    kin::JointVector q1, q2;
+    if (!map.correct(bottom, joints_, cb, q1).ok() || !map.correct(rplane, joints_, cr, q2).ok()) {
+      kin_failure(b, m, {kin::Status::no_convergence});
+      return;
+    }
+    const double skew = std::hypot((cb.c[p.u] - bottom.c[p.u]) - (cr.c[p.u] - rplane.c[p.u]),
+                                   (cb.c[p.v] - bottom.c[p.v]) - (cr.c[p.v] - rplane.c[p.v]));
+    if (skew > opt_.max_deviation_mm) {
+      refuse(b, m.column, kRefused,
+             fmt::format("the hole axis leans on the real machine: the correction differs by {:.4f} mm between the R "
+                         "plane and the bottom; drill this hole with G0/G1 moves to compensate it",
+                         skew));
+      return;
+    }
+    // The hole position (the block's end point) takes the correction at the bottom.
+    Command out{m.end, m.tool_vector};
+    for (int a = 0; a < gcode::kAxisCount; ++a)
+      if (a != p.n && ((mask_ >> a) & 1u)) out.c[a] = cb.c[a];
+    const AxisMask mask = static_cast<AxisMask>(mask_ & ~(1u << p.n));
+    const WordWriter::Outcome o = writer_.rewrite(b, m, mask, written_, written_known_, out, ed);
+    if (!o.ok) {
+      refuse(b, o.column, kRefused, o.why);
+      return;
+    }
+    r_.words_changed += o.changed;
+    r_.words_inserted += o.inserted;
+    const std::string sep = b.raw.find_first_of(" \t") == std::string_view::npos ? "" : " ";
+    const char normal = gcode::kAxisLetters[static_cast<std::size_t>(p.n)];
+    for (const auto& [L, from, to] : {std::tuple{normal, bottom.c[p.n], cb.c[p.n]}, std::tuple{'R', rplane.c[p.n], cr.c[p.n]}}) {
+      if (!rounded_change(p.n, from, to, m)) continue;
+      if (!track_.absolute) {
+        refuse(b, m.column, kRefused,
+               fmt::format("the cycle's {} level needs a correction here but the cycle is programmed incrementally "
+                           "(G91); program it in G90",
+                           L));
+        return;
+      }
+      int wi = -1;
+      for (std::size_t i = 0; i < b.words.size(); ++i)
+        if (gcode::plain_letter(b.words[i]) && b.words[i].letter == L) wi = static_cast<int>(i);
+      int dec = m_.decimals(p.n);
+      gcode::NumberStyle st{false, true, dec, false, false};
+      if (wi >= 0) {
+        const auto lit = gcode::literal_span(b, b.words[static_cast<std::size_t>(wi)]);
+        if (!lit) {
+          refuse(b, m.column, kRefused, fmt::format("the cycle's {} word is an expression", L));
+          return;
+        }
+        st = gcode::detect_style(b.text(*lit));
+        dec = std::max(st.decimals, dec);
+        ed.replace(*lit, gcode::format_counts(std::llround(program_units(p.n, to, m) * std::pow(10.0, dec)), dec, st,
+                                              d_.decimal_point_required));
+        ++r_.words_changed;
+      } else {
+        // The level is modal cycle data: written into this hole's block it applies from this hole.
+        gcode::Span anchor{};
+        for (const Word& w : b.words) anchor.end = std::max(anchor.end, w.span.end);
+        ed.insert_after(anchor, sep + std::string(1, L) +
+                                    gcode::format_counts(std::llround(program_units(p.n, to, m) * std::pow(10.0, dec)),
+                                                         dec, st, d_.decimal_point_required));
+        ++r_.words_inserted;
+      }
+    }
+    written_ = out.c;
+    written_known_ = m.known | mask;
+  }
+
+  void note_written(const Motion& m, const AxisVector& v) {
+    written_ = v;
+    written_known_ = m.known;
+    prev_vector_ = m.tool_vector;
+    prev_written_vector_ = m.tool_vector;
+  }
+
+  void write_end(const Block& b, const Motion& m, gcode::BlockEditor& ed, const Command& out);
+  void write_segments(const Block& b, const Motion& m, gcode::BlockEditor& ed, const std::vector<Command>& pts,
+                      const Command& out);
+
+  std::string_view file_;
+  const gcode::Dialect& d_;
+  const machine::Machine& m_;
+  const CompensateOptions& opt_;
+  io::OutputFile& out_;
+  gcode::DiagnosticSink& sink_;
+  CompensateResult& r_;
+  gcode::ModalTrack track_;
+  ToolLengthModels models_;
+  gcode::DiagnosticSink collect_{0};
+  std::optional<ProgramMap> map_;
+  bool block_error_ = false;
+  bool header_done_ = false;
+  bool rapid_as_written_ = false;
+  bool arc_mode_broken_ = false;  ///< an arc was linearised; a following modal arc needs its G word
+  std::string arc_word_ = "G2";
+  AxisMask known_ = 0;
+  AxisMask mask_ = 0;
+  kin::JointVector joints_;
+  AxisVector written_;            ///< corrected end of the previous motion, work coordinates
+  AxisMask written_known_ = 0;
+  Eigen::Vector3d prev_vector_ = Eigen::Vector3d::UnitZ();
+  Eigen::Vector3d prev_written_vector_ = Eigen::Vector3d::UnitZ();
+  std::vector<std::string> after_;
+  std::string line_, buffer_;
+  std::string eol_ = "\n";
+  WordWriter writer_{d_, m_, track_};
+};
+
+void Compensator::write_end(const Block& b, const Motion& m, gcode::BlockEditor& ed, const Command& out) {
+  const WordWriter::Outcome o = writer_.rewrite(b, m, mask_, written_, written_known_, out, ed);
+  if (!o.ok) {
+    refuse(b, o.column, kRefused, o.why);
+    written_known_ = 0;
+    return;
+  }
+  r_.words_changed += o.changed;
+  r_.words_inserted += o.inserted;
+  written_ = out.c;
+  written_known_ = m.known | mask_;
+  prev_vector_ = m.tool_vector;
+  prev_written_vector_ = out.vector;
+}
+
+void Compensator::write_segments(const Block& b, const Motion& m, gcode::BlockEditor& ed,
+                                 const std::vector<Command>& pts, const Command& out) {
+  // The block keeps its words and moves to the first point; the other points follow as new
+  // lines of the same motion (inverse-time feeds scaled so the block keeps its duration).
+  const std::uint64_t n = pts.size() + 1;
+  const WordWriter::Outcome o = writer_.rewrite(b, m, mask_, written_, written_known_, pts.front(), ed,
+                                                m.feed_mode == gcode::FeedMode::inverse_time ? n : 0);
+  if (!o.ok) {
+    refuse(b, o.column, kRefused, o.why);
+    written_known_ = 0;
+    return;
+  }
+  r_.words_changed += o.changed;
+  r_.words_inserted += o.inserted;
+  AxisVector prev = pts.front().c;
+  for (std::size_t i = 1; i <= pts.size(); ++i) {
+    const Command& p = i < pts.size() ? pts[i] : out;
+    std::string line = writer_.segment_line(b, m, mask_, prev, p, m.feed_mode == gcode::FeedMode::inverse_time ? n : 0);
+    if (!line.empty()) after_.push_back(std::move(line));
+    prev = p.c;
+  }
+  written_ = out.c;
+  written_known_ = m.known | mask_;
+  prev_vector_ = m.tool_vector;
+  prev_written_vector_ = out.vector;
+}
+
+}  // namespace
+
+std::string header_comment(const gcode::Dialect& d, const machine::Machine& m, const CompensateOptions& opt) {
+  std::string text = fmt::format("postproc {} compensate mode={} machine={} sha256={}", opt.tool_version, opt.mode,
+                                 m.file, m.sha256);
+  for (char& c : text)
+    if (c == '(' || c == ')' || c == ';') c = '_';
+  if (d.paren_comments) return "(" + text + ")";
+  return "; " + text;
+}
+
+CompensateResult compensate(gcode::LineReader& in, std::string_view file, const gcode::Dialect& dialect,
+                            const machine::Machine& m, const CompensateOptions& opt, io::OutputFile& out,
+                            gcode::DiagnosticSink& sink) {
+  CompensateResult r;
+  Compensator c(file, dialect, m, opt, out, sink, r);
+  const gcode::ProgramStats st = gcode::run_program(in, dialect, file, c.collector(), c);
+  c.flush();
+  r.bytes_in = st.bytes;
+  return r;
+}
+
+}  // namespace postproc::comp

@@ -1,0 +1,206 @@
+// compensate: models per tool length; writing corrected words in the program's own style.
+#include "src/compensation/compensate_support.hpp"
+
+#include <cmath>
+
+#include <fmt/format.h>
+
+#include "postproc/gcode/number_style.hpp"
+
+namespace postproc::comp {
+using gcode::AxisVector;
+using gcode::Block;
+using gcode::Motion;
+using gcode::Word;
+
+const std::pair<kin::ModelPtr, kin::ModelPtr>& ToolLengthModels::with_tool_length(double mm) {
+  auto it = cache_.find(mm);
+  if (it != cache_.end()) return it->second;
+  auto set = [mm](const kin::ModelPtr& model) -> kin::ModelPtr {
+    const int i = model->parameter_index("tool.length");
+    if (i < 0) return model;
+    std::vector<double> v = model->values();
+    v[static_cast<std::size_t>(i)] = mm;
+    return model->with_values(std::move(v));
+  };
+  return cache_.emplace(mm, std::make_pair(set(m_.nominal), set(m_.actual))).first->second;
+}
+
+double WordWriter::program_units(int a, double v, const Motion& m) const {
+  if (!gcode::is_rotary(a) && m.inch_source) v /= 25.4;
+  if (a == 0 && m.diameter_mode) v *= 2;
+  return v;
+}
+
+bool WordWriter::vector_form(const Motion& m) const {
+  if (m_.coordinates == machine::ProgramCoordinates::tool_tip) return m_.orientation == machine::Orientation::vector;
+  return m.tcp == gcode::TcpMode::fanuc_g43_5 || (m.tcp == gcode::TcpMode::siemens_traori && m.tool_vector_known);
+}
+
+gcode::NumberStyle WordWriter::style_for(char) const { return gcode::NumberStyle{false, true, 3, false, false}; }
+
+namespace {
+
+/// The word carrying vector component k (0..2) of the tool vector: Siemens A3/B3/C3, else I/J/K.
+int vector_word(const Block& b, int k, bool siemens) {
+  for (std::size_t i = 0; i < b.words.size(); ++i) {
+    const Word& w = b.words[i];
+    if (siemens ? (w.letter == "ABC"[k] && w.index == 3) : (gcode::plain_letter(w) && w.letter == "IJK"[k]))
+      return static_cast<int>(i);
+  }
+  return -1;
+}
+
+std::uint32_t column_of(const Word& w) { return w.span.begin + 1; }
+
+}  // namespace
+
+WordWriter::Outcome WordWriter::rewrite(const Block& b, const Motion& m, gcode::AxisMask mask, const AxisVector& start,
+                                        gcode::AxisMask start_known, const Command& target, gcode::BlockEditor& ed,
+                                        std::uint64_t g93_segments) {
+  Outcome o;
+  gcode::Span anchor{};
+  for (const Word& w : b.words)
+    if (track_.axis_of(w) >= 0) anchor.end = std::max(anchor.end, w.span.end);
+  if (anchor.end == 0 && !b.words.empty()) anchor.end = b.words.back().span.end;
+  const std::string sep = b.raw.find_first_of(" \t") == std::string_view::npos ? "" : " ";
+  for (int a = 0; a < gcode::kAxisCount; ++a) {
+    if (!((mask >> a) & 1u)) continue;
+    const int dm = m_.decimals(a);
+    const double pv = program_units(a, target.c[a], m);
+    const int wi = m.word_index[static_cast<std::size_t>(a)];
+    const bool have_start = (start_known >> a) & 1u;
+    const double held = program_units(a, have_start ? start[a] : m.start[a], m);
+    if (wi < 0) {
+      // An axis the block does not name stays where the controller holds it: write it if the
+      // corrected end differs there at the output decimals.
+      const double s = std::pow(10.0, dm);
+      if (std::llround(pv * s) == std::llround(held * s)) continue;
+      if (!have_start && !((m.known >> a) & 1u)) {
+        o = {false, m.column, fmt::format("axis {} needs a correction but its position is unknown here",
+                                          gcode::kAxisLetters[static_cast<std::size_t>(a)]), 0, 0};
+        return o;
+      }
+      const double v = track_.absolute ? pv : pv - held;
+      ed.insert_after(anchor, sep + std::string(1, gcode::kAxisLetters[static_cast<std::size_t>(a)]) +
+                                  gcode::format_counts(std::llround(v * s), dm, style_for('X'), d_.decimal_point_required));
+      ++o.inserted;
+      continue;
+    }
+    const Word& w = b.words[static_cast<std::size_t>(wi)];
+    const auto lit = gcode::literal_span(b, w);
+    const bool inc = track_.incremental(w);
+    if (!lit) {
+      const double s = std::pow(10.0, dm);
+      if (std::llround(pv * s) == std::llround(program_units(a, m.end[a], m) * s)) continue;
+      o = {false, column_of(w), "the axis word is an expression or parameter and needs a correction; the program "
+                                "must be resolved first (issue: expressions are written back in a later version)", 0, 0};
+      return o;
+    }
+    const std::string_view text = b.text(*lit);
+    const int implied = gcode::implied_decimals(d_, w, text, m.inch_source);
+    gcode::NumberStyle st = gcode::detect_style(text);
+    if (implied > 0) st = gcode::NumberStyle{st.plus_sign, true, implied, false, false};
+    const int dec = std::max(st.decimals, dm);
+    const double s = std::pow(10.0, dec);
+    if (inc && !have_start) {
+      o = {false, column_of(w), "an incremental word needs a correction but the position before it is unknown", 0, 0};
+      return o;
+    }
+    const double v = inc ? pv - held : pv;
+    const std::int64_t want = std::llround(v * s);
+    std::int64_t old = 0;
+    const bool exact = gcode::literal_counts(text, dec - implied, old);
+    if (exact && want == old) continue;
+    if (gcode::ambiguous_integer(d_, implied)) {
+      o = {false, column_of(w), "the word is a whole number whose meaning depends on the integer-input setting; "
+                                "pass --integer-input", 0, 0};
+      return o;
+    }
+    ed.replace(*lit, gcode::format_counts(want, dec, st, d_.decimal_point_required));
+    ++o.changed;
+  }
+  if (vector_form(m)) {
+    const bool siemens = d_.id == gcode::DialectId::siemens;
+    for (int k = 0; k < 3; ++k) {
+      const int wi = vector_word(b, k, siemens);
+      const double v = target.vector[k];
+      if (wi < 0) {
+        if (std::abs(v - m.tool_vector[k]) < 5e-7) continue;
+        ed.insert_after(anchor, sep + (siemens ? fmt::format("{}3=", "ABC"[k]) : std::string(1, "IJK"[k])) +
+                                    gcode::format_number(v, style_for('I'), 6, d_.decimal_point_required));
+        ++o.inserted;
+        continue;
+      }
+      const Word& w = b.words[static_cast<std::size_t>(wi)];
+      const auto lit = gcode::literal_span(b, w);
+      if (!lit) {
+        o = {false, column_of(w), "the tool-vector word is an expression and needs a correction", 0, 0};
+        return o;
+      }
+      const gcode::NumberStyle st = gcode::detect_style(b.text(*lit));
+      const int dec = std::max(st.decimals, 6);
+      std::int64_t old = 0;
+      const std::int64_t want = std::llround(v * std::pow(10.0, dec));
+      if (gcode::literal_counts(b.text(*lit), dec, old) && old == want) continue;
+      ed.replace(*lit, gcode::format_counts(want, dec, st, d_.decimal_point_required));
+      ++o.changed;
+    }
+  }
+  if (g93_segments > 1) {
+    int fw = -1;
+    for (std::size_t i = 0; i < b.words.size(); ++i)
+      if (gcode::plain_letter(b.words[i]) && b.words[i].letter == 'F') fw = static_cast<int>(i);
+    const double f = m.feed * static_cast<double>(g93_segments);
+    if (fw >= 0) {
+      const auto lit = gcode::literal_span(b, b.words[static_cast<std::size_t>(fw)]);
+      if (!lit) {
+        o = {false, column_of(b.words[static_cast<std::size_t>(fw)]),
+             "the inverse-time F word is an expression; it cannot be scaled for the subdivided move", 0, 0};
+        return o;
+      }
+      const gcode::NumberStyle st = gcode::detect_style(b.text(*lit));
+      ed.replace(*lit, gcode::format_number(f, st, st.decimals, d_.decimal_point_required));
+    } else {
+      ed.insert_after(anchor, sep + "F" + gcode::format_number(f, style_for('F'), 3, d_.decimal_point_required));
+    }
+  }
+  return o;
+}
+
+std::string WordWriter::segment_line(const Block& b, const Motion& m, gcode::AxisMask mask, const AxisVector& from,
+                                     const Command& to, std::uint64_t g93_segments) {
+  const std::string sep = b.raw.find_first_of(" \t") == std::string_view::npos ? "" : " ";
+  std::string line;
+  if (b.block_delete) line = std::string(b.text(b.block_delete_span)) + sep;
+  bool first = true;
+  auto add = [&](std::string word) {
+    line += (first ? "" : sep) + word;
+    first = false;
+  };
+  for (int a = 0; a < gcode::kAxisCount; ++a) {
+    if (!((mask >> a) & 1u)) continue;
+    const int dm = m_.decimals(a);
+    const double s = std::pow(10.0, dm);
+    const double pv = program_units(a, to.c[a], m);
+    const double pf = program_units(a, from[a], m);
+    if (std::llround(pv * s) == std::llround(pf * s)) continue;
+    const double v = track_.absolute ? pv : pv - pf;
+    add(std::string(1, gcode::kAxisLetters[static_cast<std::size_t>(a)]) +
+        gcode::format_counts(std::llround(v * s), dm, style_for('X'), d_.decimal_point_required));
+  }
+  if (vector_form(m)) {
+    const bool siemens = d_.id == gcode::DialectId::siemens;
+    for (int k = 0; k < 3; ++k)
+      add((siemens ? fmt::format("{}3=", "ABC"[k]) : std::string(1, "IJK"[k])) +
+          gcode::format_number(to.vector[k], style_for('I'), 6, d_.decimal_point_required));
+  }
+  if (g93_segments > 1)
+    add("F" + gcode::format_number(m.feed * static_cast<double>(g93_segments), style_for('F'), 3,
+                                   d_.decimal_point_required));
+  for (const gcode::Token& t : b.tokens)
+    if (t.kind == gcode::TokenKind::block_end) add("*");
+  return line;
+}
+
+}  // namespace postproc::comp

@@ -1,0 +1,61 @@
+#pragma once
+// compensate: the models per tool length, and the writer of corrected axis / tool-vector words.
+#include <cstdint>
+#include <map>
+#include <string>
+#include <utility>
+
+#include "postproc/compensation/program_map.hpp"
+#include "postproc/gcode/block_writer.hpp"
+#include "postproc/machine/machine.hpp"
+#include "src/gcode/convert_support.hpp"
+
+namespace postproc::comp {
+
+/// Nominal and actual models with the tool length of the block (serial models carry it as the
+/// parameter "tool.length"; others ignore it). Cached per length.
+class ToolLengthModels {
+ public:
+  explicit ToolLengthModels(const machine::Machine& m) : m_(m) {}
+  const std::pair<kin::ModelPtr, kin::ModelPtr>& with_tool_length(double mm);
+
+ private:
+  const machine::Machine& m_;
+  std::map<double, std::pair<kin::ModelPtr, kin::ModelPtr>> cache_;
+};
+
+/// Writes corrected values into a block's words, in each word's own style, at no fewer decimals
+/// than the machine's output decimals for the axis.
+class WordWriter {
+ public:
+  WordWriter(const gcode::Dialect& d, const machine::Machine& m, const gcode::ModalTrack& track)
+      : d_(d), m_(m), track_(track) {}
+
+  struct Outcome {
+    bool ok = true;
+    std::uint32_t column = 1;  ///< refusal: the word's column
+    std::string why;
+    std::uint32_t changed = 0;
+    std::uint32_t inserted = 0;
+  };
+  /// Rewrites the block's words for `mask` (and the tool vector for vector forms) so that the
+  /// block ends at `target`. `start`: the corrected position the controller holds before the
+  /// block (valid where `start_known`), for incremental words and absent axes. `g93_segments` > 0:
+  /// inverse-time F multiplied by it (the move is split into that many segments).
+  Outcome rewrite(const gcode::Block& b, const gcode::Motion& m, gcode::AxisMask mask, const gcode::AxisVector& start,
+                  gcode::AxisMask start_known, const Command& target, gcode::BlockEditor& ed,
+                  std::uint64_t g93_segments = 0);
+  /// A new line continuing the block's motion from `from` to `to`.
+  std::string segment_line(const gcode::Block& b, const gcode::Motion& m, gcode::AxisMask mask,
+                           const gcode::AxisVector& from, const Command& to, std::uint64_t g93_segments);
+
+ private:
+  [[nodiscard]] gcode::NumberStyle style_for(char letter) const;
+  [[nodiscard]] double program_units(int a, double v, const gcode::Motion& m) const;
+  [[nodiscard]] bool vector_form(const gcode::Motion& m) const;
+  const gcode::Dialect& d_;
+  const machine::Machine& m_;
+  const gcode::ModalTrack& track_;
+};
+
+}  // namespace postproc::comp

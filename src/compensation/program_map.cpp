@@ -1,0 +1,177 @@
+// The controller's command → joints map per program form, and the geometric remap through it.
+#include "postproc/compensation/program_map.hpp"
+
+#include <cmath>
+
+#include <Eigen/QR>
+
+#include "postproc/kinematics/serial.hpp"
+
+namespace postproc::comp {
+
+std::string_view to_string(Form f) {
+  switch (f) {
+    case Form::axes: return "axis positions";
+    case Form::tcp_rotary: return "tool tip + rotary axes";
+    case Form::tcp_vector: return "tool tip + tool vector";
+    case Form::tcp_virtual: return "tool tip + virtual A B";
+  }
+  return "?";
+}
+
+Eigen::Vector3d virtual_ab_axis(double a_deg, double b_deg) {
+  const double a = a_deg * kin::kDeg;
+  const double b = b_deg * kin::kDeg;
+  return {std::sin(b), -std::sin(a) * std::cos(b), std::cos(a) * std::cos(b)};
+}
+
+Eigen::Vector2d virtual_ab_angles(const Eigen::Vector3d& o) {
+  const Eigen::Vector3d u = o.normalized();
+  const double b = std::asin(std::clamp(u.x(), -1.0, 1.0));
+  const double a = std::atan2(-u.y(), u.z());
+  return {a / kin::kDeg, b / kin::kDeg};
+}
+
+ProgramMap::ProgramMap(const machine::Machine& m, kin::ModelPtr nominal, kin::ModelPtr actual, Form form,
+                       const gcode::AxisVector& offset, bool length_on_z, double tool_length)
+    : m_(&m), nominal_(std::move(nominal)), actual_(std::move(actual)), form_(form), offset_(offset) {
+  axis_of_joint_.fill(-1);
+  joint_of_axis_.fill(-1);
+  for (int j = 0; j < nominal_->joint_count(); ++j) {
+    const std::string& n = nominal_->joints()[static_cast<std::size_t>(j)].name;
+    const int a = n.size() == 1 ? gcode::axis_index(n[0]) : -1;
+    // Parallel machines: their joints are not program axes even where named X/Y (the program
+    // carries the tool tip), so only serial axis programs map letters to joints directly.
+    if (a >= 0 && (form == Form::axes || form == Form::tcp_rotary) && m.model_kind == "serial") {
+      axis_of_joint_[static_cast<std::size_t>(j)] = a;
+      joint_of_axis_[static_cast<std::size_t>(a)] = j;
+    }
+  }
+  if (length_on_z) length_z_ = tool_length;
+}
+
+kin::Pose ProgramMap::target_of(const Command& cmd) const {
+  kin::Pose p;
+  p.p = cmd.c.head<3>() + offset_.head<3>();
+  Eigen::Vector3d o = cmd.vector;
+  if (form_ == Form::tcp_virtual) o = virtual_ab_axis(cmd.c[3] + offset_[3], cmd.c[4] + offset_[4]);
+  o.normalize();
+  const Eigen::Vector3d x = o.unitOrthogonal();
+  p.r.col(0) = x;
+  p.r.col(1) = o.cross(x);
+  p.r.col(2) = o;
+  return p;
+}
+
+kin::Solve ProgramMap::joints(const Command& cmd, const kin::JointVector& start, kin::JointVector& q) const {
+  const int n = nominal_->joint_count();
+  q = start;
+  if (form_ == Form::axes) {
+    for (int j = 0; j < n; ++j) {
+      const int a = axis_of_joint_[static_cast<std::size_t>(j)];
+      if (a < 0) continue;
+      q[j] = cmd.c[a] + offset_[a] + (a == 2 ? length_z_ : 0.0);
+    }
+    return {};
+  }
+  kin::Pose target = target_of(cmd);
+  kin::JointVector seed = start;
+  if (form_ == Form::tcp_rotary) {
+    // The rotary values are commanded as such; the controller solves the linear axes so that the
+    // nominal tool tip is at P with the tool axis those rotary values give.
+    for (int j = 0; j < n; ++j) {
+      const int a = axis_of_joint_[static_cast<std::size_t>(j)];
+      if (a >= 3 && a <= 5) seed[j] = cmd.c[a] + offset_[a];
+    }
+    // Only the linear joints move: a Newton iteration on the tool-tip position alone (the
+    // orientation is what the rotary values give, and is singular to solve for at e.g. B = 0).
+    q = seed;
+    kin::Solve s;
+    for (int it = 0; it < 20; ++it) {
+      kin::Pose at;
+      if (s = nominal_->forward(q, at); !s.ok()) return s;
+      const Eigen::Vector3d r = target.p - at.p;
+      s.iterations = it;
+      s.residual_mm = r.norm();
+      if (s.residual_mm < 1e-11) return s;
+      const kin::Jacobian jf = nominal_->jacobian(q);
+      Eigen::Matrix<double, 3, Eigen::Dynamic, Eigen::ColMajor, 3, kin::kMaxJoints> a(3, n);
+      a.setZero();
+      for (int j = 0; j < n; ++j)
+        if (nominal_->joints()[static_cast<std::size_t>(j)].type == kin::JointType::linear)
+          a.col(j) = jf.block<3, 1>(0, j);
+      const kin::JointVector dq = a.completeOrthogonalDecomposition().solve(r);
+      q += dq;
+    }
+    s.status = kin::Status::no_convergence;
+    return s;
+  } else if (const auto* serial = dynamic_cast<const kin::SerialModel*>(nominal_.get())) {
+    // A tool vector: seed with the closed-form orientation branch nearest the previous joints.
+    kin::Pose at;
+    if (nominal_->forward(seed, at).ok() && at.axis().dot(target.axis()) < std::cos(10 * kin::kDeg)) {
+      double best = std::numeric_limits<double>::infinity();
+      for (const kin::JointVector& c : serial->orientation_candidates(target.axis(), start)) {
+        const double d = (c - start).squaredNorm();
+        if (d < best) {
+          best = d;
+          seed = c;
+        }
+      }
+    }
+  }
+  kin::IkOptions opt;
+  opt.check_limits = false;
+  return nominal_->inverse(target, seed, q, opt);
+}
+
+kin::Solve ProgramMap::command(const kin::JointVector& q, const Command& like, Command& out) const {
+  out = like;
+  if (form_ == Form::axes) {
+    for (int j = 0; j < nominal_->joint_count(); ++j) {
+      const int a = axis_of_joint_[static_cast<std::size_t>(j)];
+      if (a >= 0) out.c[a] = q[j] - offset_[a] - (a == 2 ? length_z_ : 0.0);
+    }
+    return {};
+  }
+  kin::Pose p;
+  if (auto s = nominal_->forward(q, p); !s.ok()) return s;
+  out.c.head<3>() = p.p - offset_.head<3>();
+  if (form_ == Form::tcp_rotary) {
+    for (int j = 0; j < nominal_->joint_count(); ++j) {
+      const int a = axis_of_joint_[static_cast<std::size_t>(j)];
+      if (a >= 3 && a <= 5) out.c[a] = q[j] - offset_[a];
+    }
+  } else if (form_ == Form::tcp_vector) {
+    out.vector = p.axis();
+  } else {
+    const Eigen::Vector2d ab = virtual_ab_angles(p.axis());
+    out.c[3] = ab[0] - offset_[3];
+    out.c[4] = ab[1] - offset_[4];
+  }
+  return {};
+}
+
+kin::Solve ProgramMap::intended(const Command& cmd, const kin::JointVector& start, kin::Pose& p,
+                                kin::JointVector& q) const {
+  if (auto s = joints(cmd, start, q); !s.ok()) return s;
+  return nominal_->forward(q, p);
+}
+
+kin::Solve ProgramMap::real(const Command& cmd, const kin::JointVector& start, kin::Pose& p, kin::JointVector& q) const {
+  if (auto s = joints(cmd, start, q); !s.ok()) return s;
+  return actual_->forward(q, p);
+}
+
+kin::Solve ProgramMap::correct(const Command& cmd, const kin::JointVector& start, Command& out,
+                               kin::JointVector& q_actual) const {
+  kin::Pose goal;
+  kin::JointVector q_nom;
+  if (auto s = intended(cmd, start, goal, q_nom); !s.ok()) return s;
+  kin::IkOptions opt;
+  opt.check_limits = false;
+  // Serial machines with fewer than five joints (3-axis, lathes) can only match what they have.
+  if (auto s = actual_->inverse(goal, q_nom, q_actual, opt); !s.ok()) return s;
+  return command(q_actual, cmd, out);
+}
+
+}  // namespace postproc::comp

@@ -1,0 +1,333 @@
+// Machine files: the [machine], [tool], [work_offsets], [axes.*], [errors] and [volumetric_map]
+// tables; the model sections ([serial], [prs_hybrid], [hexapod]) are read in machine_models.cpp.
+#include "postproc/machine/machine.hpp"
+
+#include <fstream>
+#include <sstream>
+
+#include <fmt/format.h>
+#include <openssl/evp.h>
+
+#include "postproc/error.hpp"
+#include "postproc/kinematics/volumetric_map.hpp"
+#include "src/machine/machine_models.hpp"
+#include "src/machine/toml_fields.hpp"
+
+namespace postproc::machine {
+namespace {
+
+constexpr std::string_view kDialects[] = {"fanuc", "siemens", "linuxcnc", "heidenhain-iso"};
+constexpr std::string_view kModels[] = {"serial", "prs-hybrid", "hexapod"};
+constexpr std::string_view kCoordinates[] = {"axes", "tool-tip"};
+constexpr std::string_view kOrientations[] = {"rotary-axes", "vector", "virtual-ab"};
+constexpr std::string_view kFeeds[] = {"combined-axes", "tool-tip"};
+constexpr std::string_view kGSystems[] = {"A", "B"};
+
+void read_axis(Fields& f, AxisSettings& a, bool rotary) {
+  using R = Fields::Range;
+  if (auto d = f.integer("decimals", false, 0, 9)) a.decimals = static_cast<int>(*d);
+  a.kv = f.quantity("kv", Dim::inverse_time, "1/s", false, R{0, 1e4, true});
+  if (auto v = f.quantity("feed_forward", Dim::ratio, "1", false, R{0, 1})) a.feed_forward = *v;
+  if (auto v = f.quantity("acceleration_feed_forward", Dim::ratio, "1", false, R{0, 1})) a.acceleration_feed_forward = *v;
+  a.velocity_loop_time = f.quantity("velocity_loop_time", Dim::time, "s", false, R{0, 1, false});
+  // Rotary axes: deg/min, deg/s², deg/s³ (numbers default to those).
+  a.max_velocity = f.quantity("max_velocity", Dim::velocity, rotary ? "deg/min" : "mm/min", false, R{0, 1e7, true});
+  a.max_acceleration =
+      f.quantity("max_acceleration", Dim::acceleration, rotary ? "deg/s^2" : "mm/s^2", false, R{0, 1e7, true});
+  a.max_jerk = f.quantity("max_jerk", Dim::jerk, rotary ? "deg/s^3" : "mm/s^3", false, R{0, 1e9, true});
+  f.finish();
+}
+
+/// [work_offsets] G54 = { X = …, Y = …, C = … }.
+void read_work_offsets(TomlDoc& doc, const toml::table& t, Machine& m) {
+  for (const auto& [k, v] : t) {
+    const std::string name(k.str());
+    const toml::table* axes = v.as_table();
+    if (axes == nullptr) {
+      doc.error(v.source(), codes::kType,
+                fmt::format("[work_offsets] {} must be a table of axis values, e.g. {} = {{ X = -250, Y = -180, Z = -400 }}",
+                            name, name));
+      continue;
+    }
+    Fields f(doc, *axes, "work_offsets." + name);
+    gcode::AxisVector off = gcode::AxisVector::Zero();
+    for (int i = 0; i < gcode::kAxisCount; ++i) {
+      const char letter[2] = {gcode::kAxisLetters[static_cast<std::size_t>(i)], 0};
+      if (auto q = f.quantity(letter, gcode::is_rotary(i) ? Dim::angle : Dim::length, gcode::is_rotary(i) ? "deg" : "mm",
+                              false))
+        off[i] = gcode::is_rotary(i) ? *q / kin::kDeg : *q;
+    }
+    f.finish();
+    m.work_offsets[name] = off;
+  }
+}
+
+void read_tool(TomlDoc& doc, Fields& f, Machine& m) {
+  if (auto l = f.quantity("length", Dim::length, "mm", true, {0, 2000})) m.tool_length = *l;
+  if (const toml::table* t = f.table("lengths", false)) {
+    Fields lf(doc, *t, "tool.lengths");
+    for (const auto& [k, v] : *t) {
+      std::uint32_t h = 0;
+      const std::string key(k.str());
+      if (key.empty() || key.size() > 4 || key.find_first_not_of("0123456789") != std::string::npos) {
+        doc.error(k.source(), codes::kUnknownKey,
+                  fmt::format("[tool.lengths] key '{}' is not a tool length number; write e.g. 3 = \"125.4 mm\" for H3",
+                              key));
+        lf.known(key);
+        continue;
+      }
+      h = static_cast<std::uint32_t>(std::stoul(key));
+      if (auto l = lf.quantity(key, Dim::length, "mm", true, {0, 2000})) m.tool_lengths[h] = *l;
+    }
+    lf.finish();
+  }
+  f.finish();
+}
+
+/// [errors] NAME = quantity, one per error parameter of the model.
+kin::ModelPtr apply_errors(TomlDoc& doc, const toml::table& t, const kin::ModelPtr& model) {
+  std::vector<double> values = model->values();
+  Fields f(doc, t, "errors");
+  for (const auto& [k, v] : t) {
+    const std::string name(k.str());
+    const int idx = model->parameter_index(name);
+    f.known(name);
+    if (idx < 0) {
+      std::string names;
+      for (const auto& p : model->parameters())
+        if (p.error) names += (names.empty() ? "" : " ") + p.name;
+      doc.error(k.source(), codes::kUnknownKey,
+                fmt::format("[errors] '{}' is not an error parameter of this {} machine; its parameters are: {}", name,
+                            model->kind(), names));
+      continue;
+    }
+    const kin::Parameter& p = model->parameters()[static_cast<std::size_t>(idx)];
+    const bool angle = p.unit == "rad";
+    if (auto q = f.quantity_node(v, fmt::format("[errors] {}", name), angle ? Dim::angle : Dim::length, angle ? "rad" : "mm")) {
+      if ((angle && std::abs(*q) > 0.1) || (!angle && p.error && std::abs(*q) > 50.0)) {
+        doc.error(v.source(), codes::kRange,
+                  fmt::format("[errors] {} = {} {} is not a small error (|value| ≤ {}); check the unit (e.g. \"12 um\", "
+                              "\"15 arcsec\")",
+                              name, *q, p.unit, angle ? "0.1 rad" : "50 mm"));
+        continue;
+      }
+      values[static_cast<std::size_t>(idx)] = p.error ? p.nominal + *q : *q;
+    }
+  }
+  return model->with_values(std::move(values));
+}
+
+kin::ModelPtr apply_map(TomlDoc& doc, Fields& f, kin::ModelPtr base) {
+  using kin::VolumetricMap;
+  auto origin = f.vector3("origin", Dim::length, "mm", true);
+  auto spacing = f.vector3("spacing", Dim::length, "mm", true);
+  std::array<int, 3> counts{};
+  bool ok = true;
+  if (const toml::array* c = f.array("counts", true)) {
+    if (c->size() != 3) ok = false;
+    for (std::size_t i = 0; i < 3 && i < c->size(); ++i) {
+      auto n = c->get(i)->value_exact<std::int64_t>();
+      if (!n || *n < 2 || *n > 1000) ok = false;
+      else counts[i] = static_cast<int>(*n);
+    }
+    if (!ok) f.error_at("counts", codes::kRange, "[volumetric_map] counts must be three integers 2…1000: [nx, ny, nz]");
+  } else {
+    ok = false;
+  }
+  const auto unit = f.text("unit", false).value_or("um");
+  const auto factor = convert_unit(1.0, unit, Dim::length);
+  if (!factor) {
+    f.error_at("unit", codes::kUnit, fmt::format("[volumetric_map] unit \"{}\" is not a length unit (um, mm, …)", unit));
+    ok = false;
+  }
+  static constexpr std::string_view kInterp[] = {"trilinear", "smooth"};
+  static constexpr std::string_view kOutside[] = {"refuse", "clamp", "zero"};
+  const auto interp = f.text("interpolation", false, kInterp).value_or("trilinear");
+  const auto outside = f.text("outside", false, kOutside).value_or("refuse");
+  std::vector<Eigen::Vector3d> data;
+  if (const toml::array* e = f.array("errors", true)) {
+    for (std::size_t i = 0; i < e->size(); ++i) {
+      const toml::array* row = e->get(i)->as_array();
+      std::optional<double> x, y, z;
+      if (row != nullptr && row->size() == 3) {
+        x = row->get(0)->value<double>();
+        y = row->get(1)->value<double>();
+        z = row->get(2)->value<double>();
+      }
+      if (!x || !y || !z) {
+        doc.error(e->get(i)->source(), codes::kType,
+                  fmt::format("[volumetric_map] errors[{}] must be [ex, ey, ez] numbers in {}", i, unit));
+        ok = false;
+        break;
+      }
+      data.emplace_back(*x * factor.value_or(1), *y * factor.value_or(1), *z * factor.value_or(1));
+    }
+  } else {
+    ok = false;
+  }
+  f.finish();
+  if (!ok || !origin || !spacing) return base;
+  const std::size_t expected = static_cast<std::size_t>(counts[0]) * static_cast<std::size_t>(counts[1]) *
+                               static_cast<std::size_t>(counts[2]);
+  if (data.size() != expected) {
+    f.error_at("errors", codes::kInconsistent,
+               fmt::format("[volumetric_map] has {} error vectors; counts {}×{}×{} need {} (x fastest, then y, then z)",
+                           data.size(), counts[0], counts[1], counts[2], expected));
+    return base;
+  }
+  try {
+    auto map = std::make_shared<const VolumetricMap>(
+        *origin, *spacing, Eigen::Vector3i(counts[0], counts[1], counts[2]), std::move(data),
+        interp == "smooth" ? VolumetricMap::Interpolation::smooth : VolumetricMap::Interpolation::trilinear,
+        outside == "clamp" ? VolumetricMap::Outside::clamp
+                           : (outside == "zero" ? VolumetricMap::Outside::zero : VolumetricMap::Outside::refuse));
+    return std::make_shared<const kin::VolumetricModel>(std::move(base), std::move(map));
+  } catch (const Error& e) {
+    f.error_at("errors", codes::kInconsistent, fmt::format("[volumetric_map] {}", e.what()));
+    return base;
+  }
+}
+
+}  // namespace
+
+std::string work_offset_name(const gcode::WorkOffset& w) {
+  if (w.code10 == 541) return fmt::format("G54.1P{}", w.p);
+  if (w.code10 % 10 == 0) return fmt::format("G{}", w.code10 / 10);
+  return fmt::format("G{}.{}", w.code10 / 10, w.code10 % 10);
+}
+
+std::optional<Machine> parse_machine(std::string file, std::string text, gcode::DiagnosticSink& sink) {
+  const std::size_t errors_before = sink.count(gcode::Severity::error);
+  Machine m;
+  m.file = file;
+  m.sha256 = sha256_hex(text);
+  m.joint_of_axis.fill(-1);
+  TomlDoc doc(std::move(file), std::move(text), sink);
+  if (!doc.ok()) return std::nullopt;
+  Fields top(doc, doc.root(), "");
+
+  // [machine]
+  if (const toml::table* mt = top.table("machine", true)) {
+    Fields f(doc, *mt, "machine");
+    m.name = f.text("name", false).value_or("");
+    f.known("schema");
+    if (auto v = f.integer("schema", false, 1, 1)) (void)v;
+    m.dialect_name = f.text("dialect", true, kDialects).value_or("fanuc");
+    m.dialect_options.lathe = f.boolean("lathe", false).value_or(false);
+    m.dialect_options.gcode_system = f.text("gcode_system", false, kGSystems).value_or("A")[0];
+    static constexpr std::string_view kIntegerInput[] = {"increment", "calculator"};
+    if (auto ii = f.text("integer_input", false, kIntegerInput))
+      m.dialect_options.integer_input =
+          *ii == "increment" ? gcode::Dialect::IntegerInput::increment : gcode::Dialect::IntegerInput::calculator;
+    m.model_kind = f.text("model", true, kModels).value_or("serial");
+    const auto coords = f.text("program", false, kCoordinates).value_or(m.model_kind == "serial" ? "axes" : "tool-tip");
+    m.coordinates = coords == "axes" ? ProgramCoordinates::axes : ProgramCoordinates::tool_tip;
+    const auto orient = f.text("orientation", false, kOrientations).value_or("rotary-axes");
+    m.orientation = orient == "vector" ? Orientation::vector
+                                       : (orient == "virtual-ab" ? Orientation::virtual_ab : Orientation::rotary_axes);
+    const auto feed = f.text("feed", false, kFeeds).value_or(m.coordinates == ProgramCoordinates::axes ? "combined-axes" : "tool-tip");
+    m.feed = feed == "tool-tip" ? FeedReference::tool_tip : FeedReference::combined_axes;
+    if (auto p = f.quantity("interpolation_period", Dim::time, "s", false, {0, 0.1, true})) m.interpolation_period = *p;
+    if (m.model_kind != "serial" && m.coordinates == ProgramCoordinates::axes)
+      f.error_at("program", codes::kInconsistent,
+                 fmt::format("a {} machine is programmed in tool-tip coordinates; write program = \"tool-tip\"",
+                             m.model_kind));
+    if (m.model_kind != "serial" && m.orientation == Orientation::rotary_axes)
+      f.error_at("orientation", codes::kInconsistent,
+                 fmt::format("a {} machine has no rotary axes; write orientation = \"vector\" or \"virtual-ab\"",
+                             m.model_kind));
+    f.finish();
+  }
+  if (const toml::table* t = top.table("tool", true)) {
+    Fields f(doc, *t, "tool");
+    read_tool(doc, f, m);
+  }
+  if (const toml::table* t = top.table("work_offsets", false)) read_work_offsets(doc, *t, m);
+
+  // The model section named by [machine] model.
+  kin::ModelPtr model;
+  const std::string section = m.model_kind == "prs-hybrid" ? "prs_hybrid" : m.model_kind;
+  for (std::string_view s : {"serial", "prs_hybrid", "hexapod"})
+    if (s != section && top.has(s)) {
+      top.error_at(s, codes::kInconsistent,
+                   fmt::format("[{}] does not belong to a '{}' machine; remove it or change [machine] model", s,
+                               m.model_kind));
+      top.known(s);
+    }
+  if (const toml::table* t = top.table(section, true)) {
+    Fields f(doc, *t, section);
+    const toml::table* motions = top.table("error_motions", false);
+    if (section == "serial") model = read_serial(doc, f, motions, m);
+    else if (section == "prs_hybrid") model = read_prs_hybrid(doc, f, m);
+    else model = read_hexapod(doc, f, m);
+  }
+  if (model) {
+    m.nominal = model;  // every parameter nominal (read_* build nominal models)
+    if (const toml::table* t = top.table("errors", false)) model = apply_errors(doc, *t, model);
+    if (const toml::table* t = top.table("volumetric_map", false)) {
+      Fields f(doc, *t, "volumetric_map");
+      model = apply_map(doc, f, model);
+    }
+    m.actual = model;
+  } else {
+    top.known("errors");
+    top.known("volumetric_map");
+  }
+
+  // [axes.X] …
+  if (const toml::table* t = top.table("axes", true)) {
+    for (const auto& [k, v] : *t) {
+      const std::string key(k.str());
+      const int ax = key.size() == 1 ? gcode::axis_index(key[0]) : -1;
+      const toml::table* at = v.as_table();
+      if (ax < 0 || at == nullptr) {
+        doc.error(k.source(), codes::kUnknownKey,
+                  fmt::format("[axes.{}] is not a program axis table; use [axes.X] … [axes.C] (X Y Z A B C U V W)", key));
+        continue;
+      }
+      Fields f(doc, *at, "axes." + key);
+      AxisSettings s;
+      read_axis(f, s, gcode::is_rotary(ax));
+      m.axes[static_cast<std::size_t>(ax)] = s;
+    }
+  }
+  if (m.actual && m.model_kind == "serial") {
+    for (int j = 0; j < m.actual->joint_count(); ++j) {
+      const std::string& n = m.actual->joints()[static_cast<std::size_t>(j)].name;
+      const int ax = n.size() == 1 ? gcode::axis_index(n[0]) : -1;
+      if (ax >= 0) {
+        m.joint_of_axis[static_cast<std::size_t>(ax)] = j;
+        if (!m.axes[static_cast<std::size_t>(ax)])
+          top.error_at("axes", codes::kMissing,
+                       fmt::format("the serial chain has axis {} but there is no [axes.{}] table; add one with its "
+                                   "decimals and servo data",
+                                   n, n));
+      }
+    }
+  }
+  top.finish();
+  if (sink.count(gcode::Severity::error) > errors_before) return std::nullopt;
+  return m;
+}
+
+std::optional<Machine> load_machine(const std::string& path, gcode::DiagnosticSink& sink) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw Error(ExitCode::no_input, fmt::format("cannot open machine file '{}'", path));
+  std::ostringstream ss;
+  ss << in.rdbuf();
+  if (in.bad()) throw Error(ExitCode::no_input, fmt::format("cannot read machine file '{}'", path));
+  return parse_machine(path, ss.str(), sink);
+}
+
+std::string sha256_hex(std::string_view bytes) {
+  unsigned char md[EVP_MAX_MD_SIZE];
+  unsigned int len = 0;
+  if (EVP_Digest(bytes.data(), bytes.size(), md, &len, EVP_sha256(), nullptr) != 1)
+    throw Error(ExitCode::internal, "SHA-256 failed (OpenSSL EVP_Digest)");
+  std::string hex;
+  hex.reserve(2 * len);
+  for (unsigned int i = 0; i < len; ++i) hex += fmt::format("{:02x}", md[i]);
+  return hex;
+}
+
+}  // namespace postproc::machine
