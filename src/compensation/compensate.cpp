@@ -69,9 +69,9 @@ class Compensator final : public gcode::BlockVisitor {
       ++r_.reference_moves;
     } else if (lexed_ok && !block_error_) {
       if (motions.size() > 1) {
-        for (const Motion& m : motions) check_unchanged(b, m);
+        for (const Motion& m : motions) check_unchanged(b, with_vector(m));
       } else if (motions.size() == 1) {
-        motion(b, motions.front(), ed);
+        motion(b, with_vector(motions.front()), ed);
       }
     }
     block_error_ = false;
@@ -81,14 +81,15 @@ class Compensator final : public gcode::BlockVisitor {
       known_ &= static_cast<AxisMask>(motions_keep_known(b) ? 0xFFFF : 0);
     }
     if (ed.empty()) {
-      emit(b.raw, after_.empty() ? b.eol : std::string_view(eol_));
+      emit(b.raw, after_.empty() ? b.eol : std::string_view(eol_), b.line);
     } else {
       line_.clear();
       ed.render(line_);
       ++r_.changed_blocks;
-      emit(line_, after_.empty() ? b.eol : std::string_view(eol_));
+      emit(line_, after_.empty() ? b.eol : std::string_view(eol_), b.line);
     }
-    for (std::size_t i = 0; i < after_.size(); ++i) emit(after_[i], i + 1 == after_.size() ? b.eol : std::string_view(eol_));
+    for (std::size_t i = 0; i < after_.size(); ++i)
+      emit(after_[i], i + 1 == after_.size() ? b.eol : std::string_view(eol_), b.line);
     r_.segments_added += after_.size();
   }
 
@@ -98,13 +99,28 @@ class Compensator final : public gcode::BlockVisitor {
   }
 
  private:
+  /// The tool vector is modal (G43.5 / TRAORI blocks without I J K / A3 B3 C3 keep it).
+  Motion with_vector(const Motion& m) {
+    Motion c = m;
+    if (m.tool_vector_known) {
+      vector_ = m.tool_vector;
+      vector_known_ = true;
+    } else if (vector_known_ && (m.tcp != gcode::TcpMode::off || m_.coordinates == machine::ProgramCoordinates::tool_tip)) {
+      c.tool_vector = vector_;
+      c.tool_vector_known = true;
+    }
+    if (m.tcp == gcode::TcpMode::off && m_.coordinates != machine::ProgramCoordinates::tool_tip) vector_known_ = false;
+    return c;
+  }
+
   /// Blocks without motion that make positions unknown (G28, G53 without axes, a new offset).
   bool motions_keep_known(const Block&) const {
     return !(track_.has(gcode::GMeaning::home_return) || track_.has(gcode::GMeaning::work_offset) ||
              track_.has(gcode::GMeaning::set_offsets_g10));
   }
 
-  void emit(std::string_view raw, std::string_view eol) {
+  void emit(std::string_view raw, std::string_view eol, std::uint64_t from) {
+    if (opt_.line_map != nullptr) opt_.line_map->push_back(from);
     buffer_.append(raw);
     buffer_.append(eol);
     if (buffer_.size() > (1u << 20)) flush();
@@ -118,7 +134,7 @@ class Compensator final : public gcode::BlockVisitor {
       leading = leading || t.kind == gcode::TokenKind::percent || t.kind == gcode::TokenKind::program_number;
     if (leading && b.words.empty() && b.line <= 3) return;
     header_done_ = true;
-    emit(header_comment(d_, m_, opt_), eol_);
+    emit(header_comment(d_, m_, opt_), eol_, 0);
   }
 
   void refuse(const Block& b, std::uint32_t column, std::string_view code, std::string why) {
@@ -172,6 +188,13 @@ class Compensator final : public gcode::BlockVisitor {
         return std::nullopt;
       }
       length = it->second;
+    }
+    if (m_.nominal->parameter_index("tool.length") < 0 && std::abs(length - m_.tool_length) > 1e-9) {
+      refuse(b, m.column, kMachine,
+             fmt::format("a {} machine takes its tool length from [tool] length ({} mm) only, but H{} is {} mm; make "
+                         "them equal or use a machine file per tool",
+                         m_.model_kind, m_.tool_length, m.tool_length_h, length));
+      return std::nullopt;
     }
     const auto& [nom, act] = models_.with_tool_length(length);
     return ProgramMap(m_, nom, act, form, offset, form == Form::axes && m.tool_length_active, length);
@@ -432,6 +455,23 @@ class Compensator final : public gcode::BlockVisitor {
     return true;
   }
 
+  /// True when the real path of the corrected segment k0 → k1 stays within `tol_mm` of the
+  /// intended segment c0 → c1 inside it, and its tool axis no further from the intended one than
+  /// at the worse end plus --max-angle-deviation (machines with fewer joints than the pose has
+  /// conditions, e.g. the 4-axis lathe, cannot match the axis even at the end points).
+  bool within(const ProgramMap& map, const Command& c0, const Command& c1, const Command& k0, const Command& k1,
+              double tol_mm) {
+    double mm0 = 0, rad0 = 0, mm1 = 0, rad1 = 0;
+    if (!deviation(map, c0, c1, k0, k1, 0.0, mm0, rad0) || !deviation(map, c0, c1, k0, k1, 1.0, mm1, rad1)) return false;
+    const double rad_ends = std::max(rad0, rad1);
+    for (double f : {0.25, 0.5, 0.75}) {
+      double mm = 0, rad = 0;
+      if (!deviation(map, c0, c1, k0, k1, f, mm, rad)) return false;
+      if (mm > tol_mm + std::max(mm0, mm1) || rad > rad_ends + opt_.max_angle_rad) return false;
+    }
+    return true;
+  }
+
   bool subdivide(const Block& b, const Motion& m, const ProgramMap& map, const Command& out, std::vector<Command>& pts) {
     const Command c0{m.start, prev_vector_};
     const Command c1{m.end, m.tool_vector};
@@ -449,11 +489,7 @@ class Compensator final : public gcode::BlockVisitor {
           if (!map.correct(lerp(c0, c1, t1), joints_, ki, qq).ok()) return kin_failure(b, m, {kin::Status::no_convergence});
           cand.push_back(ki);
         }
-        for (double f : {0.25, 0.5, 0.75}) {
-          double mm = 0, rad = 0;
-          if (!deviation(map, lerp(c0, c1, t0), lerp(c0, c1, t1), prev_k, ki, f, mm, rad)) return false;
-          if (mm > opt_.max_deviation_mm || rad > opt_.max_angle_rad) ok = false;
-        }
+        if (!within(map, lerp(c0, c1, t0), lerp(c0, c1, t1), prev_k, ki, opt_.max_deviation_mm)) ok = false;
         prev_k = ki;
       }
       if (ok) {
@@ -546,11 +582,7 @@ class Compensator final : public gcode::BlockVisitor {
           }
           pts.push_back(k);
         }
-        for (double f : {0.25, 0.5, 0.75}) {
-          double mm = 0, rad = 0;
-          if (!deviation(map, Command{gcode::arc_point(m, t0), m.tool_vector}, c1, prev, k, f, mm, rad)) return false;
-          if (mm > tol || rad > opt_.max_angle_rad) ok = false;
-        }
+        if (!within(map, Command{gcode::arc_point(m, t0), m.tool_vector}, c1, prev, k, tol)) ok = false;
         prev = k;
       }
       if (ok) break;
@@ -695,6 +727,8 @@ class Compensator final : public gcode::BlockVisitor {
   AxisVector written_;            ///< corrected end of the previous motion, work coordinates
   AxisMask written_known_ = 0;
   Eigen::Vector3d prev_vector_ = Eigen::Vector3d::UnitZ();
+  Eigen::Vector3d vector_ = Eigen::Vector3d::UnitZ();  ///< modal tool vector
+  bool vector_known_ = false;
   Eigen::Vector3d prev_written_vector_ = Eigen::Vector3d::UnitZ();
   std::vector<std::string> after_;
   std::string line_, buffer_;

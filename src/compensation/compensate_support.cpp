@@ -122,11 +122,14 @@ WordWriter::Outcome WordWriter::rewrite(const Block& b, const Motion& m, gcode::
   }
   if (vector_form(m)) {
     const bool siemens = d_.id == gcode::DialectId::siemens;
-    for (int k = 0; k < 3; ++k) {
+    // A block that writes any component writes all three: a missing one reads as 0.
+    bool any = false;
+    for (int k = 0; k < 3; ++k)
+      any = any || vector_word(b, k, siemens) >= 0 || std::abs(target.vector[k] - m.tool_vector[k]) >= 5e-7;
+    for (int k = 0; k < 3 && any; ++k) {
       const int wi = vector_word(b, k, siemens);
       const double v = target.vector[k];
       if (wi < 0) {
-        if (std::abs(v - m.tool_vector[k]) < 5e-7) continue;
         ed.insert_after(anchor, sep + (siemens ? fmt::format("{}3=", "ABC"[k]) : std::string(1, "IJK"[k])) +
                                     gcode::format_number(v, style_for('I'), 6, d_.decimal_point_required));
         ++o.inserted;

@@ -32,6 +32,38 @@ Eigen::Vector2d virtual_ab_angles(const Eigen::Vector3d& o) {
   return {a / kin::kDeg, b / kin::kDeg};
 }
 
+namespace {
+
+/// Largest rotary-joint correction accepted from the full (point and tool axis) inverse, degrees.
+/// Near a singular configuration (the tool axis along a rotary axis, e.g. B = 0 on a B/C table)
+/// matching the tool axis exactly needs large rotary motions; there the tool axis keeps its
+/// nominal rotary values and only the tool tip is corrected.
+constexpr double kMaxRotaryCorrectionDeg = 0.2;
+
+}  // namespace
+
+kin::Solve solve_linear(const kin::Model& model, const Eigen::Vector3d& target, kin::JointVector& q) {
+  const int n = model.joint_count();
+  kin::Solve s;
+  for (int it = 0; it < 20; ++it) {
+    kin::Pose at;
+    if (s = model.forward(q, at); !s.ok()) return s;
+    const Eigen::Vector3d r = target - at.p;
+    s.iterations = it;
+    s.residual_mm = r.norm();
+    if (s.residual_mm < 1e-11) return s;
+    const kin::Jacobian jf = model.jacobian(q);
+    Eigen::Matrix<double, 3, Eigen::Dynamic, Eigen::ColMajor, 3, kin::kMaxJoints> a(3, n);
+    a.setZero();
+    for (int j = 0; j < n; ++j)
+      if (model.joints()[static_cast<std::size_t>(j)].type == kin::JointType::linear) a.col(j) = jf.block<3, 1>(0, j);
+    const kin::JointVector dq = a.completeOrthogonalDecomposition().solve(r);
+    q += dq;
+  }
+  s.status = kin::Status::no_convergence;
+  return s;
+}
+
 ProgramMap::ProgramMap(const machine::Machine& m, kin::ModelPtr nominal, kin::ModelPtr actual, Form form,
                        const gcode::AxisVector& offset, bool length_on_z, double tool_length)
     : m_(&m), nominal_(std::move(nominal)), actual_(std::move(actual)), form_(form), offset_(offset) {
@@ -83,28 +115,10 @@ kin::Solve ProgramMap::joints(const Command& cmd, const kin::JointVector& start,
       const int a = axis_of_joint_[static_cast<std::size_t>(j)];
       if (a >= 3 && a <= 5) seed[j] = cmd.c[a] + offset_[a];
     }
-    // Only the linear joints move: a Newton iteration on the tool-tip position alone (the
-    // orientation is what the rotary values give, and is singular to solve for at e.g. B = 0).
+    // Only the linear joints move: the orientation is what the rotary values give, and is
+    // singular to solve for at e.g. B = 0.
     q = seed;
-    kin::Solve s;
-    for (int it = 0; it < 20; ++it) {
-      kin::Pose at;
-      if (s = nominal_->forward(q, at); !s.ok()) return s;
-      const Eigen::Vector3d r = target.p - at.p;
-      s.iterations = it;
-      s.residual_mm = r.norm();
-      if (s.residual_mm < 1e-11) return s;
-      const kin::Jacobian jf = nominal_->jacobian(q);
-      Eigen::Matrix<double, 3, Eigen::Dynamic, Eigen::ColMajor, 3, kin::kMaxJoints> a(3, n);
-      a.setZero();
-      for (int j = 0; j < n; ++j)
-        if (nominal_->joints()[static_cast<std::size_t>(j)].type == kin::JointType::linear)
-          a.col(j) = jf.block<3, 1>(0, j);
-      const kin::JointVector dq = a.completeOrthogonalDecomposition().solve(r);
-      q += dq;
-    }
-    s.status = kin::Status::no_convergence;
-    return s;
+    return solve_linear(*nominal_, target.p, q);
   } else if (const auto* serial = dynamic_cast<const kin::SerialModel*>(nominal_.get())) {
     // A tool vector: seed with the closed-form orientation branch nearest the previous joints.
     kin::Pose at;
@@ -170,7 +184,19 @@ kin::Solve ProgramMap::correct(const Command& cmd, const kin::JointVector& start
   kin::IkOptions opt;
   opt.check_limits = false;
   // Serial machines with fewer than five joints (3-axis, lathes) can only match what they have.
-  if (auto s = actual_->inverse(goal, q_nom, q_actual, opt); !s.ok()) return s;
+  kin::Solve s = actual_->inverse(goal, q_nom, q_actual, opt);
+  bool near_singular = !s.ok() && (s.status == kin::Status::singular || s.status == kin::Status::no_convergence ||
+                                   s.status == kin::Status::diverged);
+  for (int j = 0; j < actual_->joint_count() && s.ok(); ++j)
+    if (actual_->joints()[static_cast<std::size_t>(j)].type == kin::JointType::rotary &&
+        std::abs(q_actual[j] - q_nom[j]) > kMaxRotaryCorrectionDeg)
+      near_singular = true;
+  if (near_singular && m_->model_kind == "serial") {
+    q_actual = q_nom;
+    s = solve_linear(*actual_, goal.p, q_actual);
+    if (s.ok()) ++singular_fallbacks_;
+  }
+  if (!s.ok()) return s;
   return command(q_actual, cmd, out);
 }
 

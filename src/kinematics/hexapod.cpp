@@ -3,6 +3,7 @@
 // parameters.
 #include "postproc/kinematics/hexapod.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 #include <Eigen/LU>
@@ -24,6 +25,7 @@ constexpr int kPlatformFirst = 18;
 constexpr int kOffsetFirst = 36;
 // Below this joint-to-joint distance the strut direction (and so the Jacobian) is undefined.
 constexpr double kMinStrutLength = 1e-6;
+constexpr double kMaxRotationStep = 0.3;  // rad
 
 Eigen::Matrix3d rotation_exp(const Eigen::Vector3d& w) {
   const double a = w.norm();
@@ -224,9 +226,8 @@ Solve Hexapod::solve_forward(const JointVector& q, PlatformPose x, Pose& out, co
       return s;
     }
   }
-  // A Newton step longer than this (or a rotation step over 1 rad) means the iterate is far from
-  // any solution near the work space.
-  const double max_step = 2 * offset_.mean() + 2 * home_.t.norm();
+  // Longest Newton step taken at once: a quarter of the home strut length, and 0.3 rad.
+  const double max_step = 0.25 * offset_.cwiseAbs().mean() + 1.0;
   double prev = std::numeric_limits<double>::infinity();
   for (int it = 0;; ++it) {
     const StrutMatrix d = strut_vectors(x, base_, platform_);
@@ -264,13 +265,12 @@ Solve Hexapod::solve_forward(const JointVector& q, PlatformPose x, Pose& out, co
       s.status = Status::singular;
       return s;
     }
-    const Eigen::Vector3d dphi = step.tail<3>();
+    // Far from the solution the linearisation overshoots; shorten long steps (damped Newton) so
+    // a distant start still converges, and let the residual test catch real divergence.
+    const double scale = std::min({1.0, kMaxRotationStep / step.tail<3>().norm(), max_step / step.head<3>().norm()});
+    const Eigen::Vector3d dphi = scale * step.tail<3>();
     s.residual_rad = dphi.norm();
-    if (s.residual_rad > 1.0 || step.head<3>().norm() > max_step) {
-      s.status = Status::diverged;
-      return s;
-    }
-    x.t += step.head<3>();
+    x.t += scale * step.head<3>();
     x.r = rotation_exp(dphi) * x.r;
   }
 }

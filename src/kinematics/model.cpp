@@ -144,7 +144,7 @@ Solve Model::inverse(const Pose& target, const JointVector& start, JointVector& 
     }
     prev = size;
     const Jacobian jf = jacobian(q);
-    Eigen::Matrix<double, 6, Eigen::Dynamic, Eigen::ColMajor, 6, kMaxJoints> a(rows, n);
+    Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::ColMajor, 6, kMaxJoints> a(rows, n);
     a.topRows<3>() = jf.topRows<3>();
     if (opt.match == PoseMatch::full) {
       a.bottomRows<3>() = jf.bottomRows<3>();

@@ -9,6 +9,7 @@
 #include <openssl/evp.h>
 
 #include "postproc/error.hpp"
+#include "postproc/kinematics/serial.hpp"
 #include "postproc/kinematics/volumetric_map.hpp"
 #include "src/machine/machine_models.hpp"
 #include "src/machine/toml_fields.hpp"
@@ -262,7 +263,10 @@ std::optional<Machine> parse_machine(std::string file, std::string text, gcode::
     else model = read_hexapod(doc, f, m);
   }
   if (model) {
-    m.nominal = model;  // every parameter nominal (read_* build nominal models)
+    // read_* build models with every parameter nominal; a serial chain's error-motion tables
+    // are configuration data, so the controller's model is the chain without them.
+    m.nominal = model;
+    if (const auto* serial = dynamic_cast<const kin::SerialModel*>(model.get())) m.nominal = serial->without_tables();
     if (const toml::table* t = top.table("errors", false)) model = apply_errors(doc, *t, model);
     if (const toml::table* t = top.table("volumetric_map", false)) {
       Fields f(doc, *t, "volumetric_map");

@@ -6,6 +6,7 @@
 
 #include <cstdint>
 #include <string>
+#include <vector>
 
 #include "postproc/gcode/diagnostic.hpp"
 #include "postproc/gcode/dialect.hpp"
@@ -24,6 +25,8 @@ struct CompensateOptions {
   bool header = true;          ///< write the header comment naming tool, machine file, hash, mode
   std::string tool_version;    ///< for the header and the report
   std::string mode = "geometric";
+  /// If set, receives for every output line the input line it came from (0 for the header).
+  std::vector<std::uint64_t>* line_map = nullptr;
 };
 
 /// Figures of one run (the --report JSON carries them).

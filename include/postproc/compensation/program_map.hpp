@@ -64,6 +64,8 @@ class ProgramMap {
   [[nodiscard]] const kin::Model& actual() const { return *actual_; }
   /// Program axis of joint j (-1 for joints that are not program axes, e.g. hexapod struts).
   [[nodiscard]] int axis_of_joint(int j) const { return axis_of_joint_[static_cast<std::size_t>(j)]; }
+  /// Corrections that kept the nominal rotary values because the configuration was singular.
+  [[nodiscard]] std::uint64_t singular_fallbacks() const { return singular_fallbacks_; }
 
  private:
   [[nodiscard]] kin::Pose target_of(const Command& cmd) const;
@@ -72,9 +74,14 @@ class ProgramMap {
   Form form_;
   gcode::AxisVector offset_;
   double length_z_ = 0;  ///< added to the Z joint
+  mutable std::uint64_t singular_fallbacks_ = 0;
   std::array<int, kin::kMaxJoints> axis_of_joint_{};
   std::array<int, gcode::kAxisCount> joint_of_axis_{};
 };
+
+/// Newton on the linear joints of q only, so that the tool tip reaches `target` (mm, workpiece
+/// frame); the rotary joints keep their values.
+[[nodiscard]] kin::Solve solve_linear(const kin::Model& model, const Eigen::Vector3d& target, kin::JointVector& q);
 
 /// Virtual angles (degrees) ↔ tool axis: O = Rx(A)·Ry(B)·ẑ = (sin B, −sin A cos B, cos A cos B).
 [[nodiscard]] Eigen::Vector3d virtual_ab_axis(double a_deg, double b_deg);

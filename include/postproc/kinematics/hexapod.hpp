@@ -95,10 +95,11 @@ class Hexapod final : public Model {
   [[nodiscard]] Solve forward(const JointVector& q, Pose& out) const override;
   /// Forward kinematics by Newton on |T·p_i − b_i| = q_i + o_i, the platform pose updated as a
   /// translation plus a rotation vector (base frame), starting from `guess` (a tool pose in the
-  /// workpiece frame, e.g. the previous block or the commanded pose). Status: unreachable when a
+  /// workpiece frame, e.g. the previous block or the commanded pose). Steps longer than 0.3 rad or
+  /// a quarter of the mean strut offset are shortened (damped Newton). Status: unreachable when a
   /// q_i + o_i ≤ 0 (joint = that strut); singular when the strut Jacobian loses rank; diverged
-  /// when the residual grows, a step exceeds 1 rad / 2 × the home height, or a strut turns past
-  /// 90° from its home direction (another assembly mode); no_convergence at the iteration limit.
+  /// when the residual grows fourfold after the third step or a strut turns past 90° from its
+  /// home direction (another assembly mode); no_convergence at the iteration limit.
   /// residual_mm is the largest strut-length residual, residual_rad the last rotation step.
   /// `out` is written only when the status is ok.
   [[nodiscard]] Solve forward(const JointVector& q, Pose& out, const Pose& guess,

@@ -108,6 +108,9 @@ struct SerialConfig {
 ///   matched exactly and the tool axis in least squares (status ok when the point is within
 ///   tolerance and the step has converged; residual_rad then reports the unavoidable deviation);
 /// - more joints than conditions: the minimum-norm step, so the extra joints stay near `start`.
+/// At a singular configuration (tool axis along the other rotary axis: A = 0 on an A/C trunnion)
+/// Newton cannot start and the seeds are tried; when every solve fails, the status says why
+/// (singular, no_convergence, diverged) and q holds the last iterate of the solve from `start`.
 class SerialModel final : public Model {
  public:
   /// Builds the nominal model (every error parameter 0). Throws postproc::Error (usage) naming

@@ -1,0 +1,181 @@
+// Checks a compensated program: the corrected end points on the actual machine against the
+// original end points on the nominal machine, within the rounding of the written words.
+#include "postproc/compensation/verify.hpp"
+
+#include <cmath>
+#include <map>
+
+#include "postproc/compensation/program_map.hpp"
+#include "postproc/gcode/program.hpp"
+#include "src/compensation/compensate_support.hpp"
+
+namespace postproc::comp {
+namespace {
+
+struct Collected {
+  gcode::Motion motion;
+  bool reference = false;  ///< a G28/G30 block
+};
+
+/// The last single motion of every line.
+class Collector final : public gcode::BlockVisitor {
+ public:
+  explicit Collector(const gcode::Dialect& d) : track_(d) {}
+  void block(const gcode::Block& b, std::span<const gcode::Motion> motions, bool) override {
+    track_.update(b);
+    if (motions.size() != 1) return;
+    gcode::Motion m = motions.front();
+    if (m.tool_vector_known) {
+      vector_ = m.tool_vector;
+      known_ = true;
+    } else if (known_) {
+      m.tool_vector = vector_;
+      m.tool_vector_known = true;
+    }
+    by_line[b.line] = Collected{m, track_.has(gcode::GMeaning::home_return)};
+  }
+  std::map<std::uint64_t, Collected> by_line;
+
+ private:
+  gcode::ModalTrack track_;
+  Eigen::Vector3d vector_ = Eigen::Vector3d::UnitZ();
+  bool known_ = false;
+};
+
+Form form_of(const machine::Machine& m, const gcode::Motion& mo) {
+  if (m.coordinates == machine::ProgramCoordinates::tool_tip)
+    return m.orientation == machine::Orientation::virtual_ab ? Form::tcp_virtual : Form::tcp_vector;
+  if (mo.frame == gcode::Frame::machine) return Form::axes;
+  switch (mo.tcp) {
+    case gcode::TcpMode::off: return Form::axes;
+    case gcode::TcpMode::fanuc_g43_5: return Form::tcp_vector;
+    case gcode::TcpMode::siemens_traori: return mo.tool_vector_known ? Form::tcp_vector : Form::tcp_rotary;
+    default: return Form::tcp_rotary;
+  }
+}
+
+std::optional<ProgramMap> map_of(const machine::Machine& m, ToolLengthModels& models, const gcode::Motion& mo) {
+  gcode::AxisVector offset = mo.local_offset + mo.position_offset;
+  if (mo.frame == gcode::Frame::work) {
+    const auto it = m.work_offsets.find(machine::work_offset_name(mo.work_offset));
+    if (it == m.work_offsets.end()) return std::nullopt;
+    offset += it->second;
+  } else {
+    offset.setZero();
+  }
+  double length = m.tool_length;
+  if (mo.tool_length_active && mo.tool_length_h != 0) {
+    const auto it = m.tool_lengths.find(mo.tool_length_h);
+    if (it == m.tool_lengths.end()) return std::nullopt;
+    length = it->second;
+  }
+  const Form f = form_of(m, mo);
+  const auto& [nom, act] = models.with_tool_length(length);
+  return ProgramMap(m, nom, act, f, offset, f == Form::axes && mo.tool_length_active, length);
+}
+
+gcode::AxisMask form_axes(const machine::Machine& m, Form f) {
+  gcode::AxisMask mask = 0;
+  if (f == Form::axes || f == Form::tcp_rotary) {
+    for (int a = 0; a < gcode::kAxisCount; ++a)
+      if (m.joint_of_axis[static_cast<std::size_t>(a)] >= 0) mask |= static_cast<gcode::AxisMask>(1u << a);
+  } else {
+    mask = f == Form::tcp_virtual ? 0b11111 : 0b111;
+  }
+  return mask;
+}
+
+/// mm (or degrees) per program unit.
+double unit_scale(int a, const gcode::Motion& mo) {
+  double k = 1.0;
+  if (!gcode::is_rotary(a) && mo.inch_source) k *= 25.4;
+  if (a == 0 && mo.diameter_mode) k /= 2;
+  return k;
+}
+
+}  // namespace
+
+VerifyResult verify(std::string_view original, std::string_view corrected, const std::vector<std::uint64_t>& line_map,
+                    const gcode::Dialect& d, const machine::Machine& m) {
+  Collector orig(d), corr(d);
+  gcode::DiagnosticSink quiet(0);
+  {
+    gcode::LineReader r{original};
+    gcode::run_program(r, d, "original", quiet, orig);
+  }
+  {
+    gcode::LineReader r{corrected};
+    gcode::run_program(r, d, "corrected", quiet, corr);
+  }
+  // Original line → the last corrected motion among the lines that came from it.
+  std::map<std::uint64_t, const Collected*> last;
+  for (const auto& [line, c] : corr.by_line)
+    if (line >= 1 && line <= line_map.size() && line_map[line - 1] != 0) last[line_map[line - 1]] = &c;
+
+  VerifyResult v;
+  ToolLengthModels models(m);
+  kin::JointVector start = kin::JointVector::Zero(m.nominal->joint_count());
+  for (const auto& [line, o] : orig.by_line) {
+    const auto it = last.find(line);
+    const gcode::Motion& mo = o.motion;
+    if (o.reference || it == last.end() || mo.type == gcode::MotionType::drill_cycle) {
+      ++v.skipped;
+      continue;
+    }
+    const gcode::Motion& mc = it->second->motion;
+    const Form f = form_of(m, mo);
+    const gcode::AxisMask need = form_axes(m, f);
+    if ((mo.known & need) != need || (mc.known & need) != need ||
+        (mo.type == gcode::MotionType::rapid && (mo.end - mc.end).cwiseAbs().maxCoeff() == 0)) {
+      ++v.skipped;  // unknown positions, or a rapid left as written
+      continue;
+    }
+    auto map_o = map_of(m, models, mo);
+    auto map_c = map_of(m, models, mc);
+    if (!map_o || !map_c) {
+      ++v.skipped;
+      continue;
+    }
+    kin::Pose want, got;
+    kin::JointVector q1, q2;
+    if (!map_o->intended(Command{mo.end, mo.tool_vector}, start, want, q1).ok() ||
+        !map_c->real(Command{mc.end, mc.tool_vector}, start, got, q2).ok()) {
+      ++v.skipped;
+      continue;
+    }
+    kin::Pose before;
+    kin::JointVector q3;
+    if (map_o->real(Command{mo.end, mo.tool_vector}, start, before, q3).ok())
+      v.max_error_before_mm = std::max(v.max_error_before_mm, (before.p - want.p).norm());
+    // The rounding bound: half a unit of each written axis, carried to the tool tip.
+    double bound = 0;
+    for (int a = 0; a < gcode::kAxisCount; ++a) {
+      if (!((need >> a) & 1u)) continue;
+      const double h = 0.5 * std::pow(10.0, -m.decimals(a)) * unit_scale(a, mc);
+      double worst = 0;
+      for (double sgn : {-1.0, 1.0}) {
+        Command c{mc.end, mc.tool_vector};
+        c.c[a] += sgn * h;
+        kin::Pose p;
+        kin::JointVector qq;
+        if (map_c->real(c, start, p, qq).ok()) worst = std::max(worst, (p.p - got.p).norm());
+      }
+      bound += worst;
+    }
+    if (f == Form::tcp_vector) bound += 3 * 0.5e-6 * 200.0;  // 6-decimal vector components, 200 mm lever
+    const double err = (got.p - want.p).norm();
+    const double ang = std::acos(std::clamp(got.axis().dot(want.axis()), -1.0, 1.0));
+    ++v.compared;
+    v.max_error_mm = std::max(v.max_error_mm, err);
+    v.max_error_rad = std::max(v.max_error_rad, ang);
+    v.max_bound_mm = std::max(v.max_bound_mm, bound);
+    if (v.compared == 1 || err - bound > v.max_excess_mm) {
+      v.max_excess_mm = err - bound;
+      v.worst_line = line;
+    }
+    start = q2;
+  }
+  return v;
+}
+
+}  // namespace postproc::comp
