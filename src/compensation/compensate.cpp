@@ -231,8 +231,12 @@ class Compensator final : public gcode::BlockVisitor {
 
   /// True when the corrected value prints differently from the source value at the axis's decimals.
   bool rounded_change(int a, double from, double to, const Motion& m) const {
+    // Differences below 1e-9 are arithmetic noise, not corrections (a value exactly half a unit
+    // off the output grid would otherwise round either way).
+    const double f = program_units(a, from, m), t = program_units(a, to, m);
+    if (std::abs(t - f) < 1e-9) return false;
     const double s = std::pow(10.0, m_.decimals(a));
-    return std::llround(program_units(a, from, m) * s) != std::llround(program_units(a, to, m) * s);
+    return std::llround(f * s) != std::llround(t * s);
   }
 
   /// mm (or degrees) per program unit of axis a.
@@ -461,6 +465,10 @@ class Compensator final : public gcode::BlockVisitor {
   /// conditions, e.g. the 4-axis lathe, cannot match the axis even at the end points).
   bool within(const ProgramMap& map, const Command& c0, const Command& c1, const Command& k0, const Command& k1,
               double tol_mm) {
+    // The common case first: the middle of the move is on the path (tool axis included).
+    double mid_mm = 0, mid_rad = 0;
+    if (!deviation(map, c0, c1, k0, k1, 0.5, mid_mm, mid_rad)) return false;
+    if (mid_mm <= tol_mm && mid_rad <= opt_.max_angle_rad) return true;
     double mm0 = 0, rad0 = 0, mm1 = 0, rad1 = 0;
     if (!deviation(map, c0, c1, k0, k1, 0.0, mm0, rad0) || !deviation(map, c0, c1, k0, k1, 1.0, mm1, rad1)) return false;
     const double rad_ends = std::max(rad0, rad1);

@@ -75,7 +75,7 @@ WordWriter::Outcome WordWriter::rewrite(const Block& b, const Motion& m, gcode::
       // An axis the block does not name stays where the controller holds it: write it if the
       // corrected end differs there at the output decimals.
       const double s = std::pow(10.0, dm);
-      if (std::llround(pv * s) == std::llround(held * s)) continue;
+      if (std::abs(pv - held) < 1e-9 || std::llround(pv * s) == std::llround(held * s)) continue;
       if (!have_start && !((m.known >> a) & 1u)) {
         o = {false, m.column, fmt::format("axis {} needs a correction but its position is unknown here",
                                           gcode::kAxisLetters[static_cast<std::size_t>(a)]), 0, 0};
@@ -88,11 +88,13 @@ WordWriter::Outcome WordWriter::rewrite(const Block& b, const Motion& m, gcode::
       continue;
     }
     const Word& w = b.words[static_cast<std::size_t>(wi)];
+    if (std::abs(pv - program_units(a, m.end[a], m)) < 1e-9) continue;  // no correction: the word stays
     const auto lit = gcode::literal_span(b, w);
     const bool inc = track_.incremental(w);
     if (!lit) {
       const double s = std::pow(10.0, dm);
-      if (std::llround(pv * s) == std::llround(program_units(a, m.end[a], m) * s)) continue;
+      const double was = program_units(a, m.end[a], m);
+      if (std::abs(pv - was) < 1e-9 || std::llround(pv * s) == std::llround(was * s)) continue;
       o = {false, column_of(w), "the axis word is an expression or parameter and needs a correction; the program "
                                 "must be resolved first (issue: expressions are written back in a later version)", 0, 0};
       return o;
@@ -187,7 +189,7 @@ std::string WordWriter::segment_line(const Block& b, const Motion& m, gcode::Axi
     const double s = std::pow(10.0, dm);
     const double pv = program_units(a, to.c[a], m);
     const double pf = program_units(a, from[a], m);
-    if (std::llround(pv * s) == std::llround(pf * s)) continue;
+    if (std::abs(pv - pf) < 1e-9 || std::llround(pv * s) == std::llround(pf * s)) continue;
     const double v = track_.absolute ? pv : pv - pf;
     add(std::string(1, gcode::kAxisLetters[static_cast<std::size_t>(a)]) +
         gcode::format_counts(std::llround(v * s), dm, style_for('X'), d_.decimal_point_required));

@@ -39,6 +39,10 @@ namespace {
 /// matching the tool axis exactly needs large rotary motions; there the tool axis keeps its
 /// nominal rotary values and only the tool tip is corrected.
 constexpr double kMaxRotaryCorrectionDeg = 0.2;
+/// Convergence of the remap's iterations: far below any output decimal, above the floating-point
+/// noise of positions in the metres (1e-11 mm is not reachable at C = 2430°).
+constexpr double kToleranceMm = 1e-9;
+constexpr double kToleranceRad = 1e-11;
 
 }  // namespace
 
@@ -51,7 +55,7 @@ kin::Solve solve_linear(const kin::Model& model, const Eigen::Vector3d& target, 
     const Eigen::Vector3d r = target - at.p;
     s.iterations = it;
     s.residual_mm = r.norm();
-    if (s.residual_mm < 1e-11) return s;
+    if (s.residual_mm < kToleranceMm) return s;
     const kin::Jacobian jf = model.jacobian(q);
     Eigen::Matrix<double, 3, Eigen::Dynamic, Eigen::ColMajor, 3, kin::kMaxJoints> a(3, n);
     a.setZero();
@@ -135,6 +139,8 @@ kin::Solve ProgramMap::joints(const Command& cmd, const kin::JointVector& start,
   }
   kin::IkOptions opt;
   opt.check_limits = false;
+  opt.tolerance_mm = kToleranceMm;
+  opt.tolerance_rad = kToleranceRad;
   return nominal_->inverse(target, seed, q, opt);
 }
 
@@ -183,6 +189,8 @@ kin::Solve ProgramMap::correct(const Command& cmd, const kin::JointVector& start
   if (auto s = intended(cmd, start, goal, q_nom); !s.ok()) return s;
   kin::IkOptions opt;
   opt.check_limits = false;
+  opt.tolerance_mm = kToleranceMm;
+  opt.tolerance_rad = kToleranceRad;
   // Serial machines with fewer than five joints (3-axis, lathes) can only match what they have.
   kin::Solve s = actual_->inverse(goal, q_nom, q_actual, opt);
   bool near_singular = !s.ok() && (s.status == kin::Status::singular || s.status == kin::Status::no_convergence ||

@@ -1,0 +1,99 @@
+#!/usr/bin/env bash
+# Corpus test of compensate: through a machine without errors every program of the shared corpus
+# either comes out byte for byte (with --no-header) or is refused with located errors.
+#
+#   corpus_compensate.sh POSTPROC_BINARY CORPUS_DIR
+#
+# The machine is a zero-error serial chain with every axis the corpus uses (X Y Z W on the tool
+# side, A B C on the table), work offsets G54–G59, G54.1 P1–P48, G59.1–G59.3 at 0 and tool lengths
+# H1–H200, in the file's dialect (fanuc files under lathe/ as lathes). At least 22 files must be
+# accepted. Exit 77 (skipped) when CORPUS_DIR does not exist.
+set -uo pipefail
+[[ $# -eq 2 ]] || { echo "usage: $0 POSTPROC_BINARY CORPUS_DIR" >&2; exit 64; }
+bin=$(realpath "$1")
+corpus=$2
+if [[ ! -d "$corpus" ]]; then
+  echo "corpus_compensate: SKIPPED: corpus folder '$corpus' does not exist"
+  exit 77
+fi
+corpus=$(realpath "$corpus")
+readonly min_accepted=22
+work=$(mktemp -d)
+trap 'rm -rf "$work"' EXIT
+
+machine() {  # machine DIALECT LATHE > file
+  local dialect=$1 lathe=$2
+  cat <<TOML
+[machine]
+name = "zero-error universal machine (corpus test)"
+dialect = "$dialect"
+lathe = $lathe
+model = "serial"
+
+[tool]
+length = "100 mm"
+[tool.lengths]
+$(for h in $(seq 1 200); do echo "$h = 100"; done)
+
+[work_offsets]
+$(for g in G54 G55 G56 G57 G58 G59 G59.1 G59.2 G59.3; do echo "\"$g\" = { X = 0 }"; done)
+$(for p in $(seq 1 48); do echo "\"G54.1P$p\" = { X = 0 }"; done)
+$(for g in $(seq 500 599); do echo "G$g = { X = 0 }"; done)
+
+[serial]
+spindle_point = [0, 0, 0]
+$(for a in A:1,0,0 B:0,1,0 C:0,0,1; do
+  echo "[[serial.workpiece_side]]"
+  echo "axis = \"${a%%:*}\""
+  echo "type = \"rotary\""
+  echo "direction = [${a#*:}]"
+  echo "pivot = [0, 0, 0]"
+done)
+$(for a in X:1,0,0 Y:0,1,0 Z:0,0,1 W:0,0,1; do
+  echo "[[serial.tool_side]]"
+  echo "axis = \"${a%%:*}\""
+  echo "type = \"linear\""
+  echo "direction = [${a#*:}]"
+  echo "min = -100000"
+  echo "max = 100000"
+done)
+
+$(for a in X Y Z W A B C; do echo "[axes.$a]"; done)
+TOML
+}
+
+cd "$corpus" || exit 1
+failures=0 accepted=0 refused=0
+while IFS=$'\t' read -r file _repo _path _commit _license dialect _rest; do
+  [[ "$file" == file || -z "$file" ]] && continue
+  case "$dialect" in
+    fanuc | siemens | linuxcnc) d=$dialect ;;
+    *) continue ;;  # Okuma, MillPlus, Roeders: not a dialect compensate writes
+  esac
+  lathe=false
+  [[ "$d" == fanuc && "$file" == lathe/* ]] && lathe=true
+  machine "$d" "$lathe" > "$work/m.toml"
+  out="$work/out"
+  rm -f "$out"
+  "$bin" compensate "$file" -m "$work/m.toml" -o "$out" --no-header > /dev/null 2> "$work/err" < /dev/null
+  rc=$?
+  case $rc in
+    0)
+      if cmp -s "$file" "$out"; then
+        accepted=$((accepted + 1)); echo "same     $file"
+      else
+        echo "FAIL $file: accepted but not byte-identical:"; cmp "$file" "$out" | head -3; failures=$((failures + 1))
+      fi ;;
+    2)
+      refused=$((refused + 1))
+      if [[ -e "$out" ]]; then echo "FAIL $file: refused but an output exists"; failures=$((failures + 1)); fi
+      if grep -qE '^[^:]+:[0-9]+:[0-9]+: error: PP-[EM][0-9]+: ' "$work/err"; then
+        echo "refused  $file ($(grep -oE 'error: PP-[EM][0-9]+' "$work/err" | sort | uniq -c | tr -s ' ' | tr '\n' ','))"
+      else
+        echo "FAIL $file: refused without a located error"; head -3 "$work/err"; failures=$((failures + 1))
+      fi ;;
+    *) echo "FAIL $file: exit $rc"; tail -3 "$work/err"; failures=$((failures + 1)) ;;
+  esac
+done < MANIFEST.tsv
+echo "corpus_compensate: $accepted byte-identical, $refused refused, $failures failures"
+[[ $failures -eq 0 && $accepted -ge $min_accepted ]]
