@@ -378,6 +378,7 @@ class Compensator final : public gcode::BlockVisitor {
       return;
     }
     const ProgramMap& map = *map_;
+    measure(m, map, out);  // first: later checks run the remap on other points
     if (m.tilted_plane) {
       check_unchanged(b, m);
       note_written(m, m.end);
@@ -392,14 +393,12 @@ class Compensator final : public gcode::BlockVisitor {
       const ArcCheck k = arc_check(b, m, out);
       if (k == ArcCheck::refused) return;
       if (k == ArcCheck::linearize) {
-        measure(m, map, out);
         if (linearize_arc(b, m, map, out, ed)) joints_ = q;
         return;
       }
       ++r_.arcs_kept;
       restore_arc_mode(b, ed);
     }
-    measure(m, map, out);
     // Subdivide feed moves whose joint-space interpolation would leave the intended path.
     std::vector<Command> points;
     if (m.type == MotionType::linear && (written_known_ & mask_) == mask_ && (m.known & mask_) == mask_) {
@@ -417,10 +416,11 @@ class Compensator final : public gcode::BlockVisitor {
 
   /// Error of the original program on the real machine and the residual of the corrected one.
   void measure(const Motion& m, const ProgramMap& map, const Command& out) {
-    kin::Pose want, before, after;
-    kin::JointVector qn, qa;
-    const Command src{m.end, m.tool_vector};
-    if (!map.intended(src, joints_, want, qn).ok() || !map.real(src, joints_, before, qa).ok()) return;
+    // The intended pose and the nominal joints of the end point come from the remap itself.
+    const kin::Pose& want = map.last_intended();
+    kin::Pose before, after;
+    kin::JointVector qa;
+    if (!map.actual().forward(map.last_nominal_joints(), before).ok()) return;
     const double e = (before.p - want.p).norm();
     const double ea = std::acos(std::clamp(before.axis().dot(want.axis()), -1.0, 1.0));
     if (e > r_.max_error_before_mm) {

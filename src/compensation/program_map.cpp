@@ -38,7 +38,7 @@ namespace {
 /// Near a singular configuration (the tool axis along a rotary axis, e.g. B = 0 on a B/C table)
 /// matching the tool axis exactly needs large rotary motions; there the tool axis keeps its
 /// nominal rotary values and only the tool tip is corrected.
-constexpr double kMaxRotaryCorrectionDeg = 0.2;
+constexpr double kMaxRotaryCorrectionDeg = 0.05;
 /// Convergence of the remap's iterations: far below any output decimal, above the floating-point
 /// noise of positions in the metres (1e-11 mm is not reachable at C = 2430°).
 constexpr double kToleranceMm = 1e-9;
@@ -184,8 +184,8 @@ kin::Solve ProgramMap::real(const Command& cmd, const kin::JointVector& start, k
 
 kin::Solve ProgramMap::correct(const Command& cmd, const kin::JointVector& start, Command& out,
                                kin::JointVector& q_actual) const {
-  kin::Pose goal;
-  kin::JointVector q_nom;
+  kin::Pose& goal = last_goal_;
+  kin::JointVector& q_nom = last_q_nom_;
   if (auto s = intended(cmd, start, goal, q_nom); !s.ok()) return s;
   kin::IkOptions opt;
   opt.check_limits = false;

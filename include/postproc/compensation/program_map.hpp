@@ -64,6 +64,9 @@ class ProgramMap {
   [[nodiscard]] const kin::Model& actual() const { return *actual_; }
   /// Program axis of joint j (-1 for joints that are not program axes, e.g. hexapod struts).
   [[nodiscard]] int axis_of_joint(int j) const { return axis_of_joint_[static_cast<std::size_t>(j)]; }
+  /// The intended pose and nominal joints of the last correct() call.
+  [[nodiscard]] const kin::Pose& last_intended() const { return last_goal_; }
+  [[nodiscard]] const kin::JointVector& last_nominal_joints() const { return last_q_nom_; }
   /// Corrections that kept the nominal rotary values because the configuration was singular.
   [[nodiscard]] std::uint64_t singular_fallbacks() const { return singular_fallbacks_; }
 
@@ -75,6 +78,8 @@ class ProgramMap {
   gcode::AxisVector offset_;
   double length_z_ = 0;  ///< added to the Z joint
   mutable std::uint64_t singular_fallbacks_ = 0;
+  mutable kin::Pose last_goal_;
+  mutable kin::JointVector last_q_nom_;
   std::array<int, kin::kMaxJoints> axis_of_joint_{};
   std::array<int, gcode::kAxisCount> joint_of_axis_{};
 };
