@@ -1,0 +1,2 @@
+(expect PP-M002)
+G0 X0 Y0 Z100 B0 C0
