@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# End-to-end throughput of the postproc CLI on a generated 5-axis program, with LinuxCNC's
-# standalone interpreter (rs274) on the same program as the reference point.
+# End-to-end throughput of the postproc CLI on a generated 5-axis program (check, dump, convert,
+# compensate), with LinuxCNC's standalone interpreter (rs274) on the same program as the
+# reference point.
 #
 #   bench/run_cli_bench.sh [BUILD_DIR] [BLOCKS]        defaults: build/release 1000000
 #
@@ -126,6 +127,15 @@ bench_cli() {
     fi
   fi
   rm -f "$out"
+  # compensate through the calibrated A/C trunnion of the samples (the program is written for an
+  # A/C table-table machine); convert's identity pass is its baseline (same reader and writer).
+  measure "$cli" compensate "$file" -m "$root/samples/machines/trunnion_ac_fanuc.toml" -o "$tmp/compensated.nc"
+  row "compensate (A/C trunnion)$tag" "$file"
+  if ((m_rc == 0)) && [[ -n "$convert_mbs" ]]; then
+    awk -v t="$m_time" -v b="$(stat -c %s "$file")" -v c="$convert_mbs" \
+      'BEGIN { if (t <= 0) t = 0.01; printf "compensate/convert throughput ratio%s: %.3f\n", "", b / 1e6 / t / c }'
+  fi
+  rm -f "$tmp/compensated.nc"
 }
 
 fanuc="$tmp/bench_fanuc.nc"

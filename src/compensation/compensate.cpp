@@ -148,35 +148,18 @@ class Compensator final : public gcode::BlockVisitor {
     gcode::report_at(gcode::LexContext{file_, &sink_}, b, s, gcode::Severity::warning, code, std::move(why));
   }
 
-  /// The form of a motion's axis words.
-  Form form_of(const Motion& m) const {
-    if (m_.coordinates == machine::ProgramCoordinates::tool_tip)
-      return m_.orientation == machine::Orientation::virtual_ab ? Form::tcp_virtual : Form::tcp_vector;
-    if (m.frame == gcode::Frame::machine) return Form::axes;
-    switch (m.tcp) {
-      case gcode::TcpMode::off: return Form::axes;
-      case gcode::TcpMode::fanuc_g43_5: return Form::tcp_vector;
-      case gcode::TcpMode::siemens_traori: return m.tool_vector_known ? Form::tcp_vector : Form::tcp_rotary;
-      default: return Form::tcp_rotary;
-    }
-  }
+  Form form_of(const Motion& m) const { return comp::form_of(m_, m); }
 
   /// The controller map of this motion, or nullopt after a refusal.
   std::optional<ProgramMap> map_of(const Block& b, const Motion& m, Form form) {
-    AxisVector offset = m.local_offset + m.position_offset;
-    if (m.frame == gcode::Frame::work) {
+    const auto offset = program_offset(m_, m);
+    if (!offset) {
       const std::string name = machine::work_offset_name(m.work_offset);
-      const auto it = m_.work_offsets.find(name);
-      if (it == m_.work_offsets.end()) {
-        refuse(b, m.column, kMachine,
-               fmt::format("work offset {} is not in machine file {}; add [work_offsets] {} = {{ X = …, Y = …, Z = … }} "
-                           "with the controller's values",
-                           name, m_.file, name));
-        return std::nullopt;
-      }
-      offset += it->second;
-    } else {
-      offset.setZero();
+      refuse(b, m.column, kMachine,
+             fmt::format("work offset {} is not in machine file {}; add [work_offsets] {} = {{ X = …, Y = …, Z = … }} "
+                         "with the controller's values",
+                         name, m_.file, name));
+      return std::nullopt;
     }
     double length = m_.tool_length;
     if (m.tool_length_active && m.tool_length_h != 0) {
@@ -197,7 +180,7 @@ class Compensator final : public gcode::BlockVisitor {
       return std::nullopt;
     }
     const auto& [nom, act] = models_.with_tool_length(length);
-    return ProgramMap(m_, nom, act, form, offset, form == Form::axes && m.tool_length_active, length);
+    return ProgramMap(m_, nom, act, form, *offset, form == Form::axes && m.tool_length_active, length);
   }
 
   /// Axes whose words this form writes.

@@ -19,6 +19,25 @@ std::string_view to_string(Form f) {
   return "?";
 }
 
+Form form_of(const machine::Machine& m, const gcode::Motion& mo) {
+  if (m.coordinates == machine::ProgramCoordinates::tool_tip)
+    return m.orientation == machine::Orientation::virtual_ab ? Form::tcp_virtual : Form::tcp_vector;
+  if (mo.frame == gcode::Frame::machine) return Form::axes;
+  switch (mo.tcp) {
+    case gcode::TcpMode::off: return Form::axes;
+    case gcode::TcpMode::fanuc_g43_5: return Form::tcp_vector;
+    case gcode::TcpMode::siemens_traori: return mo.tool_vector_known ? Form::tcp_vector : Form::tcp_rotary;
+    default: return Form::tcp_rotary;
+  }
+}
+
+std::optional<gcode::AxisVector> program_offset(const machine::Machine& m, const gcode::Motion& mo) {
+  if (mo.frame != gcode::Frame::work) return gcode::AxisVector::Zero();
+  const auto it = m.work_offsets.find(machine::work_offset_name(mo.work_offset));
+  if (it == m.work_offsets.end()) return std::nullopt;
+  return gcode::AxisVector(it->second + mo.local_offset + mo.position_offset);
+}
+
 Eigen::Vector3d virtual_ab_axis(double a_deg, double b_deg) {
   const double a = a_deg * kin::kDeg;
   const double b = b_deg * kin::kDeg;

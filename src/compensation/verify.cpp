@@ -42,27 +42,9 @@ class Collector final : public gcode::BlockVisitor {
   bool known_ = false;
 };
 
-Form form_of(const machine::Machine& m, const gcode::Motion& mo) {
-  if (m.coordinates == machine::ProgramCoordinates::tool_tip)
-    return m.orientation == machine::Orientation::virtual_ab ? Form::tcp_virtual : Form::tcp_vector;
-  if (mo.frame == gcode::Frame::machine) return Form::axes;
-  switch (mo.tcp) {
-    case gcode::TcpMode::off: return Form::axes;
-    case gcode::TcpMode::fanuc_g43_5: return Form::tcp_vector;
-    case gcode::TcpMode::siemens_traori: return mo.tool_vector_known ? Form::tcp_vector : Form::tcp_rotary;
-    default: return Form::tcp_rotary;
-  }
-}
-
 std::optional<ProgramMap> map_of(const machine::Machine& m, ToolLengthModels& models, const gcode::Motion& mo) {
-  gcode::AxisVector offset = mo.local_offset + mo.position_offset;
-  if (mo.frame == gcode::Frame::work) {
-    const auto it = m.work_offsets.find(machine::work_offset_name(mo.work_offset));
-    if (it == m.work_offsets.end()) return std::nullopt;
-    offset += it->second;
-  } else {
-    offset.setZero();
-  }
+  const auto offset = program_offset(m, mo);
+  if (!offset) return std::nullopt;
   double length = m.tool_length;
   if (mo.tool_length_active && mo.tool_length_h != 0) {
     const auto it = m.tool_lengths.find(mo.tool_length_h);
@@ -71,7 +53,7 @@ std::optional<ProgramMap> map_of(const machine::Machine& m, ToolLengthModels& mo
   }
   const Form f = form_of(m, mo);
   const auto& [nom, act] = models.with_tool_length(length);
-  return ProgramMap(m, nom, act, f, offset, f == Form::axes && mo.tool_length_active, length);
+  return ProgramMap(m, nom, act, f, *offset, f == Form::axes && mo.tool_length_active, length);
 }
 
 gcode::AxisMask form_axes(const machine::Machine& m, Form f) {

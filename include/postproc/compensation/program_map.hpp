@@ -84,6 +84,13 @@ class ProgramMap {
   std::array<int, gcode::kAxisCount> joint_of_axis_{};
 };
 
+/// The form of a motion's axis words on machine `m` (TCP mode, frame, machine file settings).
+[[nodiscard]] Form form_of(const machine::Machine& m, const gcode::Motion& mo);
+/// The offset from the program's coordinates to the workpiece frame for a motion: the work
+/// offset (nullopt when the machine file does not give it) + G52/TRANS + G92 shifts; zero in
+/// machine coordinates (G53).
+[[nodiscard]] std::optional<gcode::AxisVector> program_offset(const machine::Machine& m, const gcode::Motion& mo);
+
 /// Newton on the linear joints of q only, so that the tool tip reaches `target` (mm, workpiece
 /// frame); the rotary joints keep their values.
 [[nodiscard]] kin::Solve solve_linear(const kin::Model& model, const Eigen::Vector3d& target, kin::JointVector& q);
