@@ -47,7 +47,8 @@ nlohmann::json report_json(const CompensateArgs& a, const machine::Machine& m, c
                  {"arcs_kept", r.arcs_kept},
                  {"arcs_linearized", r.arcs_linearized},
                  {"reference_moves", r.reference_moves},
-                 {"rapids_as_written", r.rapids_as_written}};
+                 {"rapids_as_written", r.rapids_as_written},
+                 {"singular_points_tip_only", r.singular_fallbacks}};
   j["figures"] = {{"max_correction_mm", r.max_correction_mm},
                   {"max_correction_deg", r.max_correction_deg},
                   {"max_error_before_mm", r.max_error_before_mm},

@@ -97,6 +97,11 @@ class Compensator final : public gcode::BlockVisitor {
     out_.write(buffer_);
     buffer_.clear();
   }
+  void finish() {
+    flush();
+    if (map_) r_.singular_fallbacks += map_->singular_fallbacks();
+    map_.reset();
+  }
 
  private:
   /// The tool vector is modal (G43.5 / TRAORI blocks without I J K / A3 B3 C3 keep it).
@@ -239,9 +244,18 @@ class Compensator final : public gcode::BlockVisitor {
   /// Corrects the end point of `m` into `out`; fills q_actual. False after a refusal.
   bool endpoint(const Block& b, const Motion& m, Command& out, kin::JointVector* q_actual) {
     const Form form = form_of(m);
-    map_.reset();
-    auto map = map_of(b, m, form);
-    if (!map) return false;
+    // The controller map depends on the modal context only: reuse it while that stays the same.
+    const MapKey key{form, m.frame, m.work_offset.code10, m.work_offset.p, m.tool_length_active, m.tool_length_h,
+                     m.local_offset + m.position_offset};
+    if (!map_ || !(key == map_key_)) {
+      if (map_) r_.singular_fallbacks += map_->singular_fallbacks();
+      map_.reset();
+      auto fresh = map_of(b, m, form);
+      if (!fresh) return false;
+      map_.emplace(std::move(*fresh));
+      map_key_ = key;
+    }
+    ProgramMap* map = &*map_;
     mask_ = written_axes(form);
     const AxisMask foreign = static_cast<AxisMask>(m.programmed & ~mask_ & ~((form != Form::axes) ? 0b111000 : 0));
     if (foreign != 0) {
@@ -276,7 +290,6 @@ class Compensator final : public gcode::BlockVisitor {
       return false;
     }
     if (q_actual != nullptr) *q_actual = q;
-    map_.emplace(std::move(*map));
     return true;
   }
 
@@ -706,7 +719,20 @@ class Compensator final : public gcode::BlockVisitor {
   gcode::ModalTrack track_;
   ToolLengthModels models_;
   gcode::DiagnosticSink collect_{0};
+  struct MapKey {
+    Form form = Form::axes;
+    gcode::Frame frame = gcode::Frame::work;
+    std::uint16_t code10 = 0, p = 0;
+    bool length_active = false;
+    std::uint16_t h = 0;
+    AxisVector shift = AxisVector::Zero();
+    bool operator==(const MapKey& o) const {
+      return form == o.form && frame == o.frame && code10 == o.code10 && p == o.p && length_active == o.length_active &&
+             h == o.h && shift == o.shift;
+    }
+  };
   std::optional<ProgramMap> map_;
+  MapKey map_key_;
   bool block_error_ = false;
   bool header_done_ = false;
   bool rapid_as_written_ = false;
@@ -786,7 +812,7 @@ CompensateResult compensate(gcode::LineReader& in, std::string_view file, const 
   CompensateResult r;
   Compensator c(file, dialect, m, opt, out, sink, r);
   const gcode::ProgramStats st = gcode::run_program(in, dialect, file, c.collector(), c);
-  c.flush();
+  c.finish();
   r.bytes_in = st.bytes;
   return r;
 }

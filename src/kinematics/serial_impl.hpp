@@ -1,7 +1,8 @@
 #pragma once
 // Private to the serial model: the per-axis geometry resolved once from the parameter values, so
 // forward kinematics, the Jacobian (serial.cpp) and the inverse (serial_inverse.cpp) only do the
-// per-q work: a sine/cosine per rotary axis, a table lookup, products of 3×3 rotations.
+// per-q work: one pass over the joints, a sine/cosine per rotary axis (precomputed by the caller),
+// an O(1) table lookup, products of 3×3 rotations, no temporaries and no heap.
 #include <array>
 #include <vector>
 
@@ -26,24 +27,39 @@ Eigen::Matrix3d rotation_about(const Eigen::Vector3d& d, double a);
 
 struct SerialModel::Impl {
   using Rigid = serial_detail::Rigid;
+  /// One row of an error-motion table with the slope of the segment it starts (per mm / degree;
+  /// zero on the last row), contiguous so that a lookup touches one cache line or two.
+  struct Row {
+    double pos = 0;
+    std::array<double, 6> val{};
+    std::array<double, 6> slope{};
+  };
   struct Axis {
     bool rotary = false;
     Eigen::Vector3d dir;    // actual direction (squareness / orientation errors applied), unit
     Eigen::Vector3d point;  // rotary: actual point of the axis line (pivot + location errors), mm
     double offset = 0;      // zero offset added to the commanded value: mm, or rad for rotary
-    // Error-motion table (empty: none): rows and the slope of each segment, per mm / degree.
-    std::vector<double> pos;
-    std::vector<std::array<double, 6>> val;
-    std::vector<std::array<double, 6>> slope;
+    // Rotary: R(θ) = dd + cos θ·(I − dd) + sin θ·[dir]×, and the translation of the turn about
+    // the line, point − R(θ)·point = (1 − cos θ)·pq − sin θ·pk.
+    Eigen::Matrix3d dd = Eigen::Matrix3d::Zero();  // dir·dirᵀ
+    Eigen::Vector3d pq = Eigen::Vector3d::Zero();  // point − (dir·point)·dir
+    Eigen::Vector3d pk = Eigen::Vector3d::Zero();  // dir × point
+    // Error-motion table (empty: none).
+    std::vector<Row> rows;
     double inv_step = 0;  // 1 / row spacing when the rows are evenly spaced (the usual case), else 0
   };
-  /// One joint's motion in its parent's frame at q, with its spatial twist (w, v) per mm / degree
-  /// in that frame (a point x of the body moves by w × x + v).
-  struct Local {
-    Rigid x;
-    Eigen::Vector3d w;
-    Eigen::Vector3d v;
-    bool turns = false;  // x.r is not the identity
+  /// Sine and cosine of each rotary joint's angle (q·π/180 + offset); unused for linear joints.
+  struct Trig {
+    std::array<double, kMaxJoints> s{};
+    std::array<double, kMaxJoints> c{};
+  };
+  /// One evaluation of both chains: each side's body → machine transform and, when asked, the
+  /// spatial twist (w, v) of each joint in the machine frame per mm / degree (a point x of the
+  /// moved body moves by w × x + v).
+  struct Chain {
+    Rigid side[2];  // [0] workpiece frame → machine frame; [1] last tool-side body → machine frame
+    std::array<Eigen::Vector3d, kMaxJoints> w;
+    std::array<Eigen::Vector3d, kMaxJoints> v;
   };
 
   std::vector<Axis> axes;  // joint order
@@ -51,8 +67,13 @@ struct SerialModel::Impl {
   int rotary_count = 0;
   Rigid tool0;  // tool frame in the last tool-side body's frame (= machine frame at zero)
 
-  /// The twist (w, v) only when `twist`.
-  [[nodiscard]] Local local(int j, double q, bool twist) const;
+  /// The sines and cosines of q's rotary joints.
+  void trig(const JointVector& q, Trig& t) const;
+  /// Both chains at q (sines and cosines in `t`); the twists only when Twist. `hint` (one per
+  /// joint, may be null) is the table segment of the last lookup, tried first on unevenly spaced
+  /// tables.
+  template <bool Twist>
+  void chain(const JointVector& q, const Trig& t, Chain& out, int* hint = nullptr) const;
   /// Pose of the tool in the workpiece frame at q; the Jacobian too when `jac` is not null.
   /// `workpiece` receives the workpiece-side transform (workpiece frame → machine frame).
   void evaluate(const JointVector& q, Pose& out, Jacobian* jac, Rigid* workpiece = nullptr) const;

@@ -42,6 +42,9 @@ struct CompensateResult {
   std::uint64_t arcs_linearized = 0;     ///< arcs replaced by corrected G1 chords
   std::uint64_t reference_moves = 0;     ///< G28/G30 blocks (machine reference: left as written)
   std::uint64_t rapids_as_written = 0;   ///< rapids before every axis was known (left as written, PP-W601)
+  /// Points near a singular configuration where the rotary values stayed nominal and only the
+  /// tool tip was corrected (the tool axis keeps the machine's orientation error there).
+  std::uint64_t singular_fallbacks = 0;
   std::uint64_t bytes_in = 0;
   double max_correction_mm = 0;          ///< largest change of a linear axis / tool-tip word, mm
   double max_correction_deg = 0;         ///< … of a rotary axis word, degrees
