@@ -256,18 +256,25 @@ SerialModel::SerialModel(SerialConfig cfg, std::vector<double> values)
       g.dir = rotation_exp(tilt) * g.dir;
       g.offset = value(fmt::format("E{}0{}", kAbc[i], k));
     }
-    g.pos = a->table.position;
-    g.val = a->table.error;
-    for (std::size_t r = 1; r < g.pos.size(); ++r) {
-      std::array<double, 6> s{};
-      for (std::size_t c = 0; c < 6; ++c) s[c] = (g.val[r][c] - g.val[r - 1][c]) / (g.pos[r] - g.pos[r - 1]);
-      g.slope.push_back(s);
+    if (g.rotary) {
+      g.dd = g.dir * g.dir.transpose();
+      g.pq = g.point - g.dir.dot(g.point) * g.dir;
+      g.pk = g.dir.cross(g.point);
     }
-    if (g.pos.size() >= 2) {
-      const double h = (g.pos.back() - g.pos.front()) / static_cast<double>(g.pos.size() - 1);
+    const auto& pos = a->table.position;
+    const auto& val = a->table.error;
+    g.rows.resize(pos.size());
+    for (std::size_t r = 0; r < pos.size(); ++r) {
+      g.rows[r].pos = pos[r];
+      g.rows[r].val = val[r];
+      if (r + 1 < pos.size())
+        for (std::size_t c = 0; c < 6; ++c) g.rows[r].slope[c] = (val[r + 1][c] - val[r][c]) / (pos[r + 1] - pos[r]);
+    }
+    if (pos.size() >= 2) {
+      const double h = (pos.back() - pos.front()) / static_cast<double>(pos.size() - 1);
       bool even = true;
-      for (std::size_t r = 0; r < g.pos.size(); ++r)
-        even = even && std::abs(g.pos[r] - (g.pos.front() + h * static_cast<double>(r))) <= 1e-9 * h;
+      for (std::size_t r = 0; r < pos.size(); ++r)
+        even = even && std::abs(pos[r] - (pos.front() + h * static_cast<double>(r))) <= 1e-9 * h;
       if (even) g.inv_step = 1 / h;
     }
     impl->axes.push_back(std::move(g));
@@ -293,88 +300,231 @@ std::shared_ptr<const SerialModel> SerialModel::without_tables() const {
   return std::shared_ptr<const SerialModel>(new SerialModel(std::move(c), values_));
 }
 
-SerialModel::Impl::Local SerialModel::Impl::local(int j, double q, bool twist) const {
-  const Axis& g = axes[static_cast<std::size_t>(j)];
-  Local l;
-  // Nominal (parameter-erroneous) motion: a translation along dir, or a turn about the axis line.
-  if (!g.rotary) {
-    l.x.t = g.dir * (q + g.offset);
-    l.w.setZero();
-    l.v = g.dir;
+namespace {
+
+// Coefficients of exp([e]×) = I + a[e]× + b[e]×² and of its left Jacobian I + b[e]× + c[e]×²
+// (t = |e|²), as rotation_exp computes them.
+inline void exp_coefficients(double t, double& a, double& b, double& c) {
+  if (t < 1e-4) {  // (products with the reciprocals: no division on the path of every table)
+    a = 1 - t * (1.0 / 6) * (1 - t * (1.0 / 20) * (1 - t * (1.0 / 42)));
+    b = 0.5 * (1 - t * (1.0 / 12) * (1 - t * (1.0 / 30) * (1 - t * (1.0 / 56))));
+    c = (1 - t * (1.0 / 20) * (1 - t * (1.0 / 42) * (1 - t * (1.0 / 72)))) * (1.0 / 6);
   } else {
-    l.turns = true;
-    l.x.r = rotation_about(g.dir, q * kDeg + g.offset);
-    l.x.t = g.point - l.x.r * g.point;
-    l.w = g.dir * kDeg;
-    if (twist) l.v = -l.w.cross(g.point);
+    const double th = std::sqrt(t);
+    const double s = std::sin(th);
+    a = s / th;
+    b = (1 - std::cos(th)) / t;
+    c = (th - s) / (t * th);
   }
-  if (g.pos.empty()) return l;
-  // Error motion E after the motion: x ↦ Re(x − c) + c + δ about the reference point c (the
-  // carried origin d·s, or the axis point). Twist of E∘M: w = Jl·ε' + Re·w_M; v = δ' + v_M − w × t
-  // for linear axes (t = c + δ), δ' − w × (c + δ) for rotary ones.
-  std::array<double, 6> e = g.val.back();
-  std::array<double, 6> de{};
-  if (q < g.pos.front()) {
-    e = g.val.front();
-  } else if (q < g.pos.back()) {
-    std::size_t k = 0;
-    if (g.inv_step > 0) {
-      k = std::min(static_cast<std::size_t>((q - g.pos.front()) * g.inv_step), g.slope.size() - 1);
-    } else {
-      k = static_cast<std::size_t>(std::upper_bound(g.pos.begin(), g.pos.end(), q) - g.pos.begin() - 1);
-    }
-    de = g.slope[k];
-    for (std::size_t c = 0; c < 6; ++c) e[c] = g.val[k][c] + de[c] * (q - g.pos[k]);
-  }
-  const Eigen::Vector3d delta(e[0], e[1], e[2]);
-  Eigen::Matrix3d jl;
-  const Eigen::Matrix3d re = rotation_exp(Eigen::Vector3d(e[3], e[4], e[5]), twist ? &jl : nullptr);
-  l.turns = true;
-  l.x.r = g.rotary ? Eigen::Matrix3d(re * l.x.r) : re;
-  const Eigen::Vector3d c = g.rotary ? Eigen::Vector3d(g.point + delta) : Eigen::Vector3d(l.x.t + delta);
-  l.x.t = g.rotary ? Eigen::Vector3d(c - l.x.r * g.point) : c;
-  if (!twist) return l;
-  const Eigen::Vector3d ddelta(de[0], de[1], de[2]);
-  const Eigen::Vector3d we = jl * Eigen::Vector3d(de[3], de[4], de[5]);
-  l.w = we + re * l.w;
-  l.v = ddelta - l.w.cross(c) + (g.rotary ? Eigen::Vector3d::Zero() : g.dir);
-  return l;
 }
 
-void SerialModel::Impl::evaluate(const JointVector& q, Pose& out, Jacobian* jac, Rigid* workpiece) const {
-  // Both chains from the bed; the twist of joint j in the machine frame is the local twist moved
-  // by the product of the bodies before it (Ad).
+// m = (1 − f·t)·I + g·[e]× + f·e·eᵀ.
+inline void so3_into(double x, double y, double z, double t, double g, double f, Eigen::Matrix3d& m) {
+  const double d = 1 - f * t;
+  const double fxy = f * x * y;
+  const double fxz = f * x * z;
+  const double fyz = f * y * z;
+  m(0, 0) = d + f * x * x;
+  m(1, 0) = fxy + g * z;
+  m(2, 0) = fxz - g * y;
+  m(0, 1) = fxy - g * z;
+  m(1, 1) = d + f * y * y;
+  m(2, 1) = fyz + g * x;
+  m(0, 2) = fxz + g * y;
+  m(1, 2) = fyz - g * x;
+  m(2, 2) = d + f * z * z;
+}
+
+}  // namespace
+
+void SerialModel::Impl::trig(const JointVector& q, Trig& t) const {
   const int n = static_cast<int>(axes.size());
-  std::array<Eigen::Vector3d, kMaxJoints> wb;
-  std::array<Eigen::Vector3d, kMaxJoints> vb;
-  Rigid side[2];
   for (int j = 0; j < n; ++j) {
-    Rigid& a = side[j < workpiece_count ? 0 : 1];
-    const Local l = local(j, q[j], jac != nullptr);
-    if (jac) {
-      const auto k = static_cast<std::size_t>(j);
-      wb[k].noalias() = a.r * l.w;
-      vb[k].noalias() = a.r * l.v;
-      vb[k] += a.t.cross(wb[k]);
-    }
-    a.t.noalias() += a.r * l.x.t;
-    if (l.turns) a.r = a.r * l.x.r;  // (a product into its own operand: Eigen uses a temporary)
+    const Axis& g = axes[static_cast<std::size_t>(j)];
+    if (!g.rotary) continue;
+    serial_detail::sincos_deg(q[j], g.offset, t.s[static_cast<std::size_t>(j)], t.c[static_cast<std::size_t>(j)]);
   }
-  const Rigid& tw = side[0];
-  const Rigid tool = side[1] * tool0;  // tool frame → machine frame
+}
+
+template <bool Twist>
+void SerialModel::Impl::chain(const JointVector& q, const Trig& tr, Chain& out, int* hint) const {
+  // Per joint: its motion in its parent's frame (rotation lr, translation lt, turning or not) and,
+  // for the Jacobian, its local twist (lw, lv); then the product into its side's transform, which
+  // moves the twist to the machine frame (Ad). A side whose rotation is still the identity (the
+  // first joints from the bed) takes the local values as they are.
+  const int n = static_cast<int>(axes.size());
+  bool identity[2] = {true, true};
+  for (Rigid& a : out.side) {
+    a.r.setIdentity();
+    a.t.setZero();
+  }
+  for (int j = 0; j < n; ++j) {
+    const auto k = static_cast<std::size_t>(j);
+    const Axis& g = axes[k];
+    const int sd = j < workpiece_count ? 0 : 1;
+    Rigid& a = out.side[sd];
+    Eigen::Matrix3d lr;
+    Eigen::Vector3d lt;
+    Eigen::Vector3d lw;
+    Eigen::Vector3d lv;
+    bool turns = g.rotary;
+    // Nominal (parameter-erroneous) motion: a translation along dir, or a turn about the axis line.
+    if (g.rotary) {
+      const double s = tr.s[k];
+      const double c = tr.c[k];
+      const double c1 = 1 - c;
+      const Eigen::Vector3d& d = g.dir;
+      lr = c1 * g.dd;
+      lr.diagonal().array() += c;
+      lr(0, 1) -= s * d.z();
+      lr(1, 0) += s * d.z();
+      lr(0, 2) += s * d.y();
+      lr(2, 0) -= s * d.y();
+      lr(1, 2) -= s * d.x();
+      lr(2, 1) += s * d.x();
+      lt = c1 * g.pq - s * g.pk;
+      if constexpr (Twist) {
+        lw = d * kDeg;
+        lv = -kDeg * g.pk;  // −w × point
+      }
+    } else {
+      lt = g.dir * (q[j] + g.offset);
+      if constexpr (Twist) {
+        lw.setZero();
+        lv = g.dir;
+      }
+    }
+    if (!g.rows.empty()) {
+      // Error motion E after the motion: x ↦ Re(x − c) + c + δ about the reference point c (the
+      // carried origin d·s, or the axis point). Twist of E∘M: w = Jl·ε' + Re·w_M; v = δ' + v_M − w × t
+      // for linear axes (t = c + δ), δ' − w × (c + δ) for rotary ones.
+      const double x = q[j];
+      const Row* row = &g.rows.back();
+      double dx = 0;
+      bool inside = false;
+      if (x < g.rows.front().pos) {
+        row = &g.rows.front();
+      } else if (x < g.rows.back().pos) {
+        std::size_t i = 0;
+        const std::size_t segments = g.rows.size() - 1;
+        if (g.inv_step > 0) {
+          i = std::min(static_cast<std::size_t>((x - g.rows.front().pos) * g.inv_step), segments - 1);
+        } else {
+          const std::size_t h = hint ? static_cast<std::size_t>(hint[j]) : segments;
+          if (h < segments && g.rows[h].pos <= x && x < g.rows[h + 1].pos) {
+            i = h;
+          } else {
+            const auto it = std::upper_bound(g.rows.begin(), g.rows.end(), x,
+                                             [](double v, const Row& r) { return v < r.pos; });
+            i = static_cast<std::size_t>(it - g.rows.begin() - 1);
+            if (hint) hint[j] = static_cast<int>(i);
+          }
+        }
+        row = &g.rows[i];
+        dx = x - row->pos;
+        inside = true;
+      }
+      const std::array<double, 6>& v0 = row->val;
+      const std::array<double, 6>& sl = row->slope;
+      double e[6];
+      for (int c = 0; c < 6; ++c) e[c] = inside ? v0[static_cast<std::size_t>(c)] + sl[static_cast<std::size_t>(c)] * dx
+                                                : v0[static_cast<std::size_t>(c)];
+      const double t = e[3] * e[3] + e[4] * e[4] + e[5] * e[5];
+      double ca = 0;
+      double cb = 0;
+      double cc = 0;
+      exp_coefficients(t, ca, cb, cc);
+      Eigen::Matrix3d re;
+      so3_into(e[3], e[4], e[5], t, ca, cb, re);
+      const Eigen::Vector3d delta(e[0], e[1], e[2]);
+      Eigen::Vector3d cp;
+      if (g.rotary) {
+        cp = g.point + delta;
+        const Eigen::Matrix3d m = lr;
+        lr.noalias() = re * m;
+        lt = cp;
+        lt.noalias() -= lr * g.point;
+      } else {
+        cp = lt + delta;
+        lr = re;
+        turns = true;
+        lt = cp;
+      }
+      if constexpr (Twist) {
+        if (inside) {
+          Eigen::Matrix3d jl;
+          so3_into(e[3], e[4], e[5], t, cb, cc, jl);
+          const Eigen::Vector3d we = jl * Eigen::Vector3d(sl[3], sl[4], sl[5]);
+          if (g.rotary) {
+            lw = we + re * lw;
+          } else {
+            lw = we;
+          }
+          lv = Eigen::Vector3d(sl[0], sl[1], sl[2]) - lw.cross(cp);
+        } else {
+          if (g.rotary) lw = re * Eigen::Vector3d(lw);
+          lv = -lw.cross(cp);
+        }
+        if (!g.rotary) lv += g.dir;
+      }
+    }
+    if (identity[sd]) {
+      if constexpr (Twist) {
+        out.w[k] = lw;
+        out.v[k] = lv + a.t.cross(lw);
+      }
+      a.t += lt;
+      if (turns) {
+        a.r = lr;
+        identity[sd] = false;
+      }
+    } else {
+      if constexpr (Twist) {
+        out.w[k].noalias() = a.r * lw;
+        out.v[k].noalias() = a.r * lv;
+        out.v[k] += a.t.cross(out.w[k]);
+      }
+      a.t.noalias() += a.r * lt;
+      if (turns) {
+        const Eigen::Matrix3d m = a.r;
+        a.r.noalias() = m * lr;
+      }
+    }
+  }
+}
+
+template void SerialModel::Impl::chain<true>(const JointVector&, const Trig&, Chain&, int*) const;
+template void SerialModel::Impl::chain<false>(const JointVector&, const Trig&, Chain&, int*) const;
+
+void SerialModel::Impl::evaluate(const JointVector& q, Pose& out, Jacobian* jac, Rigid* workpiece) const {
+  Trig t;
+  trig(q, t);
+  Chain ch;
+  if (jac) {
+    chain<true>(q, t, ch);
+  } else {
+    chain<false>(q, t, ch);
+  }
+  const Rigid& tw = ch.side[0];
+  const Rigid& ts = ch.side[1];
+  Eigen::Matrix3d tool_r;  // tool frame → machine frame
+  tool_r.noalias() = ts.r * tool0.r;
+  Eigen::Vector3d tip = ts.t;
+  tip.noalias() += ts.r * tool0.t;
   // Pose in the workpiece frame: tw⁻¹ · tool.
-  out.r.noalias() = tw.r.transpose() * tool.r;
-  out.p.noalias() = tw.r.transpose() * (tool.t - tw.t);
+  out.r.noalias() = tw.r.transpose() * tool_r;
+  out.p.noalias() = tw.r.transpose() * (tip - tw.t);
   if (workpiece) *workpiece = tw;
   if (!jac) return;
+  const int n = static_cast<int>(axes.size());
   jac->resize(6, n);
   for (int j = 0; j < n; ++j) {
     const auto k = static_cast<std::size_t>(j);
     // Tool-side joints move the tip point (fixed in the machine frame at this instant) directly;
     // workpiece-side ones move the workpiece frame, so the tip moves the opposite way in it.
     const double sign = j < workpiece_count ? -1.0 : 1.0;
-    jac->block<3, 1>(0, j).noalias() = sign * (tw.r.transpose() * (wb[k].cross(tool.t) + vb[k]));
-    jac->block<3, 1>(3, j).noalias() = sign * (tw.r.transpose() * wb[k]);
+    jac->block<3, 1>(0, j).noalias() = sign * (tw.r.transpose() * (ch.w[k].cross(tip) + ch.v[k]));
+    jac->block<3, 1>(3, j).noalias() = sign * (tw.r.transpose() * ch.w[k]);
   }
 }
 
@@ -391,10 +541,11 @@ Jacobian SerialModel::jacobian(const JointVector& q) const {
 }
 
 Eigen::Matrix3d SerialModel::machine_to_workpiece(const JointVector& q) const {
-  Pose p;
-  Rigid tw;
-  impl_->evaluate(q, p, nullptr, &tw);
-  return tw.r.transpose();
+  Impl::Trig t;
+  impl_->trig(q, t);
+  Impl::Chain ch;
+  impl_->chain<false>(q, t, ch);
+  return ch.side[0].r.transpose();
 }
 
 }  // namespace postproc::kin

@@ -4,6 +4,7 @@
 // per-q work: one pass over the joints, a sine/cosine per rotary axis (precomputed by the caller),
 // an O(1) table lookup, products of 3×3 rotations, no temporaries and no heap.
 #include <array>
+#include <cmath>
 #include <vector>
 
 #include "postproc/kinematics/serial.hpp"
@@ -23,6 +24,33 @@ struct Rigid {
 Eigen::Matrix3d rotation_exp(const Eigen::Vector3d& e, Eigen::Matrix3d* jl = nullptr);
 /// Rotation by angle a (rad) about unit axis d, right-handed.
 Eigen::Matrix3d rotation_about(const Eigen::Vector3d& d, double a);
+
+/// Sine and cosine of deg·π/180 + rad: the quarter turns are taken off in degrees (exactly), the
+/// rest (within ±π/4 + rad) by Taylor series to degree 17 / 18 (truncation below 1e-17), so a
+/// rotary joint costs a few dozen flops instead of a libm call; libm beyond ±1 rad or 1e9 degrees.
+inline void sincos_deg(double deg, double rad, double& s, double& c) {
+  constexpr double kDegRad = 3.14159265358979323846 / 180.0;
+  if (!(std::abs(deg) < 1e9 && std::abs(rad) < 0.2)) {
+    s = std::sin(deg * kDegRad + rad);
+    c = std::cos(deg * kDegRad + rad);
+    return;
+  }
+  const auto k = static_cast<long long>(deg * (1.0 / 90) + (deg < 0 ? -0.5 : 0.5));
+  const double x = (deg - 90.0 * static_cast<double>(k)) * kDegRad + rad;  // deg − 90k is exact
+  const double x2 = x * x;
+  const double sx =
+      x * (1 + x2 * (-1.0 / 6 + x2 * (1.0 / 120 + x2 * (-1.0 / 5040 + x2 * (1.0 / 362880 +
+      x2 * (-1.0 / 39916800 + x2 * (1.0 / 6227020800 + x2 * (-1.0 / 1307674368000 + x2 * (1.0 / 355687428096000)))))))));
+  const double cx =
+      1 + x2 * (-0.5 + x2 * (1.0 / 24 + x2 * (-1.0 / 720 + x2 * (1.0 / 40320 + x2 * (-1.0 / 3628800 +
+      x2 * (1.0 / 479001600 + x2 * (-1.0 / 87178291200 + x2 * (1.0 / 20922789888000 + x2 * (-1.0 / 6402373705728000)))))))));
+  switch (k & 3) {
+    case 0: s = sx; c = cx; break;
+    case 1: s = cx; c = -sx; break;
+    case 2: s = -sx; c = -cx; break;
+    default: s = -cx; c = sx; break;
+  }
+}
 }  // namespace serial_detail
 
 struct SerialModel::Impl {

@@ -1,6 +1,8 @@
 // Inverse kinematics of serial chains: Newton on the analytic Jacobian from the caller's start (the
 // fast path of every compensated block: fixed-capacity matrices, no heap), and the closed-form
 // orientation solve of two rotary axes that seeds it when the start is poor or singular.
+#include <algorithm>
+#include <array>
 #include <cmath>
 #include <utility>
 #include <limits>
@@ -33,29 +35,40 @@ bool well_conditioned(const Lu& lu) {
 }
 
 // Gaussian elimination with partial pivoting, written out for the 5 × 5 system of every 5-axis
-// block (Eigen's general LU costs several times more at this size); false on a rank loss.
-bool solve5(Eigen::Matrix<double, 5, 5> a, Eigen::Matrix<double, 5, 1> b, JointVector& x) {
-  const double scale = a.cwiseAbs().maxCoeff();
+// block (Eigen's general LU costs several times more at this size), in place on row-major
+// arrays; false on a rank loss.
+bool solve5(double (&a)[5][5], double (&b)[5], JointVector& x) {
+  double scale = 0;
+  for (const auto& row : a)
+    for (double v : row) scale = std::max(scale, std::abs(v));
+#pragma GCC unroll 5
   for (int k = 0; k < 5; ++k) {
     int p = k;
+#pragma GCC unroll 4
     for (int i = k + 1; i < 5; ++i)
-      if (std::abs(a(i, k)) > std::abs(a(p, k))) p = i;
-    if (!(std::abs(a(p, k)) > kSingularPivot * scale)) return false;
+      if (std::abs(a[i][k]) > std::abs(a[p][k])) p = i;
+    if (!(std::abs(a[p][k]) > kSingularPivot * scale)) return false;
     if (p != k) {
-      a.row(k).swap(a.row(p));
+#pragma GCC unroll 5
+      for (int c = k; c < 5; ++c) std::swap(a[k][c], a[p][c]);
       std::swap(b[k], b[p]);
     }
+    const double inv = 1 / a[k][k];
+#pragma GCC unroll 4
     for (int i = k + 1; i < 5; ++i) {
-      const double f = a(i, k) / a(k, k);
-      for (int c = k + 1; c < 5; ++c) a(i, c) -= f * a(k, c);
+      const double f = a[i][k] * inv;
+#pragma GCC unroll 4
+      for (int c = k + 1; c < 5; ++c) a[i][c] -= f * a[k][c];
       b[i] -= f * b[k];
     }
   }
   x.resize(5);
+#pragma GCC unroll 5
   for (int k = 4; k >= 0; --k) {
     double v = b[k];
-    for (int c = k + 1; c < 5; ++c) v -= a(k, c) * x[c];
-    x[k] = v / a(k, k);
+#pragma GCC unroll 4
+    for (int c = k + 1; c < 5; ++c) v -= a[k][c] * x[c];
+    x[k] = v / a[k][k];
   }
   return true;
 }
@@ -64,9 +77,7 @@ bool solve5(Eigen::Matrix<double, 5, 5> a, Eigen::Matrix<double, 5, 1> b, JointV
 bool solve_step(const RowMatrix& a, const Eigen::Matrix<double, 6, 1>& r, JointVector& dq) {
   const auto m = a.rows();
   const auto n = a.cols();
-  if (m == 5 && n == 5) {  // the 5-axis fast path
-    if (!solve5(a, r.head<5>(), dq)) return false;
-  } else if (m == n) {
+  if (m == n) {
     using Square = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::ColMajor, 6, 6>;
     const Eigen::PartialPivLU<Square> lu{Square(a)};
     if (!well_conditioned(lu)) return false;
@@ -120,7 +131,9 @@ Solve SerialModel::Impl::newton(const Pose& target, const JointVector& start, Jo
                                 const IkOptions& opt) const {
   // Residual rows: dP, then for point_and_axis the axis deviation on two directions u normal to
   // the target axis, whose rows are (O × u)ᵀ·Jθ because d(u·O) = u·(dθ × O); for full, the
-  // rotation vector from the current to the target orientation.
+  // rotation vector from the current to the target orientation. The point rows are solved in the
+  // machine frame (the workpiece-frame rows turned by the workpiece rotation, an orthogonal map
+  // that leaves the step as it is), which spares moving every Jacobian column to the workpiece.
   const int n = static_cast<int>(axes.size());
   const bool point_only = rotary_count == 0;
   const bool full = !point_only && opt.match == PoseMatch::full && n >= 6;
@@ -129,26 +142,58 @@ Solve SerialModel::Impl::newton(const Pose& target, const JointVector& start, Jo
   const Eigen::Vector3d ot = target.axis();
   const Eigen::Vector3d u1 = ot.unitOrthogonal();
   const Eigen::Vector3d u2 = ot.cross(u1);
+  // The residual size (mm + 1000·rad, see below) at which both tolerances hold.
+  const double goal = std::min(opt.tolerance_mm, point_only ? opt.tolerance_mm : 1000.0 * opt.tolerance_rad);
   Solve s;
   double prev = std::numeric_limits<double>::infinity();
+  double prev2 = std::numeric_limits<double>::infinity();
   double last_step = std::numeric_limits<double>::infinity();
-  Pose now;
-  Jacobian jac;
+  Trig tr;
+  trig(q, tr);
+  Chain ch;
+  std::array<int, kMaxJoints> hint{};
+  hint.fill(std::numeric_limits<int>::max());
   RowMatrix a(m, n);
+  Eigen::Matrix<double, 6, 1> r;
+  JointVector dq(n);
   bool have_jac = false;
   for (int it = 0;; ++it) {
-    have_jac = !(prev < kQuadraticZone);
-    evaluate(q, now, have_jac ? &jac : nullptr);
-    Eigen::Matrix<double, 6, 1> r;
-    r.head<3>() = target.p - now.p;
-    const Eigen::Vector3d o = now.axis();
+    // The Jacobian is skipped where the residual is expected to be within the tolerance after this
+    // evaluation: below kQuadraticZone, or when quadratic convergence (r_k ≈ C·r_{k−1}², C from the
+    // last two residuals) predicts it with a factor 10 to spare. A wrong guess costs one more pass.
+    have_jac = !(prev < kQuadraticZone || (prev2 < std::numeric_limits<double>::infinity() && prev2 > 0 &&
+                                           prev * prev * prev < 0.1 * goal * prev2 * prev2));
+    if (have_jac) {
+      chain<true>(q, tr, ch, hint.data());
+    } else {
+      chain<false>(q, tr, ch, hint.data());
+    }
+    const Rigid& tw = ch.side[0];
+    const Rigid& ts = ch.side[1];
+    Eigen::Vector3d tip = ts.t;  // machine frame
+    tip.noalias() += ts.r * tool0.t;
+    Eigen::Vector3d now_p;  // workpiece frame, as forward() computes it
+    now_p.noalias() = tw.r.transpose() * (tip - tw.t);
+    r.head<3>() = target.p - now_p;
+    Eigen::Vector3d o;
+    Eigen::Matrix3d now_r;
     if (full) {
-      r.tail<3>() = rotation_difference(target.r, now.r);
+      Eigen::Matrix3d tool_r;
+      tool_r.noalias() = ts.r * tool0.r;
+      now_r.noalias() = tw.r.transpose() * tool_r;
+      o = now_r.col(2);
+      r.tail<3>() = rotation_difference(target.r, now_r);
       s.residual_rad = r.tail<3>().norm();
     } else {
-      r[3] = u1.dot(ot - o);
-      r[4] = u2.dot(ot - o);
-      s.residual_rad = std::atan2(o.cross(ot).norm(), o.dot(ot));
+      const Eigen::Vector3d z = ts.r * tool0.r.col(2);
+      o.noalias() = tw.r.transpose() * z;
+      const Eigen::Vector3d d = ot - o;
+      r[3] = u1.dot(d);
+      r[4] = u2.dot(d);
+      // The angle between o and ot from the chord |ot − o| = 2·sin(angle / 2) while it is small
+      // (series of 2·asin(x / 2), exact to rounding below 1e-2), else atan2.
+      const double x = d.norm();
+      s.residual_rad = x < 1e-2 ? x * (1 + x * x * (1.0 / 24) * (1 + x * x * (9.0 / 80))) : std::atan2(o.cross(ot).norm(), o.dot(ot));
     }
     s.residual_mm = r.head<3>().norm();
     s.iterations = it;
@@ -167,21 +212,75 @@ Solve SerialModel::Impl::newton(const Pose& target, const JointVector& start, Jo
       s.status = Status::diverged;
       return s;
     }
+    prev2 = prev;
     prev = size;
-    if (!have_jac) evaluate(q, now, &jac);
-    a.topRows<3>() = jac.topRows<3>();
-    if (full) {
-      a.bottomRows<3>() = jac.bottomRows<3>();
-    } else if (!point_only) {
-      a.row(3).noalias() = o.cross(u1).transpose() * jac.bottomRows<3>();
-      a.row(4).noalias() = o.cross(u2).transpose() * jac.bottomRows<3>();
+    if (!have_jac) chain<true>(q, tr, ch, hint.data());
+    // Point rows in the machine frame: the column of joint j is ±(w × tip + v), the residual
+    // tw.r·dP; axis rows ±((tw.r·(O × u))·w); full: ±tw.rᵀ·w in the workpiece frame.
+    Eigen::Matrix<double, 6, 1> rm = r;
+    rm.head<3>().noalias() = tw.r * r.head<3>();
+    Eigen::Vector3d g1 = Eigen::Vector3d::Zero();
+    Eigen::Vector3d g2 = Eigen::Vector3d::Zero();
+    if (!full && !point_only) {
+      g1.noalias() = tw.r * o.cross(u1);
+      g2.noalias() = tw.r * o.cross(u2);
     }
-    JointVector dq(n);
-    if (!solve_step(a, r, dq)) {
-      s.status = Status::singular;
-      return s;
+    if (m == 5 && n == 5) {  // the 5-axis fast path
+      double a5[5][5];
+      double b5[5] = {rm[0], rm[1], rm[2], rm[3], rm[4]};
+      for (int j = 0; j < 5; ++j) {
+        const auto k = static_cast<std::size_t>(j);
+        const double sign = j < workpiece_count ? -1.0 : 1.0;
+        const Eigen::Vector3d& w = ch.w[k];
+        const Eigen::Vector3d c = w.cross(tip) + ch.v[k];
+        a5[0][j] = sign * c.x();
+        a5[1][j] = sign * c.y();
+        a5[2][j] = sign * c.z();
+        a5[3][j] = sign * g1.dot(w);
+        a5[4][j] = sign * g2.dot(w);
+      }
+      if (!solve5(a5, b5, dq)) {
+        s.status = Status::singular;
+        return s;
+      }
+    } else {
+      for (int j = 0; j < n; ++j) {
+        const auto k = static_cast<std::size_t>(j);
+        const double sign = j < workpiece_count ? -1.0 : 1.0;
+        const Eigen::Vector3d& w = ch.w[k];
+        a.block<3, 1>(0, j) = sign * (w.cross(tip) + ch.v[k]);
+        if (full) {
+          a.block<3, 1>(3, j).noalias() = sign * (tw.r.transpose() * w);
+        } else if (!point_only) {
+          a(3, j) = sign * g1.dot(w);
+          a(4, j) = sign * g2.dot(w);
+        }
+      }
+      if (!solve_step(a, rm, dq)) {
+        s.status = Status::singular;
+        return s;
+      }
     }
-    q += dq;
+    // New sines and cosines by the angle addition formulas while the step is small (Newton's
+    // steps near the answer; series exact to rounding below 1e-2 rad), else afresh.
+    for (int j = 0; j < n; ++j) {
+      const auto k = static_cast<std::size_t>(j);
+      const double before = q[j];
+      q[j] += dq[j];
+      if (!axes[k].rotary) continue;
+      const double h = (q[j] - before) * kDeg;
+      if (std::abs(h) < 1e-2) {
+        const double h2 = h * h;
+        const double sh = h * (1 - h2 * (1.0 / 6) * (1 - h2 * (1.0 / 20) * (1 - h2 * (1.0 / 42))));
+        const double ch1 = h2 * 0.5 * (1 - h2 * (1.0 / 12) * (1 - h2 * (1.0 / 30) * (1 - h2 * (1.0 / 56))));  // 1 − cos h
+        const double sn = tr.s[k];
+        const double cs = tr.c[k];
+        tr.s[k] = sn - sn * ch1 + cs * sh;
+        tr.c[k] = cs - cs * ch1 - sn * sh;
+      } else {
+        serial_detail::sincos_deg(q[j], axes[k].offset, tr.s[k], tr.c[k]);
+      }
+    }
     last_step = dq.cwiseAbs().maxCoeff();
   }
 }
