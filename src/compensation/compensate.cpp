@@ -267,6 +267,12 @@ class Compensator final : public gcode::BlockVisitor {
           return false;
         }
     }
+    if (form == Form::tcp_vector && m.orientation_machine_frame) {
+      refuse(b, m.column, kRefused,
+             "tool vectors in the machine frame (ORIMKS) are not compensated; program them in the workpiece frame "
+             "(ORIWKS)");
+      return false;
+    }
     Command cmd{m.end, m.tool_vector};
     if ((form == Form::tcp_vector) && !m.tool_vector_known && m_.coordinates == machine::ProgramCoordinates::tool_tip) {
       refuse(b, m.column, kRefused, "the tool orientation of this move is not known (no tool vector programmed yet)");
