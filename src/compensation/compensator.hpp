@@ -1,0 +1,591 @@
+#pragma once
+// compensate's block visitor: the state carried from block to block (controller map, corrected
+// positions the controller holds, modal tool vector, arc mode) and the steps per motion. Its
+// member functions are defined in compensate.cpp and compensate_shapes.cpp (arcs, cycles).
+#include <cmath>
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <tuple>
+#include <vector>
+
+#include <fmt/format.h>
+
+#include "postproc/compensation/compensate.hpp"
+#include "postproc/compensation/program_map.hpp"
+#include "postproc/gcode/block_writer.hpp"
+#include "postproc/gcode/lexer.hpp"
+#include "postproc/gcode/number_style.hpp"
+#include "postproc/gcode/program.hpp"
+#include "src/compensation/compensate_support.hpp"
+#include "src/gcode/convert_support.hpp"
+#include "src/gcode/linearize.hpp"
+
+namespace postproc::comp::detail {
+using gcode::AxisMask;
+using gcode::AxisVector;
+using gcode::Block;
+using gcode::Motion;
+using gcode::MotionType;
+using gcode::Word;
+
+inline constexpr std::string_view kRefused = "PP-E601";         // a block cannot be compensated exactly
+inline constexpr std::string_view kMachine = "PP-E602";         // the program needs data the machine file lacks
+inline constexpr std::string_view kTravel = "PP-E603";          // the corrected block leaves the axis travel
+inline constexpr std::string_view kKinematics = "PP-E604";      // the kinematics failed (singular, no convergence)
+inline constexpr std::string_view kRapidAsWritten = "PP-W601";  // a rapid left uncorrected (positions unknown)
+inline constexpr int kMaxSegments = 4096;
+
+class Compensator final : public gcode::BlockVisitor {
+ public:
+  Compensator(std::string_view file, const gcode::Dialect& d, const machine::Machine& m, const CompensateOptions& opt,
+              io::OutputFile& out, gcode::DiagnosticSink& sink, CompensateResult& r)
+      : file_(file), d_(d), m_(m), opt_(opt), out_(out), sink_(sink), r_(r), track_(d), models_(m) {
+    collect_.on_report = [this](const gcode::Diagnostic& diag) {
+      if (diag.severity == gcode::Severity::error) block_error_ = true;
+      sink_.report(diag);
+    };
+    joints_ = kin::JointVector::Zero(m.nominal->joint_count());
+    for (int j = 0; j < m.nominal->joint_count(); ++j) {
+      const kin::Joint& jt = m.nominal->joints()[static_cast<std::size_t>(j)];
+      joints_[j] = std::clamp(0.0, jt.min, jt.max);
+    }
+    written_.setZero();
+  }
+  gcode::DiagnosticSink& collector() { return collect_; }
+
+  void block(const Block& b, std::span<const Motion> motions, bool lexed_ok) override {
+    ++r_.blocks;
+    if (!b.eol.empty()) eol_ = std::string(b.eol);
+    maybe_header(b);
+    track_.update(b);
+    after_.clear();
+    gcode::BlockEditor ed(b, d_.decimal_point_required);
+    if (lexed_ok && !block_error_ && track_.has(gcode::GMeaning::home_return)) {
+      // G28/G30 go to the machine's reference position (through an intermediate point): machine
+      // positions, not part geometry, so they stay as written and the positions become unknown.
+      written_known_ = 0;
+      ++r_.reference_moves;
+    } else if (lexed_ok && !block_error_) {
+      if (motions.size() > 1) {
+        for (const Motion& m : motions) check_unchanged(b, with_vector(m));
+      } else if (motions.size() == 1) {
+        motion(b, with_vector(motions.front()), ed);
+      }
+    }
+    block_error_ = false;
+    if (!motions.empty()) {
+      known_ = motions.back().known;
+    } else {
+      known_ &= static_cast<AxisMask>(motions_keep_known(b) ? 0xFFFF : 0);
+    }
+    if (ed.empty()) {
+      emit(b.raw, after_.empty() ? b.eol : std::string_view(eol_), b.line);
+    } else {
+      line_.clear();
+      ed.render(line_);
+      ++r_.changed_blocks;
+      emit(line_, after_.empty() ? b.eol : std::string_view(eol_), b.line);
+    }
+    for (std::size_t i = 0; i < after_.size(); ++i)
+      emit(after_[i], i + 1 == after_.size() ? b.eol : std::string_view(eol_), b.line);
+    r_.segments_added += after_.size();
+  }
+
+  void flush() {
+    out_.write(buffer_);
+    buffer_.clear();
+  }
+  void finish() {
+    flush();
+    if (map_) r_.singular_fallbacks += map_->singular_fallbacks();
+    map_.reset();
+  }
+
+ private:
+  /// The tool vector is modal (G43.5 / TRAORI blocks without I J K / A3 B3 C3 keep it).
+  Motion with_vector(const Motion& m) {
+    Motion c = m;
+    if (m.tool_vector_known) {
+      vector_ = m.tool_vector;
+      vector_known_ = true;
+    } else if (vector_known_ && (m.tcp != gcode::TcpMode::off || m_.coordinates == machine::ProgramCoordinates::tool_tip)) {
+      c.tool_vector = vector_;
+      c.tool_vector_known = true;
+    }
+    if (m.tcp == gcode::TcpMode::off && m_.coordinates != machine::ProgramCoordinates::tool_tip) vector_known_ = false;
+    return c;
+  }
+
+  /// Blocks without motion that make positions unknown (G28, G53 without axes, a new offset).
+  bool motions_keep_known(const Block&) const {
+    return !(track_.has(gcode::GMeaning::home_return) || track_.has(gcode::GMeaning::work_offset) ||
+             track_.has(gcode::GMeaning::set_offsets_g10));
+  }
+
+  void emit(std::string_view raw, std::string_view eol, std::uint64_t from) {
+    if (opt_.line_map != nullptr) opt_.line_map->push_back(from);
+    buffer_.append(raw);
+    buffer_.append(eol);
+    if (buffer_.size() > (1u << 20)) flush();
+  }
+
+  void maybe_header(const Block& b) {
+    if (header_done_ || !opt_.header) return;
+    // The header goes after a leading '%' line and the program number / name line.
+    bool leading = b.leader || b.raw.empty();
+    for (const gcode::Token& t : b.tokens)
+      leading = leading || t.kind == gcode::TokenKind::percent || t.kind == gcode::TokenKind::program_number;
+    if (leading && b.words.empty() && b.line <= 3) return;
+    header_done_ = true;
+    emit(header_comment(d_, m_, opt_), eol_, 0);
+  }
+
+  void refuse(const Block& b, std::uint32_t column, std::string_view code, std::string why) {
+    const gcode::Span s{column > 0 ? column - 1 : 0, column > 0 ? column : 1};
+    gcode::report_at(gcode::LexContext{file_, &sink_}, b, s, gcode::Severity::error, code, std::move(why));
+    block_error_ = true;
+    written_known_ = 0;
+  }
+  void note(const Block& b, std::uint32_t column, std::string_view code, std::string why) {
+    const gcode::Span s{column > 0 ? column - 1 : 0, column > 0 ? column : 1};
+    gcode::report_at(gcode::LexContext{file_, &sink_}, b, s, gcode::Severity::warning, code, std::move(why));
+  }
+
+  Form form_of(const Motion& m) const { return comp::form_of(m_, m); }
+
+  /// The controller map of this motion, or nullopt after a refusal.
+  std::optional<ProgramMap> map_of(const Block& b, const Motion& m, Form form) {
+    const auto offset = program_offset(m_, m);
+    if (!offset) {
+      const std::string name = machine::work_offset_name(m.work_offset);
+      refuse(b, m.column, kMachine,
+             fmt::format("work offset {} is not in machine file {}; add [work_offsets] {} = {{ X = …, Y = …, Z = … }} "
+                         "with the controller's values",
+                         name, m_.file, name));
+      return std::nullopt;
+    }
+    double length = m_.tool_length;
+    if (m.tool_length_active && m.tool_length_h != 0) {
+      const auto it = m_.tool_lengths.find(m.tool_length_h);
+      if (it == m_.tool_lengths.end()) {
+        refuse(b, m.column, kMachine,
+               fmt::format("tool length H{} is not in machine file {}; add [tool.lengths] {} = \"<length> mm\"",
+                           m.tool_length_h, m_.file, m.tool_length_h));
+        return std::nullopt;
+      }
+      length = it->second;
+    }
+    if (m_.nominal->parameter_index("tool.length") < 0 && std::abs(length - m_.tool_length) > 1e-9) {
+      refuse(b, m.column, kMachine,
+             fmt::format("a {} machine takes its tool length from [tool] length ({} mm) only, but H{} is {} mm; make "
+                         "them equal or use a machine file per tool",
+                         m_.model_kind, m_.tool_length, m.tool_length_h, length));
+      return std::nullopt;
+    }
+    const auto& [nom, act] = models_.with_tool_length(length);
+    return ProgramMap(m_, nom, act, form, *offset, form == Form::axes && m.tool_length_active, length);
+  }
+
+  /// Axes whose words this form writes.
+  AxisMask written_axes(Form form) const {
+    AxisMask mask = 0;
+    if (form == Form::axes || form == Form::tcp_rotary) {
+      for (int a = 0; a < gcode::kAxisCount; ++a)
+        if (m_.joint_of_axis[static_cast<std::size_t>(a)] >= 0 && (form == Form::axes || a < 3 || gcode::is_rotary(a)))
+          mask |= static_cast<AxisMask>(1u << a);
+    } else {
+      mask = 0b111;
+      if (form == Form::tcp_virtual) mask |= 0b11000;
+    }
+    return mask;
+  }
+
+  void check_unchanged(const Block& b, const Motion& m) {
+    // Several motions in one block (G28 intermediate points, cycles): accepted only when the
+    // correction rounds away at every end point.
+    Command out;
+    if (!endpoint(b, m, out, nullptr)) return;
+    for (int a = 0; a < gcode::kAxisCount; ++a)
+      if ((mask_ >> a) & 1u)
+        if (rounded_change(a, m.end[a], out.c[a], m)) {
+          refuse(b, m.column, kRefused,
+                 "this block makes several moves (a cycle or an intermediate point) and the machine needs a "
+                 "correction on them; write the moves out as G0/G1 blocks to compensate them");
+          return;
+        }
+  }
+
+  /// True when the corrected value prints differently from the source value at the axis's decimals.
+  bool rounded_change(int a, double from, double to, const Motion& m) const {
+    // Differences below 1e-9 are arithmetic noise, not corrections (a value exactly half a unit
+    // off the output grid would otherwise round either way).
+    const double f = program_units(a, from, m), t = program_units(a, to, m);
+    if (std::abs(t - f) < 1e-9) return false;
+    const double s = std::pow(10.0, m_.decimals(a));
+    return std::llround(f * s) != std::llround(t * s);
+  }
+
+  /// mm (or degrees) per program unit of axis a.
+  static double unit_scale(int a, const Motion& m) {
+    double k = 1.0;
+    if (!gcode::is_rotary(a) && m.inch_source) k *= 25.4;
+    if (a == 0 && m.diameter_mode) k /= 2;
+    return k;
+  }
+
+  static double program_units(int a, double v, const Motion& m) {
+    if (!gcode::is_rotary(a) && m.inch_source) v /= 25.4;
+    if (a == 0 && m.diameter_mode) v *= 2;
+    return v;
+  }
+
+  /// Corrects the end point of `m` into `out`; fills q_actual. False after a refusal.
+  bool endpoint(const Block& b, const Motion& m, Command& out, kin::JointVector* q_actual) {
+    const Form form = form_of(m);
+    // The controller map depends on the modal context only: reuse it while that stays the same.
+    const MapKey key{form, m.frame, m.work_offset.code10, m.work_offset.p, m.tool_length_active, m.tool_length_h,
+                     m.local_offset + m.position_offset};
+    if (!map_ || !(key == map_key_)) {
+      if (map_) r_.singular_fallbacks += map_->singular_fallbacks();
+      map_.reset();
+      auto fresh = map_of(b, m, form);
+      if (!fresh) return false;
+      map_.emplace(std::move(*fresh));
+      map_key_ = key;
+    }
+    ProgramMap* map = &*map_;
+    mask_ = written_axes(form);
+    const AxisMask foreign = static_cast<AxisMask>(m.programmed & ~mask_ & ~((form != Form::axes) ? 0b111000 : 0));
+    if (foreign != 0) {
+      for (int a = 0; a < gcode::kAxisCount; ++a)
+        if ((foreign >> a) & 1u) {
+          refuse(b, m.column, kMachine,
+                 fmt::format("axis {} is not an axis of machine '{}' ({}); check the machine file or the program",
+                             gcode::kAxisLetters[static_cast<std::size_t>(a)], m_.name, m_.file));
+          return false;
+        }
+    }
+    if (form == Form::tcp_vector && m.orientation_machine_frame) {
+      refuse(b, m.column, kRefused,
+             "tool vectors in the machine frame (ORIMKS) are not compensated; program them in the workpiece frame "
+             "(ORIWKS)");
+      return false;
+    }
+    Command cmd{m.end, m.tool_vector};
+    if ((form == Form::tcp_vector) && !m.tool_vector_known && m_.coordinates == machine::ProgramCoordinates::tool_tip) {
+      refuse(b, m.column, kRefused, "the tool orientation of this move is not known (no tool vector programmed yet)");
+      return false;
+    }
+    const AxisMask unknown = static_cast<AxisMask>(mask_ & ~m.known);
+    kin::JointVector q;
+    if (unknown == 0) {
+      const kin::Solve s = map->correct(cmd, joints_, out, q);
+      if (!s.ok()) return kin_failure(b, m, s);
+    } else if (!invariant(b, m, *map, cmd, unknown, out, q)) {
+      return false;
+    }
+    if (const int j = kin::joint_outside_limits(map->actual(), q); j >= 0) {
+      const kin::Joint& jt = map->actual().joints()[static_cast<std::size_t>(j)];
+      refuse(b, m.column, kTravel,
+             fmt::format("after correction joint {} would be at {:.6f} {}, outside its travel {} … {} {}; the block "
+                         "cannot be compensated on this machine (move the part or the work offset)",
+                         jt.name, q[j], jt.type == kin::JointType::rotary ? "deg" : "mm", jt.min, jt.max,
+                         jt.type == kin::JointType::rotary ? "deg" : "mm"));
+      return false;
+    }
+    if (q_actual != nullptr) *q_actual = q;
+    return true;
+  }
+
+  bool kin_failure(const Block& b, const Motion& m, const kin::Solve& s) {
+    refuse(b, m.column, kKinematics,
+           fmt::format("the kinematics failed for this position ({}, {} iterations, residual {:.3g} mm / {:.3g} rad); "
+                       "the pose may be singular or unreachable on this machine",
+                       kin::to_string(s.status), s.iterations, s.residual_mm, s.residual_rad));
+    return false;
+  }
+
+  /// Axes whose position is unknown (nothing programmed them yet): the correction is accepted
+  /// only if it does not depend on them, checked at the ends of their travel.
+  bool invariant(const Block& b, const Motion& m, const ProgramMap& map, const Command& cmd, AxisMask unknown,
+                 Command& out, kin::JointVector& q) {
+    std::vector<int> axes;
+    for (int a = 0; a < gcode::kAxisCount; ++a)
+      if ((unknown >> a) & 1u) axes.push_back(a);
+    std::optional<Command> first;
+    for (unsigned combo = 0; combo < (1u << axes.size()); ++combo) {
+      Command c = cmd;
+      for (std::size_t i = 0; i < axes.size(); ++i) {
+        const int a = axes[i];
+        const int j = m_.joint_of_axis[static_cast<std::size_t>(a)];
+        double lo = -100, hi = 100;
+        if (j >= 0) {
+          const kin::Joint& jt = map.nominal().joints()[static_cast<std::size_t>(j)];
+          lo = std::isfinite(jt.min) ? jt.min : 0.0;
+          hi = std::isfinite(jt.max) ? jt.max : 180.0;
+        }
+        c.c[a] = ((combo >> i) & 1u) ? hi : lo;
+      }
+      Command o;
+      kin::JointVector qq;
+      const kin::Solve s = map.correct(c, joints_, o, qq);
+      if (!s.ok()) return kin_failure(b, m, s);
+      bool depends = false;
+      for (int a = 0; a < gcode::kAxisCount && !depends; ++a) {
+        if (!((mask_ >> a) & 1u)) continue;
+        if ((unknown >> a) & 1u) depends = rounded_change(a, c.c[a], o.c[a], m);
+        else if (first) depends = rounded_change(a, first->c[a], o.c[a], m);
+      }
+      if (depends) {
+        std::string names;
+        for (int a : axes) names += gcode::kAxisLetters[static_cast<std::size_t>(a)];
+        if (m.type == MotionType::rapid) {
+          // A positioning move before every axis is known: it cuts nothing, so it stays as
+          // written; the controller then holds the uncorrected values, which the next moves
+          // (tracked through written_) take into account.
+          note(b, m.column, kRapidAsWritten,
+               fmt::format("rapid move left as written: the position of axis {} is not known here and the "
+                           "correction depends on it; the following moves are corrected",
+                           names));
+          ++r_.rapids_as_written;
+          rapid_as_written_ = true;
+          return false;
+        }
+        refuse(b, m.column, kRefused,
+               fmt::format("the position of axis {} is not known here (no earlier block sets it) and the correction "
+                           "of this move depends on it; program {} before this move",
+                           names, names));
+        return false;
+      }
+      if (!first) {
+        first = o;
+        q = qq;
+      }
+    }
+    out = *first;
+    for (int a : axes) out.c[a] = cmd.c[a];
+    return true;
+  }
+
+  void motion(const Block& b, const Motion& m, gcode::BlockEditor& ed) {
+    ++r_.motions;
+    Command out;
+    kin::JointVector q;
+    rapid_as_written_ = false;
+    if (!endpoint(b, m, out, &q)) {
+      if (rapid_as_written_) note_written(m, m.end);
+      else written_known_ = 0;
+      return;
+    }
+    const ProgramMap& map = *map_;
+    measure(m, map, out);  // first: later checks run the remap on other points
+    if (m.tilted_plane) {
+      check_unchanged(b, m);
+      note_written(m, m.end);
+      return;
+    }
+    if (m.type == MotionType::drill_cycle) {
+      drill(b, m, map, ed);
+      return;
+    }
+    const bool arc = m.type == MotionType::arc_cw || m.type == MotionType::arc_ccw;
+    if (arc) {
+      const ArcCheck k = arc_check(b, m, out);
+      if (k == ArcCheck::refused) return;
+      if (k == ArcCheck::linearize) {
+        if (linearize_arc(b, m, map, out, ed)) joints_ = q;
+        return;
+      }
+      ++r_.arcs_kept;
+      restore_arc_mode(b, ed);
+    }
+    // Subdivide feed moves whose joint-space interpolation would leave the intended path.
+    std::vector<Command> points;
+    if (m.type == MotionType::linear && (written_known_ & mask_) == mask_ && (m.known & mask_) == mask_) {
+      if (!subdivide(b, m, map, out, points)) return;
+    }
+    if (m.type != MotionType::rapid && !arc) restore_arc_mode(b, ed);
+    if (!points.empty()) {
+      ++r_.subdivided_blocks;
+      write_segments(b, m, ed, points, out);
+    } else {
+      write_end(b, m, ed, out);
+    }
+    joints_ = q;
+  }
+
+  /// Error of the original program on the real machine and the residual of the corrected one.
+  void measure(const Motion& m, const ProgramMap& map, const Command& out) {
+    // The intended pose and the nominal joints of the end point come from the remap itself.
+    const kin::Pose& want = map.last_intended();
+    kin::Pose before, after;
+    kin::JointVector qa;
+    if (!map.actual().forward(map.last_nominal_joints(), before).ok()) return;
+    const double e = (before.p - want.p).norm();
+    const double ea = std::acos(std::clamp(before.axis().dot(want.axis()), -1.0, 1.0));
+    if (e > r_.max_error_before_mm) {
+      r_.max_error_before_mm = e;
+      r_.worst_line = m.line;
+    }
+    r_.max_error_before_rad = std::max(r_.max_error_before_rad, ea);
+    Command printed = out;
+    for (int a = 0; a < gcode::kAxisCount; ++a) {
+      if (!((mask_ >> a) & 1u)) continue;
+      const double s = std::pow(10.0, m_.decimals(a));
+      // The value the controller will read: rounded in program units, back to mm / degrees.
+      const double pu = program_units(a, out.c[a], m);
+      printed.c[a] = out.c[a] + (static_cast<double>(std::llround(pu * s)) / s - pu) * unit_scale(a, m);
+      const double dc = std::abs(out.c[a] - m.end[a]);
+      if (gcode::is_rotary(a)) r_.max_correction_deg = std::max(r_.max_correction_deg, dc);
+      else r_.max_correction_mm = std::max(r_.max_correction_mm, dc);
+    }
+    if (map.real(printed, joints_, after, qa).ok()) {
+      r_.max_residual_mm = std::max(r_.max_residual_mm, (after.p - want.p).norm());
+      r_.max_residual_rad =
+          std::max(r_.max_residual_rad, std::acos(std::clamp(after.axis().dot(want.axis()), -1.0, 1.0)));
+    }
+  }
+
+  /// Deviation between the real path of the corrected move and the intended path at fraction t.
+  bool deviation(const ProgramMap& map, const Command& c0, const Command& c1, const Command& k0, const Command& k1,
+                 double t, double& mm, double& rad) {
+    Command c = lerp(c0, c1, t);
+    Command k = lerp(k0, k1, t);
+    kin::Pose want, got;
+    kin::JointVector q1, q2;
+    if (!map.intended(c, joints_, want, q1).ok() || !map.real(k, joints_, got, q2).ok()) return false;
+    mm = (got.p - want.p).norm();
+    rad = std::acos(std::clamp(got.axis().dot(want.axis()), -1.0, 1.0));
+    return true;
+  }
+
+  /// True when the real path of the corrected segment k0 → k1 stays within `tol_mm` of the
+  /// intended segment c0 → c1 inside it, and its tool axis no further from the intended one than
+  /// at the worse end plus --max-angle-deviation (machines with fewer joints than the pose has
+  /// conditions, e.g. the 4-axis lathe, cannot match the axis even at the end points).
+  bool within(const ProgramMap& map, const Command& c0, const Command& c1, const Command& k0, const Command& k1,
+              double tol_mm) {
+    // The common case first: the middle of the move is on the path (tool axis included).
+    double mid_mm = 0, mid_rad = 0;
+    if (!deviation(map, c0, c1, k0, k1, 0.5, mid_mm, mid_rad)) return false;
+    if (mid_mm <= tol_mm && mid_rad <= opt_.max_angle_rad) return true;
+    double mm0 = 0, rad0 = 0, mm1 = 0, rad1 = 0;
+    if (!deviation(map, c0, c1, k0, k1, 0.0, mm0, rad0) || !deviation(map, c0, c1, k0, k1, 1.0, mm1, rad1)) return false;
+    const double rad_ends = std::max(rad0, rad1);
+    for (double f : {0.25, 0.5, 0.75}) {
+      double mm = 0, rad = 0;
+      if (!deviation(map, c0, c1, k0, k1, f, mm, rad)) return false;
+      if (mm > tol_mm + std::max(mm0, mm1) || rad > rad_ends + opt_.max_angle_rad) return false;
+    }
+    return true;
+  }
+
+  bool subdivide(const Block& b, const Motion& m, const ProgramMap& map, const Command& out, std::vector<Command>& pts) {
+    const Command c0{m.start, prev_vector_};
+    const Command c1{m.end, m.tool_vector};
+    Command k0{written_, prev_written_vector_};
+    std::uint32_t n = 1;
+    for (int round = 0; round < 13; ++round) {
+      bool ok = true;
+      Command prev_k = k0;
+      std::vector<Command> cand;
+      for (std::uint32_t i = 1; i <= n && ok; ++i) {
+        const double t0 = static_cast<double>(i - 1) / n, t1 = static_cast<double>(i) / n;
+        Command ki = out;
+        if (i < n) {
+          kin::JointVector qq;
+          if (!map.correct(lerp(c0, c1, t1), joints_, ki, qq).ok()) return kin_failure(b, m, {kin::Status::no_convergence});
+          cand.push_back(ki);
+        }
+        if (!within(map, lerp(c0, c1, t0), lerp(c0, c1, t1), prev_k, ki, opt_.max_deviation_mm)) ok = false;
+        prev_k = ki;
+      }
+      if (ok) {
+        pts = std::move(cand);
+        return true;
+      }
+      n *= 2;
+      if (n > kMaxSegments) break;
+    }
+    refuse(b, m.column, kRefused,
+           fmt::format("even {} segments leave the intended path by more than --max-deviation {} mm; raise the limit",
+                       kMaxSegments, opt_.max_deviation_mm));
+    return false;
+  }
+
+  static Command lerp(const Command& a, const Command& b, double t) {
+    Command c;
+    c.c = a.c + (b.c - a.c) * t;
+    c.vector = (a.vector + (b.vector - a.vector) * t).normalized();
+    return c;
+  }
+
+  enum class ArcCheck : std::uint8_t { rigid, linearize, refused };
+  /// An arc stays an arc when its correction is a rigid shift (within --max-deviation) over it;
+  /// otherwise it is replaced by corrected chords (compensate_shapes.cpp).
+  ArcCheck arc_check(const Block& b, const Motion& m, const Command& out);
+  /// After an arc was replaced by G1 chords, the next arc block that relied on the modal G2/G3
+  /// gets its motion word back.
+  void restore_arc_mode(const Block& b, gcode::BlockEditor& ed);
+  bool linearize_arc(const Block& b, const Motion& m, const ProgramMap& map, const Command& out, gcode::BlockEditor& ed);
+  /// A drilling cycle: the hole is corrected at its bottom; the hole axis must stay square to
+  /// the work plane on the real machine (the X Y correction at the R plane and at the bottom
+  /// agree within --max-deviation), the bottom and R levels are corrected along the normal.
+  void drill(const Block& b, const Motion& m, const ProgramMap& map, gcode::BlockEditor& ed);
+  void note_written(const Motion& m, const AxisVector& v) {
+    written_ = v;
+    written_known_ = m.known;
+    prev_vector_ = m.tool_vector;
+    prev_written_vector_ = m.tool_vector;
+  }
+
+  void write_end(const Block& b, const Motion& m, gcode::BlockEditor& ed, const Command& out);
+  void write_segments(const Block& b, const Motion& m, gcode::BlockEditor& ed, const std::vector<Command>& pts,
+                      const Command& out);
+
+  std::string_view file_;
+  const gcode::Dialect& d_;
+  const machine::Machine& m_;
+  const CompensateOptions& opt_;
+  io::OutputFile& out_;
+  gcode::DiagnosticSink& sink_;
+  CompensateResult& r_;
+  gcode::ModalTrack track_;
+  ToolLengthModels models_;
+  gcode::DiagnosticSink collect_{0};
+  struct MapKey {
+    Form form = Form::axes;
+    gcode::Frame frame = gcode::Frame::work;
+    std::uint16_t code10 = 0, p = 0;
+    bool length_active = false;
+    std::uint16_t h = 0;
+    AxisVector shift = AxisVector::Zero();
+    bool operator==(const MapKey& o) const {
+      return form == o.form && frame == o.frame && code10 == o.code10 && p == o.p && length_active == o.length_active &&
+             h == o.h && shift == o.shift;
+    }
+  };
+  std::optional<ProgramMap> map_;
+  MapKey map_key_;
+  bool block_error_ = false;
+  bool header_done_ = false;
+  bool rapid_as_written_ = false;
+  bool arc_mode_broken_ = false;  ///< an arc was linearised; a following modal arc needs its G word
+  std::string arc_word_ = "G2";
+  AxisMask known_ = 0;
+  AxisMask mask_ = 0;
+  kin::JointVector joints_;
+  AxisVector written_;            ///< corrected end of the previous motion, work coordinates
+  AxisMask written_known_ = 0;
+  Eigen::Vector3d prev_vector_ = Eigen::Vector3d::UnitZ();
+  Eigen::Vector3d vector_ = Eigen::Vector3d::UnitZ();  ///< modal tool vector
+  bool vector_known_ = false;
+  Eigen::Vector3d prev_written_vector_ = Eigen::Vector3d::UnitZ();
+  std::vector<std::string> after_;
+  std::string line_, buffer_;
+  std::string eol_ = "\n";
+  WordWriter writer_{d_, m_, track_};
+};
+
+}  // namespace postproc::comp::detail
