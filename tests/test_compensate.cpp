@@ -269,3 +269,24 @@ TEST(ProgramMap, CommandOfJointsIsTheCommand) {
 }
 
 }  // namespace
+
+namespace {
+
+/// After a change of work offset the held corrected position is re-established from the
+/// program, and single-axis moves that follow are still within rounding everywhere.
+TEST(Compensate, WorkOffsetChangeKeepsEveryEndPointWithinRounding) {
+  const mc::Machine m = load("trunnion_bc_fanuc.toml");
+  const std::string program =
+      "G21 G90 G54\nG0 X0 Y0 Z100 B0 C0\nG1 X30 F500\nY20\nG55\nG0 X10 Y10 Z50 B-20 C30\nG1 X40\nY-15\nZ20\n"
+      "G54 G0 X5 Y5 Z80 B0 C0\nG1 Y25\nM30\n";
+  Comp r;
+  compensate(m, program, r);
+  for (const auto& d : r.sink.stored())
+    if (d.severity == gc::Severity::error) ADD_FAILURE() << gc::format(d);
+  ASSERT_TRUE(r.committed);
+  const cp::VerifyResult v = check(m, program, r);
+  EXPECT_EQ(v.compared, 9u);
+  EXPECT_LE(v.max_excess_mm, 1e-7) << "line " << v.worst_line << "\n" << r.out;
+}
+
+}  // namespace

@@ -37,8 +37,6 @@ bool WordWriter::vector_form(const Motion& m) const {
   return m.tcp == gcode::TcpMode::fanuc_g43_5 || (m.tcp == gcode::TcpMode::siemens_traori && m.tool_vector_known);
 }
 
-gcode::NumberStyle WordWriter::style_for(char) const { return gcode::NumberStyle{false, true, 3, false, false}; }
-
 namespace {
 
 /// The word carrying vector component k (0..2) of the tool vector: Siemens A3/B3/C3, else I/J/K.
@@ -83,7 +81,7 @@ WordWriter::Outcome WordWriter::rewrite(const Block& b, const Motion& m, gcode::
       }
       const double v = track_.absolute ? pv : pv - held;
       ed.insert_after(anchor, sep + std::string(1, gcode::kAxisLetters[static_cast<std::size_t>(a)]) +
-                                  gcode::format_counts(std::llround(v * s), dm, style_for('X'), d_.decimal_point_required));
+                                  gcode::format_counts(std::llround(v * s), dm, default_style(), d_.decimal_point_required));
       ++o.inserted;
       continue;
     }
@@ -133,7 +131,7 @@ WordWriter::Outcome WordWriter::rewrite(const Block& b, const Motion& m, gcode::
       const double v = target.vector[k];
       if (wi < 0) {
         ed.insert_after(anchor, sep + (siemens ? fmt::format("{}3=", "ABC"[k]) : std::string(1, "IJK"[k])) +
-                                    gcode::format_number(v, style_for('I'), 6, d_.decimal_point_required));
+                                    gcode::format_number(v, default_style(), 6, d_.decimal_point_required));
         ++o.inserted;
         continue;
       }
@@ -167,7 +165,7 @@ WordWriter::Outcome WordWriter::rewrite(const Block& b, const Motion& m, gcode::
       const gcode::NumberStyle st = gcode::detect_style(b.text(*lit));
       ed.replace(*lit, gcode::format_number(f, st, st.decimals, d_.decimal_point_required));
     } else {
-      ed.insert_after(anchor, sep + "F" + gcode::format_number(f, style_for('F'), 3, d_.decimal_point_required));
+      ed.insert_after(anchor, sep + "F" + gcode::format_number(f, default_style(), 3, d_.decimal_point_required));
     }
   }
   return o;
@@ -192,16 +190,16 @@ std::string WordWriter::segment_line(const Block& b, const Motion& m, gcode::Axi
     if (std::abs(pv - pf) < 1e-9 || std::llround(pv * s) == std::llround(pf * s)) continue;
     const double v = track_.absolute ? pv : pv - pf;
     add(std::string(1, gcode::kAxisLetters[static_cast<std::size_t>(a)]) +
-        gcode::format_counts(std::llround(v * s), dm, style_for('X'), d_.decimal_point_required));
+        gcode::format_counts(std::llround(v * s), dm, default_style(), d_.decimal_point_required));
   }
   if (vector_form(m)) {
     const bool siemens = d_.id == gcode::DialectId::siemens;
     for (int k = 0; k < 3; ++k)
       add((siemens ? fmt::format("{}3=", "ABC"[k]) : std::string(1, "IJK"[k])) +
-          gcode::format_number(to.vector[k], style_for('I'), 6, d_.decimal_point_required));
+          gcode::format_number(to.vector[k], default_style(), 6, d_.decimal_point_required));
   }
   if (g93_segments > 1)
-    add("F" + gcode::format_number(m.feed * static_cast<double>(g93_segments), style_for('F'), 3,
+    add("F" + gcode::format_number(m.feed * static_cast<double>(g93_segments), default_style(), 3,
                                    d_.decimal_point_required));
   for (const gcode::Token& t : b.tokens)
     if (t.kind == gcode::TokenKind::block_end) add("*");

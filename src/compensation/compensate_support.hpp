@@ -50,7 +50,8 @@ class WordWriter {
                            const gcode::AxisVector& from, const Command& to, std::uint64_t g93_segments);
 
  private:
-  [[nodiscard]] gcode::NumberStyle style_for(char letter) const;
+  /// The style of inserted words and new lines: plain, leading zero, trimmed trailing zeros.
+  [[nodiscard]] static gcode::NumberStyle default_style() { return gcode::NumberStyle{false, true, 3, false, false}; }
   [[nodiscard]] double program_units(int a, double v, const gcode::Motion& m) const;
   [[nodiscard]] bool vector_form(const gcode::Motion& m) const;
   const gcode::Dialect& d_;

@@ -74,11 +74,9 @@ class Compensator final : public gcode::BlockVisitor {
       }
     }
     block_error_ = false;
-    if (!motions.empty()) {
-      known_ = motions.back().known;
-    } else {
-      known_ &= static_cast<AxisMask>(motions_keep_known(b) ? 0xFFFF : 0);
-    }
+    // A block that moves to the reference point or changes the work offset without moving: the
+    // corrected position the controller holds is no longer known in the program's coordinates.
+    if (motions.empty() && !keeps_coordinates()) written_known_ = 0;
     if (ed.empty()) {
       emit(b.raw, after_.empty() ? b.eol : std::string_view(eol_), b.line);
     } else {
@@ -117,8 +115,9 @@ class Compensator final : public gcode::BlockVisitor {
     return c;
   }
 
-  /// Blocks without motion that make positions unknown (G28, G53 without axes, a new offset).
-  bool motions_keep_known(const Block&) const {
+  /// False for blocks that change what the program's coordinates mean (G28/G30, a work offset,
+  /// G10 offset writes).
+  bool keeps_coordinates() const {
     return !(track_.has(gcode::GMeaning::home_return) || track_.has(gcode::GMeaning::work_offset) ||
              track_.has(gcode::GMeaning::set_offsets_g10));
   }
@@ -247,6 +246,11 @@ class Compensator final : public gcode::BlockVisitor {
     const MapKey key{form, m.frame, m.work_offset.code10, m.work_offset.p, m.tool_length_active, m.tool_length_h,
                      m.local_offset + m.position_offset};
     if (!map_ || !(key == map_key_)) {
+      // The held corrected position is in the old context's coordinates unless only the tool
+      // length changed (the program still names the same points).
+      if (map_ && !(key.form == map_key_.form && key.frame == map_key_.frame && key.code10 == map_key_.code10 &&
+                    key.p == map_key_.p && key.shift == map_key_.shift))
+        written_known_ = 0;
       if (map_) r_.singular_fallbacks += map_->singular_fallbacks();
       map_.reset();
       auto fresh = map_of(b, m, form);
@@ -573,7 +577,6 @@ class Compensator final : public gcode::BlockVisitor {
   bool rapid_as_written_ = false;
   bool arc_mode_broken_ = false;  ///< an arc was linearised; a following modal arc needs its G word
   std::string arc_word_ = "G2";
-  AxisMask known_ = 0;
   AxisMask mask_ = 0;
   kin::JointVector joints_;
   AxisVector written_;            ///< corrected end of the previous motion, work coordinates
