@@ -26,10 +26,31 @@ const std::pair<kin::ModelPtr, kin::ModelPtr>& ToolLengthModels::with_tool_lengt
   return cache_.emplace(mm, std::make_pair(set(m_.nominal), set(m_.actual))).first->second;
 }
 
-double WordWriter::program_units(int a, double v, const Motion& m) const {
+double unit_scale(int a, const Motion& m) {
+  double k = 1.0;
+  if (!gcode::is_rotary(a) && m.inch_source) k *= 25.4;
+  if (a == 0 && m.diameter_mode) k /= 2;
+  return k;
+}
+
+double program_units(int a, double v, const Motion& m) {
   if (!gcode::is_rotary(a) && m.inch_source) v /= 25.4;
   if (a == 0 && m.diameter_mode) v *= 2;
   return v;
+}
+
+gcode::AxisMask written_axes(const machine::Machine& m, Form f) {
+  gcode::AxisMask mask = 0;
+  if (f == Form::axes || f == Form::tcp_rotary) {
+    // Under TCP with rotary axes the block carries the tool tip (X Y Z) and the rotary values.
+    for (int a = 0; a < gcode::kAxisCount; ++a)
+      if (m.joint_of_axis[static_cast<std::size_t>(a)] >= 0 && (f == Form::axes || a < 3 || gcode::is_rotary(a)))
+        mask |= static_cast<gcode::AxisMask>(1u << a);
+  } else {
+    mask = 0b111;
+    if (f == Form::tcp_virtual) mask |= 0b11000;
+  }
+  return mask;
 }
 
 bool WordWriter::vector_form(const Motion& m) const {

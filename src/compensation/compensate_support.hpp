@@ -12,6 +12,13 @@
 
 namespace postproc::comp {
 
+/// mm (or degrees) per program unit of axis `a` in motion `m` (inch programs, X as a diameter).
+[[nodiscard]] double unit_scale(int a, const gcode::Motion& m);
+/// A value in mm / degrees as the program writes it (inch, diameter).
+[[nodiscard]] double program_units(int a, double v, const gcode::Motion& m);
+/// The program axes whose words a block of form `f` carries on machine `m`.
+[[nodiscard]] gcode::AxisMask written_axes(const machine::Machine& m, Form f);
+
 /// Nominal and actual models with the tool length of the block (serial models carry it as the
 /// parameter "tool.length"; others ignore it). Cached per length.
 class ToolLengthModels {
@@ -52,7 +59,6 @@ class WordWriter {
  private:
   /// The style of inserted words and new lines: plain, leading zero, trimmed trailing zeros.
   [[nodiscard]] static gcode::NumberStyle default_style() { return gcode::NumberStyle{false, true, 3, false, false}; }
-  [[nodiscard]] double program_units(int a, double v, const gcode::Motion& m) const;
   [[nodiscard]] bool vector_form(const gcode::Motion& m) const;
   const gcode::Dialect& d_;
   const machine::Machine& m_;

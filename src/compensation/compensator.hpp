@@ -186,19 +186,7 @@ class Compensator final : public gcode::BlockVisitor {
     return ProgramMap(m_, nom, act, form, *offset, form == Form::axes && m.tool_length_active, length);
   }
 
-  /// Axes whose words this form writes.
-  AxisMask written_axes(Form form) const {
-    AxisMask mask = 0;
-    if (form == Form::axes || form == Form::tcp_rotary) {
-      for (int a = 0; a < gcode::kAxisCount; ++a)
-        if (m_.joint_of_axis[static_cast<std::size_t>(a)] >= 0 && (form == Form::axes || a < 3 || gcode::is_rotary(a)))
-          mask |= static_cast<AxisMask>(1u << a);
-    } else {
-      mask = 0b111;
-      if (form == Form::tcp_virtual) mask |= 0b11000;
-    }
-    return mask;
-  }
+  AxisMask written_axes(Form form) const { return comp::written_axes(m_, form); }
 
   void check_unchanged(const Block& b, const Motion& m) {
     // Several motions in one block (G28 intermediate points, cycles): accepted only when the
@@ -223,20 +211,6 @@ class Compensator final : public gcode::BlockVisitor {
     if (std::abs(t - f) < 1e-9) return false;
     const double s = std::pow(10.0, m_.decimals(a));
     return std::llround(f * s) != std::llround(t * s);
-  }
-
-  /// mm (or degrees) per program unit of axis a.
-  static double unit_scale(int a, const Motion& m) {
-    double k = 1.0;
-    if (!gcode::is_rotary(a) && m.inch_source) k *= 25.4;
-    if (a == 0 && m.diameter_mode) k /= 2;
-    return k;
-  }
-
-  static double program_units(int a, double v, const Motion& m) {
-    if (!gcode::is_rotary(a) && m.inch_source) v /= 25.4;
-    if (a == 0 && m.diameter_mode) v *= 2;
-    return v;
   }
 
   /// Corrects the end point of `m` into `out`; fills q_actual. False after a refusal.

@@ -56,25 +56,6 @@ std::optional<ProgramMap> map_of(const machine::Machine& m, ToolLengthModels& mo
   return ProgramMap(m, nom, act, f, *offset, f == Form::axes && mo.tool_length_active, length);
 }
 
-gcode::AxisMask form_axes(const machine::Machine& m, Form f) {
-  gcode::AxisMask mask = 0;
-  if (f == Form::axes || f == Form::tcp_rotary) {
-    for (int a = 0; a < gcode::kAxisCount; ++a)
-      if (m.joint_of_axis[static_cast<std::size_t>(a)] >= 0) mask |= static_cast<gcode::AxisMask>(1u << a);
-  } else {
-    mask = f == Form::tcp_virtual ? 0b11111 : 0b111;
-  }
-  return mask;
-}
-
-/// mm (or degrees) per program unit.
-double unit_scale(int a, const gcode::Motion& mo) {
-  double k = 1.0;
-  if (!gcode::is_rotary(a) && mo.inch_source) k *= 25.4;
-  if (a == 0 && mo.diameter_mode) k /= 2;
-  return k;
-}
-
 }  // namespace
 
 VerifyResult verify(std::string_view original, std::string_view corrected, const std::vector<std::uint64_t>& line_map,
@@ -106,7 +87,7 @@ VerifyResult verify(std::string_view original, std::string_view corrected, const
     }
     const gcode::Motion& mc = it->second->motion;
     const Form f = form_of(m, mo);
-    const gcode::AxisMask need = form_axes(m, f);
+    const gcode::AxisMask need = written_axes(m, f);
     if ((mo.known & need) != need || (mc.known & need) != need ||
         (mo.type == gcode::MotionType::rapid && (mo.end - mc.end).cwiseAbs().maxCoeff() == 0)) {
       ++v.skipped;  // unknown positions, or a rapid left as written

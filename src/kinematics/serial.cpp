@@ -66,12 +66,7 @@ Eigen::Matrix3d rotation_about(const Eigen::Vector3d& d, double a) {
   const double s = std::sin(a);
   Eigen::Matrix3d r = (1 - c) * d * d.transpose();
   r.diagonal().array() += c;
-  r(0, 1) -= s * d.z();
-  r(1, 0) += s * d.z();
-  r(0, 2) += s * d.y();
-  r(2, 0) -= s * d.y();
-  r(1, 2) -= s * d.x();
-  r(2, 1) += s * d.x();
+  add_skew(r, s, d);
   return r;
 }
 
@@ -376,12 +371,7 @@ void SerialModel::Impl::chain(const JointVector& q, const Trig& tr, Chain& out, 
       const Eigen::Vector3d& d = g.dir;
       lr = c1 * g.dd;
       lr.diagonal().array() += c;
-      lr(0, 1) -= s * d.z();
-      lr(1, 0) += s * d.z();
-      lr(0, 2) += s * d.y();
-      lr(2, 0) -= s * d.y();
-      lr(1, 2) -= s * d.x();
-      lr(2, 1) += s * d.x();
+      serial_detail::add_skew(lr, s, d);
       lt = c1 * g.pq - s * g.pk;
       if constexpr (Twist) {
         lw = d * kDeg;

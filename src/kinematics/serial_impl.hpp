@@ -12,6 +12,16 @@
 namespace postproc::kin {
 
 namespace serial_detail {
+
+/// Adds s·[d]× to r: the skew part of Rodrigues' rotation about unit axis d (s = sin angle).
+inline void add_skew(Eigen::Matrix3d& r, double s, const Eigen::Vector3d& d) {
+  r(0, 1) -= s * d.z();
+  r(1, 0) += s * d.z();
+  r(0, 2) += s * d.y();
+  r(2, 0) -= s * d.y();
+  r(1, 2) -= s * d.x();
+  r(2, 1) += s * d.x();
+}
 /// x ↦ r·x + t.
 struct Rigid {
   Eigen::Matrix3d r = Eigen::Matrix3d::Identity();
