@@ -43,7 +43,7 @@ int main() {
       times.push_back(r.seconds);
     }
     std::sort(times.begin(), times.end());
-    const double after = cal::doc001::max_tip_error_z700(*nominal->with_errors(r.values), *truth);
+    const double after = cal::doc001::max_tip_error_z700(*std::static_pointer_cast<const kin::PrsHybrid>(nominal->with_values(r.values)), *truth);
     std::printf("%-26s %10.4f %10.5f %6d %10.3g %10.4f\n", row.name, before, after, r.iterations,
                 r.lambda, times[2]);
   }

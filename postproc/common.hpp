@@ -42,5 +42,6 @@ void setup_check(CLI::App& app, int& rc);
 void setup_dump(CLI::App& app, int& rc);
 void setup_convert(CLI::App& app, int& rc);
 void setup_compensate(CLI::App& app, int& rc);
+void setup_calibrate(CLI::App& app, int& rc);
 
 }  // namespace postproc::cli

@@ -16,6 +16,7 @@ int main(int argc, char** argv) {
   postproc::cli::setup_dump(app, rc);
   postproc::cli::setup_convert(app, rc);
   postproc::cli::setup_compensate(app, rc);
+  postproc::cli::setup_calibrate(app, rc);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

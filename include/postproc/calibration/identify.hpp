@@ -1,23 +1,30 @@
 #pragma once
 /// @file
-/// Identification of the 33 error parameters of the 3-PRS hybrid machine (document 001) from
-/// measured tool poses, by Levenberg–Marquardt (Ceres) on the model's analytic identification
-/// Jacobian.
+/// Identification of a machine model's error parameters from measurements (measurement.hpp), by
+/// Levenberg–Marquardt in Ceres, with identifiability analysis (SVD / rank-revealing QR of the
+/// identification Jacobian) and parameter standard deviations from the covariance.
 ///
-/// Residuals, per pose, all in "mm-equivalent":
-/// - position: measured P − model P (mm, workpiece frame);
-/// - orientation, 6-DoF data: kOrientationWeight · rotation_difference(measured R, model R)
-///   (rad → mm-equivalent);
-/// - orientation, 5-DoF data (has_torsion = false): kOrientationWeight · (u·(O_m − O), v·(O_m − O))
-///   with u, v an orthonormal pair orthogonal to the measured tool axis O_m — the two components
-///   of the axis error; the measured rotation about O_m is ignored.
-/// kOrientationWeight = 180/π mm/rad, so an angle error of 0.01° weighs as much as 0.01 mm: the
-/// inverse ratio of the noise levels of document 001 (±0.01 mm, ±0.01°).
+/// Residuals, per measurement, measured − model, all in "mm-equivalent":
+/// - position rows: measured P − model P (mm, workpiece frame);
+/// - 6-DoF orientation rows: w · rotation_difference(measured R, model R) (rad → mm-equivalent);
+/// - tool-axis rows (5-DoF poses, directions): w · (u·(O_m − O), v·(O_m − O)) with u, v an
+///   orthonormal pair orthogonal to the measured tool axis O_m; the rotation about O_m is ignored;
+/// - strut rows (hexapod, document 003): recorded strut coordinate − the model's strut coordinate
+///   at the measured pose (mm; inverse kinematics, so no forward solve).
+/// w = orientation_weight (default 180/π mm/rad: 0.01° weighs as much as 0.01 mm, the inverse
+/// ratio of document 001's noise levels ±0.01 mm / ±0.01°).
+///
+/// Derivatives: analytic where the model has an identification Jacobian (the 3-PRS hybrid's 33
+/// errors at commanded joints; the hexapod's 42 parameters in strut space), central differences of
+/// the model (with_values) for every other parameter; `numeric_derivatives` forces differences.
 
+#include <optional>
 #include <span>
 #include <string>
+#include <utility>
 #include <vector>
 
+#include "postproc/calibration/measurement.hpp"
 #include "postproc/kinematics/model.hpp"
 #include "postproc/kinematics/prs_hybrid.hpp"
 
@@ -26,61 +33,122 @@ namespace postproc::cal {
 /// mm-equivalent per rad of orientation residual: 0.01° ↔ 0.01 mm.
 inline constexpr double kOrientationWeight = 180.0 / kin::kPi;
 
-/// One measured pose: the commanded joint values and the pose the machine reached.
-struct PoseMeasurement {
-  kin::JointVector q;          ///< joint values sent to the machine (mm)
-  kin::Pose measured;          ///< measured tool pose, workpiece frame
-  bool has_torsion = true;     ///< false: 5-DoF, the rotation about the tool axis is not measured
-};
-
 enum class Method {
-  /// Plain LM (Ceres's adaptive damping); 5-DoF poses contribute their 5 components (the
-  /// torsion-only parameter combinations are then unobserved and stay near the start under LM's
-  /// damping).
+  /// Plain LM (Ceres's adaptive damping) on the measured components. The default: with the
+  /// unidentifiable combinations fixed by the identifiability analysis it is well posed for every
+  /// kind of data, converges in a handful of iterations and is the unbiased estimate.
   least_squares,
-  /// Document 001's ridge estimate: every step solves (JᵀJ + μI) dr = −Jᵀf with μ ≥ λ — λ‖dr‖²
-  /// added to each step's linearised cost, a Tikhonov prior on the increment. Done in Ceres by
-  /// fixing the LM diagonal to I (min/max_lm_diagonal = 1) and capping the trust region at 1/λ.
+  /// Ridge (Tikhonov) estimate: λ‖x − x₀‖² added to the cost (x₀ the start values, parameters in
+  /// mm and rad), pulling weakly observed directions toward the start. λ given, or chosen by
+  /// generalized cross-validation on the linearised problem at the start (λ over 1e-12…1e2).
+  /// Document 001's ridge iterates (JᵀJ + λI)Δ = −Jᵀf, whose fixed point is the plain least-squares
+  /// solution reached slowly (550 iterations); the penalised form converges like LM.
   ridge,
-  /// Document 001's improved method: at every residual evaluation the unmeasured torsion of each
-  /// 5-DoF measurement is replaced by the model's own at the current parameters (the smallest
-  /// rotation carrying the model's tool axis onto the measured one, applied to the model's
-  /// orientation), so the 6-row residual has dψ = 0, and the full 6-row Jacobian is used: plain
-  /// least squares on 6-DoF rows. Its fixed point is the 5-component least-squares solution.
+  /// Document 001's improved method for 5-DoF poses: at every evaluation the unmeasured torsion of
+  /// each 5-DoF pose is replaced by the model's own (the smallest rotation carrying the model's
+  /// tool axis onto the measured one, applied to the model's orientation), so the torsion residual
+  /// is 0 while the full 6-row Jacobian is used. Same fixed point as least squares on 5 rows.
   psi_substitution,
 };
+[[nodiscard]] std::string_view to_string(Method m);
+[[nodiscard]] std::optional<Method> parse_method(std::string_view s);
+
+enum class Loss { none, huber, cauchy };
 
 struct IdentifyOptions {
   Method method = Method::least_squares;
-  /// Ridge weight λ (mm² per unit² of parameter). ≤ 0: chosen automatically by generalized
-  /// cross-validation on the weighted, linearised problem at the start model
-  /// (minimise n‖(I − A_λ)b‖² / tr(I − A_λ)², A_λ the ridge hat matrix, λ over 1e-12…1e2).
+  /// Ridge weight λ (mm² per unit² of parameter). ≤ 0: chosen by GCV.
   double ridge_lambda = 0;
-  /// Cap on Ceres LM iterations. Every method is a single Ceres solve.
+  /// Cap on Ceres LM iterations (one Ceres solve per identify()).
   int max_iterations = 150;
-  /// Error-parameter indices (0…32) held at the start model's values.
+  /// Parameters to identify (indices into parameters()); empty: every error parameter.
+  std::vector<int> free;
+  /// Removed from the identified set, held at the start values.
   std::vector<int> fixed;
+  /// Robust loss per measurement (Ceres HuberLoss / CauchyLoss) with scale loss_scale (mm-eq).
+  Loss loss = Loss::none;
+  double loss_scale = 0.02;
+  /// Bounds on parameter values (absolute, the parameter's unit): index, lower, upper.
+  std::vector<std::pair<int, std::pair<double, double>>> bounds;
+  double orientation_weight = kOrientationWeight;
+  bool numeric_derivatives = false;
+  /// A direction of the column-scaled Jacobian with singular value below rank_tolerance·σ_max is
+  /// not identifiable: one parameter per such direction (the rank-revealing QR's choice) is held
+  /// at its start value and the combination is reported.
+  double rank_tolerance = 1e-6;
 };
+
+/// SVD of the column-scaled identification Jacobian (each column divided by its norm, so the
+/// figures do not depend on the units of the parameters).
+struct Identifiability {
+  int rows = 0;                  ///< residual components
+  int parameters = 0;            ///< columns analysed
+  int rank = 0;                  ///< singular values above rank_tolerance·σ_max
+  double condition = 0;          ///< σ_max / σ_min over the identifiable part
+  double o1 = 0;                 ///< (σ₁⋯σ_r)^(1/r) / √rows (Borm & Menq)
+  double o3 = 0;                 ///< σ_min (of the identifiable part)
+  double o4 = 0;                 ///< σ_min² / σ_max, noise amplification index (Nahvi & Hollerbach)
+  Eigen::VectorXd singular_values;
+  /// Unidentifiable combinations, one per null direction: "limb1.db_y +1 mm, limb2.db_y -0.98 mm"
+  /// (the parameter change, in each parameter's unit, that changes no measurement).
+  std::vector<std::string> combinations;
+  /// Parameters with a zero column: no measurement depends on them.
+  std::vector<int> unobserved;
+  /// The parameters to hold so that the rest is identifiable (one per null direction + unobserved).
+  std::vector<int> dependent;
+};
+
+/// Analyses the identification Jacobian `j` whose columns are the parameters `columns` of `model`.
+[[nodiscard]] Identifiability analyse(const Eigen::MatrixXd& j, std::span<const int> columns, const kin::Model& model,
+                                      double rank_tolerance = 1e-6);
 
 struct IdentifyResult {
-  std::vector<double> values;   ///< the 33 identified errors (parameter order, mm / rad)
-  int iterations = 0;           ///< Ceres LM iterations (successful and rejected steps)
-  double seconds = 0;           ///< wall time of identify()
-  double initial_cost = 0;      ///< ½‖res‖² of the measurements' own components at the start (mm²)
-  double final_cost = 0;        ///< the same at the result
-  double lambda = 0;            ///< the ridge λ used (0 for other methods)
-  bool usable = false;          ///< ceres::Solver::Summary::IsSolutionUsable of every solve
-  std::string message;          ///< ceres::Solver::Summary::message
+  std::vector<double> values;     ///< every parameter of the model (start values where not identified)
+  std::vector<int> identified;    ///< indices estimated
+  std::vector<int> held;          ///< indices held at the start because they were not identifiable
+  std::vector<double> stddev;     ///< per parameter; NaN when not estimated (covariance σ̂²(JᵀJ)⁻¹)
+  Identifiability start;          ///< at the start model, over the requested set
+  Identifiability solution;       ///< at the result, over the identified set
+  int iterations = 0;             ///< Ceres LM iterations
+  double seconds = 0;             ///< wall time of identify()
+  double initial_cost = 0;        ///< ½‖res‖² of the fitted measurements at the start (mm²)
+  double final_cost = 0;          ///< the same at the result
+  double sigma = 0;               ///< residual standard deviation √(2·cost / (rows − identified)), mm-eq
+  double lambda = 0;              ///< the ridge λ used (0 for other methods)
+  bool usable = false;            ///< ceres::Solver::Summary::IsSolutionUsable
+  std::string message;            ///< ceres::Solver::Summary::message
 };
 
-/// Identifies the 33 error parameters starting from start_model's errors. Throws postproc::Error
-/// (usage) for an empty measurement set, a bad fixed index, or a pose the start model cannot reach.
-[[nodiscard]] IdentifyResult identify(const kin::PrsHybrid& start_model, std::span<const PoseMeasurement> data,
+/// Identifies the parameters from the measurements not marked `validate`, starting from
+/// start_model's values. Throws postproc::Error (usage) for no measurements, a bad index, a
+/// measurement the start model cannot evaluate (named by its label), or more parameters than
+/// residual components.
+[[nodiscard]] IdentifyResult identify(const kin::Model& start_model, std::span<const Measurement> data,
                                       const IdentifyOptions& options = {});
 
-/// The residual vector of the measurements against a model with these errors (5 or 6 rows per
-/// pose, as described in the file comment, mm-equivalent). For tests and reports.
-[[nodiscard]] Eigen::VectorXd pose_residuals(const kin::PrsHybrid& model, std::span<const PoseMeasurement> data);
+/// The residual of one measurement against a model (residual_rows() entries, mm-equivalent, as
+/// the file comment says); false when the model cannot evaluate it (forward/inverse fails).
+bool measurement_residual(const kin::Model& model, const Measurement& m, double* out,
+                          double orientation_weight = kOrientationWeight);
+
+/// Stacked residuals of every measurement (NaN rows where the model cannot evaluate one).
+[[nodiscard]] Eigen::VectorXd residuals(const kin::Model& model, std::span<const Measurement> data,
+                                        double orientation_weight = kOrientationWeight);
+
+/// Stacked residuals and their derivatives by the parameters `columns` (analytic where the
+/// model has them, else central differences). Throws postproc::Error (usage) naming a measurement
+/// the model cannot evaluate.
+void linearise(const kin::Model& model, std::span<const Measurement> data, std::span<const int> columns,
+               Eigen::VectorXd& res, Eigen::MatrixXd& jac, double orientation_weight = kOrientationWeight,
+               bool numeric = false);
+
+/// Per measurement: tool-tip (or strut) error |residual position rows| in mm and tool-axis error
+/// in degrees (NaN where the kind has none). For reports.
+struct MeasurementError {
+  double position_mm = 0;
+  double angle_deg = 0;
+};
+[[nodiscard]] MeasurementError measurement_error(const kin::Model& model, const Measurement& m);
 
 /// Document 001's simulation experiment (section 3), for the tests and the bench.
 namespace doc001 {
@@ -92,17 +160,16 @@ namespace doc001 {
 
 /// The 27 measuring poses (z, φ, θ): on each plane z = 700, 800, 900 mm, θ = 0 and θ = 40° at
 /// φ = 0°, 45°, …, 315°. The paper shows its pose pattern only in a figure (fig. 5); this is our
-/// reading. (Mixing θ = 20° and 40° instead leaves the dq − dl combinations badly conditioned and
-/// the error after identification at 0.02–0.3 mm depending on the noise draw.)
+/// reading.
 [[nodiscard]] std::vector<kin::Pose> pose_set();
 
 /// Simulated measurements: joints from `controller`'s nominal closed-form inverse (what the
 /// controller commands), pose from `truth`'s forward kinematics plus uniform noise: ±noise_mm per
 /// position component and a small rotation with components uniform in ±noise_deg (workpiece
 /// frame). has_torsion as given (5-DoF data keep the noisy rotation; identify ignores its torsion).
-[[nodiscard]] std::vector<PoseMeasurement> simulate(const kin::PrsHybrid& controller, const kin::PrsHybrid& truth,
-                                                    std::span<const kin::Pose> targets, unsigned seed,
-                                                    bool has_torsion, double noise_mm = 0.01, double noise_deg = 0.01);
+[[nodiscard]] std::vector<Measurement> simulate(const kin::PrsHybrid& controller, const kin::PrsHybrid& truth,
+                                                std::span<const kin::Pose> targets, unsigned seed, bool has_torsion,
+                                                double noise_mm = 0.01, double noise_deg = 0.01);
 
 /// Largest tool-tip error (mm) on the z = 700 mm plane over θ = 0…40° (1° steps) and φ in 5°
 /// steps: joints from `commanding.inverse` (its own errors; the closed form for a nominal model),

@@ -1,0 +1,22 @@
+#pragma once
+// Shared pieces of the calibrate commands.
+#include <string>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+
+#include "postproc/kinematics/model.hpp"
+
+namespace postproc::cli {
+
+/// The bytes of a file. Throws postproc::Error (no_input) naming `what` when it cannot be read.
+std::string read_text_file(const std::string& path, std::string_view what);
+
+/// Parameter indices whose names match any of `patterns` (* and ? wildcards). Throws
+/// postproc::Error (usage) for a pattern that matches nothing, listing the parameters.
+std::vector<int> match_parameters(const kin::Model& model, const std::vector<std::string>& patterns, std::string_view option);
+
+void setup_calibrate_plan(CLI::App& calibrate, int& rc);
+void setup_calibrate_simulate(CLI::App& calibrate, int& rc);
+
+}  // namespace postproc::cli

@@ -1,0 +1,325 @@
+// postproc calibrate: identify a machine's error parameters from measurement files and write
+// the calibrated machine file; `calibrate plan` and `calibrate simulate` (cmd_calibrate_plan.cpp).
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <memory>
+#include <sstream>
+
+#include <fmt/format.h>
+
+#include "calibrate_support.hpp"
+#include "common.hpp"
+#include "postproc/calibration/identify.hpp"
+#include "postproc/calibration/machine_update.hpp"
+#include "postproc/calibration/report.hpp"
+#include "postproc/calibration/step_gauge.hpp"
+#include "postproc/io/output_file.hpp"
+#include "postproc/machine/machine.hpp"
+
+namespace postproc::cli {
+namespace {
+
+struct CalibrateArgs {
+  std::vector<std::string> data;
+  std::vector<std::string> validate;
+  std::string machine;
+  std::string output;
+  std::vector<std::string> reports;
+  std::string method = "least-squares";
+  double lambda = 0;
+  std::vector<std::string> free;
+  std::vector<std::string> fix;
+  std::vector<std::string> bounds;
+  std::string loss = "none";
+  double loss_scale_um = 20;
+  int max_iterations = 150;
+  bool numeric = false;
+  double angle_weight = cal::kOrientationWeight;
+  std::string map_interpolation = "trilinear";
+  std::string map_outside = "refuse";
+  bool in_place = false;
+  std::size_t max_per_code = 20;
+};
+
+/// One data file: the parsed table and its bytes' hash.
+struct DataFile {
+  std::string path, text, kind;
+  std::optional<cal::CsvTable> table;
+};
+
+DataFile read_data(const std::string& path, gcode::DiagnosticSink& sink) {
+  DataFile f;
+  f.path = path;
+  f.text = read_text_file(path, "measurement file");
+  f.table = cal::CsvTable::parse(path, f.text, sink);
+  if (f.table)
+    if (auto k = cal::measurement_file_kind(*f.table)) f.kind = *k;
+  return f;
+}
+
+/// "EX0C=-50um:50um": bounds on the deviation from nominal (error parameters) or the value.
+void parse_bound(const std::string& text, const kin::Model& model, cal::IdentifyOptions& opt) {
+  const auto eq = text.find('=');
+  const auto colon = text.find(':', eq == std::string::npos ? 0 : eq);
+  if (eq == std::string::npos || colon == std::string::npos)
+    throw Error(ExitCode::usage, fmt::format("--bound '{}': write NAME=LOW:HIGH with units, e.g. EX0C=-50um:50um", text));
+  const std::string name = text.substr(0, eq);
+  const int k = model.parameter_index(name);
+  if (k < 0) throw Error(ExitCode::usage, fmt::format("--bound '{}': the machine has no parameter '{}'", text, name));
+  const kin::Parameter& p = model.parameters()[static_cast<std::size_t>(k)];
+  const cal::Quantity q = p.unit == "rad" ? cal::Quantity::angle : cal::Quantity::length;
+  auto value = [&](std::string s) {
+    std::size_t used = 0;
+    double v = 0;
+    try {
+      v = std::stod(s, &used);
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    const auto f = used > 0 ? cal::unit_factor(s.substr(used), q) : std::nullopt;
+    if (!f)
+      throw Error(ExitCode::usage, fmt::format("--bound '{}': '{}' is not a {} with a unit (e.g. {})", text, s,
+                                               p.unit == "rad" ? "angle" : "length", p.unit == "rad" ? "20arcsec" : "50um"));
+    return v * *f + (p.error ? p.nominal : 0.0);
+  };
+  const double lo = value(text.substr(eq + 1, colon - eq - 1)), hi = value(text.substr(colon + 1));
+  if (!(lo < hi)) throw Error(ExitCode::usage, fmt::format("--bound '{}': LOW must be below HIGH", text));
+  opt.bounds.push_back({k, {lo, hi}});
+}
+
+void print_summary(const cal::CalibrationRun& run, const cal::Comparison& c) {
+  const auto& r = run.result;
+  const auto& params = run.start->parameters();
+  std::string out = fmt::format("postproc: {} measurements ({} fitted, {} held out); method {}{}; {} of {} parameters "
+                                "identified, {} Ceres iterations, {:.3f} s\n",
+                                run.data.size(), c.fit.count, c.validation.count, cal::to_string(run.options.method),
+                                r.lambda > 0 ? fmt::format(" (λ = {:.3g})", r.lambda) : "", r.identified.size(),
+                                r.start.parameters, r.iterations, r.seconds);
+  out += fmt::format("postproc: identifiability: rank {} of {}, condition {:.4g}, O1 {:.4g}, O3 {:.4g}, O4 {:.4g}\n",
+                     r.start.rank, r.start.parameters, r.start.condition, r.start.o1, r.start.o3, r.start.o4);
+  for (const std::string& comb : r.start.combinations)
+    out += fmt::format("postproc: not identifiable (held at the start value): {}\n", comb);
+  for (int k : r.start.unobserved)
+    out += fmt::format("postproc: no measurement depends on {} (held at the start value)\n", params[static_cast<std::size_t>(k)].name);
+  out += fmt::format("postproc: fitted: tool-tip error max {:.5f} → {:.5f} mm, rms {:.5f} → {:.5f} mm; tool-axis max {:.5f} → "
+                     "{:.5f} deg; residual σ {:.5f} mm\n",
+                     c.fit.max_position_before_mm, c.fit.max_position_after_mm, c.fit.rms_position_before_mm,
+                     c.fit.rms_position_after_mm, c.fit.max_angle_before_deg, c.fit.max_angle_after_deg, r.sigma);
+  if (c.validation.count > 0)
+    out += fmt::format("postproc: held out: tool-tip error max {:.5f} → {:.5f} mm, rms {:.5f} → {:.5f} mm; tool-axis max {:.5f} "
+                       "→ {:.5f} deg\n",
+                       c.validation.max_position_before_mm, c.validation.max_position_after_mm,
+                       c.validation.rms_position_before_mm, c.validation.rms_position_after_mm,
+                       c.validation.max_angle_before_deg, c.validation.max_angle_after_deg);
+  std::fputs(out.c_str(), stderr);
+}
+
+void run_calibrate(const CalibrateArgs& a, int& rc) {
+  const auto method = cal::parse_method(a.method);
+  if (!method) throw Error(ExitCode::usage, fmt::format("--method {}: use least-squares, ridge or psi-substitution", a.method));
+  if (a.data.empty()) throw Error(ExitCode::usage, "give at least one measurement file (docs/measurements.md)");
+  gcode::DiagnosticSink sink;
+  DiagnosticPrinter printer(sink, a.max_per_code);
+  const std::string machine_text = read_text_file(a.machine, "machine file");
+  const auto machine = machine::parse_machine(a.machine, machine_text, sink);
+  if (!machine) {
+    printer.finish();
+    std::fputs(fmt::format("postproc: {}: machine file refused; nothing was written\n", a.machine).c_str(), stderr);
+    rc = static_cast<int>(ExitCode::refused);
+    return;
+  }
+  const kin::Model& start = *machine->actual;
+
+  std::vector<cal::Measurement> data;
+  cal::StepGaugeData gauge;
+  bool have_gauge = false;
+  std::vector<cal::InputFile> inputs;
+  auto add_file = [&](const std::string& path, bool validate) {
+    DataFile f = read_data(path, sink);
+    if (!f.table || f.kind.empty()) return;
+    cal::InputFile in{path, machine::sha256_hex(f.text), f.kind, 0};
+    if (f.kind == "step-gauge" || f.kind == "step-gauge-edge") {
+      if (validate) {
+        f.table->error(cal::CsvTable::kHeader, -1, cal::codes::kCsvColumns,
+                       "step-gauge files build the map; they cannot be held out with --validate");
+        return;
+      }
+      have_gauge = cal::add_step_gauge_file(*f.table, gauge, f.text) || have_gauge;
+      in.measurements = f.table->rows().size();
+    } else {
+      const std::size_t before = data.size();
+      if (!cal::read_measurements(*f.table, start, data)) return;
+      for (std::size_t i = before; i < data.size(); ++i) data[i].validate = data[i].validate || validate;
+      in.measurements = data.size() - before;
+    }
+    inputs.push_back(in);
+  };
+  for (const std::string& p : a.data) add_file(p, false);
+  for (const std::string& p : a.validate) add_file(p, true);
+  if (sink.has_errors()) {
+    printer.finish();
+    std::fputs("postproc: measurement files refused; nothing was written\n", stderr);
+    rc = static_cast<int>(ExitCode::refused);
+    return;
+  }
+
+  // Step gauge → [volumetric_map].
+  std::string map_section;
+  std::vector<std::string> notes;
+  if (have_gauge) {
+    cal::StepGaugeOptions sg;
+    sg.interpolation = a.map_interpolation == "smooth" ? kin::VolumetricMap::Interpolation::smooth
+                                                       : kin::VolumetricMap::Interpolation::trilinear;
+    sg.outside = a.map_outside == "clamp"  ? kin::VolumetricMap::Outside::clamp
+                 : a.map_outside == "zero" ? kin::VolumetricMap::Outside::zero
+                                           : kin::VolumetricMap::Outside::refuse;
+    cal::StepGaugeReport sgr;
+    const auto map = cal::build_volumetric_map(gauge, sg, sink, &sgr);
+    if (!map) {
+      printer.finish();
+      std::fputs("postproc: step-gauge data refused; nothing was written\n", stderr);
+      rc = static_cast<int>(ExitCode::refused);
+      return;
+    }
+    map_section = cal::volumetric_map_toml(*map);
+    notes.push_back(fmt::format("volumetric map from {} gauges, {} pyramids: largest |E| {:.4f} mm", gauge.gauges.size(),
+                                sgr.points.size(), sgr.max_error));
+    for (const auto& t : sgr.tilts)
+      if (t.measured)
+        notes.push_back(fmt::format("gauge {}: plate tilt θx {:.2f} arcsec, θy {:.2f} arcsec (edge-fit rms {:.2f} / {:.2f} µm)", t.gauge,
+                                    t.theta.x() / kin::kDeg * 3600, t.theta.y() / kin::kDeg * 3600, t.rms.x() * 1000,
+                                    t.rms.y() * 1000));
+    for (const auto& n : notes) std::fputs(("postproc: " + n + "\n").c_str(), stderr);
+  }
+
+  cal::IdentifyOptions opt;
+  opt.method = *method;
+  opt.ridge_lambda = a.lambda;
+  opt.max_iterations = a.max_iterations;
+  opt.numeric_derivatives = a.numeric;
+  opt.orientation_weight = a.angle_weight;
+  opt.loss = a.loss == "huber" ? cal::Loss::huber : a.loss == "cauchy" ? cal::Loss::cauchy : cal::Loss::none;
+  opt.loss_scale = a.loss_scale_um / 1000.0;
+  if (!a.free.empty()) opt.free = match_parameters(start, a.free, "--free");
+  if (!a.fix.empty()) opt.fixed = match_parameters(start, a.fix, "--fix");
+  for (const std::string& b : a.bounds) parse_bound(b, start, opt);
+
+  std::string out_text = machine_text;
+  std::vector<std::string> header{fmt::format("calibrated by postproc {} calibrate from {} (sha256 {})", POSTPROC_VERSION,
+                                              a.machine, machine->sha256)};
+  for (const cal::InputFile& f : inputs)
+    header.push_back(fmt::format("  data {} ({}, {} rows, sha256 {})", f.path, f.kind, f.measurements, f.sha256));
+
+  cal::CalibrationRun run;
+  run.tool_version = POSTPROC_VERSION;
+  run.machine_file = a.machine;
+  run.machine_sha256 = machine->sha256;
+  run.machine_name = machine->name;
+  run.output_file = a.output;
+  run.inputs = inputs;
+  run.options = opt;
+  run.notes = notes;
+  kin::ModelPtr solved = machine->actual;
+  if (!data.empty()) {
+    run.result = cal::identify(start, data, opt);
+    solved = start.with_values(run.result.values);
+    run.start = &start;
+    run.solved = solved.get();
+    run.data = data;
+    const cal::Comparison c = cal::compare(run);
+    print_summary(run, c);
+    if (!run.result.usable)
+      throw Error(ExitCode::refused, fmt::format("the solver gave no usable solution ({}); nothing was written", run.result.message));
+    cal::ErrorsTable t;
+    t.model = &start;
+    t.values = run.result.values;
+    t.stddev = run.result.stddev;
+    t.identified = run.result.identified;
+    for (std::size_t i = 0; i < run.result.start.dependent.size(); ++i) {
+      const int k = run.result.start.dependent[i];
+      if (std::find(run.result.held.begin(), run.result.held.end(), k) == run.result.held.end()) continue;
+      std::string why = std::find(run.result.start.unobserved.begin(), run.result.start.unobserved.end(), k) !=
+                                run.result.start.unobserved.end()
+                            ? "no measurement depends on it"
+                            : "see the unidentifiable combinations in the report";
+      t.held.emplace_back(k, why);
+    }
+    out_text = cal::replace_toml_table(out_text, "errors", cal::errors_table_toml(t));
+    header.push_back(fmt::format("  method {}, {} of {} parameters identified, residual sigma {:.4f} mm, fitted max error "
+                                 "{:.4f} -> {:.4f} mm",
+                                 cal::to_string(opt.method), run.result.identified.size(), run.result.start.parameters,
+                                 run.result.sigma, c.fit.max_position_before_mm, c.fit.max_position_after_mm));
+  }
+  if (!map_section.empty()) {
+    out_text = cal::replace_toml_table(out_text, "volumetric_map", map_section);
+    header.push_back("  [volumetric_map] from the step-gauge data");
+  }
+  out_text = cal::add_header_comment(out_text, header);
+
+  // The result must be a machine file every command takes as it is.
+  gcode::DiagnosticSink check;
+  if (!machine::parse_machine(a.output, out_text, check)) {
+    std::string why;
+    for (const auto& d : check.stored()) why += "\n  " + gcode::format(d, false);
+    throw Error(ExitCode::internal, "the calibrated machine file does not read back:" + why);
+  }
+  io::OutputFile out(a.output, a.machine, a.in_place);
+  out.write(out_text);
+  if (!data.empty())
+    for (const std::string& rp : a.reports) {
+      io::OutputFile rep(rp, a.machine, false);
+      const bool html = rp.ends_with(".html") || rp.ends_with(".htm");
+      rep.write(html ? cal::report_html(run) : cal::report_json(run));
+      rep.commit();
+    }
+  out.commit();
+  printer.finish();
+  std::fputs(fmt::format("postproc: wrote {}\n", a.output).c_str(), stderr);
+  rc = 0;
+}
+
+}  // namespace
+
+void setup_calibrate(CLI::App& app, int& rc) {
+  auto a = std::make_shared<CalibrateArgs>();
+  auto* cmd = app.add_subcommand("calibrate", "identify a machine's error parameters from measurements and write the "
+                                              "calibrated machine file (docs/measurements.md)");
+  cmd->add_option("data", a->data, "measurement files (CSV with '# kind: …')");
+  cmd->add_option("-m,--machine", a->machine, "the machine file to calibrate (its errors are the start values)");
+  cmd->add_option("-o,--output", a->output, "the calibrated machine file to write");
+  cmd->add_option("--validate", a->validate, "held-out measurement files: not fitted, only checked before/after");
+  cmd->add_option("--report", a->reports, "write a report: R.json, or R.html (self-contained, residual plots)");
+  cmd->add_option("--method", a->method, "least-squares (default), ridge, psi-substitution")->capture_default_str();
+  cmd->add_option("--lambda", a->lambda, "ridge weight λ (mm² per unit² of parameter); 0 = chosen by GCV")->capture_default_str();
+  cmd->add_option("--free", a->free, "identify only these parameters (names, * and ? patterns, comma separated)")->delimiter(',');
+  cmd->add_option("--fix", a->fix, "hold these parameters at their values in the machine file")->delimiter(',');
+  cmd->add_option("--bound", a->bounds, "NAME=LOW:HIGH with units, e.g. EX0C=-50um:50um (deviation from nominal)");
+  cmd->add_option("--loss", a->loss, "robust loss per measurement: none, huber, cauchy")
+      ->check(CLI::IsMember({"none", "huber", "cauchy"}))
+      ->capture_default_str();
+  cmd->add_option("--loss-scale", a->loss_scale_um, "robust loss scale, µm (mm-equivalent)")->capture_default_str();
+  cmd->add_option("--max-iterations", a->max_iterations, "Ceres iteration limit")->capture_default_str();
+  cmd->add_option("--angle-weight", a->angle_weight, "mm-equivalent per rad of orientation residual (default 0.01° ≙ 0.01 mm)")
+      ->capture_default_str();
+  cmd->add_flag("--numeric-derivatives", a->numeric, "central differences for every parameter (checks the analytic ones)");
+  cmd->add_option("--map-interpolation", a->map_interpolation, "step-gauge map: trilinear or smooth")
+      ->check(CLI::IsMember({"trilinear", "smooth"}))
+      ->capture_default_str();
+  cmd->add_option("--map-outside", a->map_outside, "step-gauge map outside its grid: refuse, clamp or zero")
+      ->check(CLI::IsMember({"refuse", "clamp", "zero"}))
+      ->capture_default_str();
+  cmd->add_flag("--in-place", a->in_place, "allow -o to name the machine file (a .bak backup is kept)");
+  cmd->add_option("--max-per-code", a->max_per_code, "show at most this many diagnostics per code")->capture_default_str();
+  setup_calibrate_plan(*cmd, rc);
+  setup_calibrate_simulate(*cmd, rc);
+  cmd->require_subcommand(0, 1);
+  cmd->callback([a, cmd, &rc] {
+    if (!cmd->get_subcommands().empty()) return;
+    if (a->machine.empty() || a->output.empty())
+      throw Error(ExitCode::usage, "calibrate needs -m MACHINE.toml and -o CALIBRATED.toml (or the plan / simulate subcommand)");
+    run_calibrate(*a, rc);
+  });
+}
+
+}  // namespace postproc::cli

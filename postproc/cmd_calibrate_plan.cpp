@@ -1,0 +1,209 @@
+// postproc calibrate plan: choose measuring poses (D-optimal) and write the pose list and the NC
+// program that visits them. postproc calibrate simulate: synthetic measurement files from a
+// machine file with known errors plus noise.
+#include <memory>
+
+#include <fmt/format.h>
+
+#include "calibrate_support.hpp"
+#include "common.hpp"
+#include "postproc/calibration/csv.hpp"
+#include "postproc/calibration/plan.hpp"
+#include "postproc/io/output_file.hpp"
+#include "postproc/machine/machine.hpp"
+
+namespace postproc::cli {
+namespace {
+
+struct KindArg {
+  cal::MeasurementKind kind;
+  bool torsion;
+};
+
+KindArg parse_kind(const std::string& s) {
+  if (s == "poses") return {cal::MeasurementKind::pose, true};
+  if (s == "poses5") return {cal::MeasurementKind::pose, false};
+  if (s == "positions") return {cal::MeasurementKind::position, false};
+  if (s == "directions") return {cal::MeasurementKind::direction, false};
+  if (s == "struts") return {cal::MeasurementKind::struts, true};
+  throw Error(ExitCode::usage, fmt::format("--kind {}: use poses (6-DoF), poses5, positions, directions or struts", s));
+}
+
+machine::Machine load_or_refuse(const std::string& path) {
+  gcode::DiagnosticSink sink;
+  DiagnosticPrinter printer(sink, 20);
+  auto m = machine::load_machine(path, sink);
+  printer.finish();
+  if (!m) throw Error(ExitCode::refused, fmt::format("{}: machine file refused", path));
+  return *m;
+}
+
+/// The plan file: `# kind: plan`, id and one column per joint (mm / deg).
+std::string plan_csv(const kin::Model& model, std::span<const kin::JointVector> joints, const std::string& comment) {
+  std::string s = "# kind: plan\n# " + comment + "\nid";
+  for (const kin::Joint& j : model.joints()) s += fmt::format(",{}_{}", j.name, j.type == kin::JointType::rotary ? "deg" : "mm");
+  s += '\n';
+  for (std::size_t i = 0; i < joints.size(); ++i) {
+    s += fmt::format("p{}", i + 1);
+    for (int j = 0; j < joints[i].size(); ++j) s += fmt::format(",{:.6f}", joints[i][j]);
+    s += '\n';
+  }
+  return s;
+}
+
+std::vector<kin::JointVector> read_plan(const std::string& path, const kin::Model& model) {
+  gcode::DiagnosticSink sink;
+  DiagnosticPrinter printer(sink, 20);
+  const std::string text = read_text_file(path, "plan file");
+  auto t = cal::CsvTable::parse(path, text, sink);
+  std::vector<kin::JointVector> out;
+  if (t) {
+    if (t->meta("kind") != "plan")
+      t->error(cal::CsvTable::kHeader, -1, cal::codes::kCsvColumns, "a plan file starts with '# kind: plan' (written by calibrate plan)");
+    std::vector<int> col;
+    std::vector<double> scale;
+    for (const kin::Joint& j : model.joints()) {
+      double f = 1;
+      col.push_back(t->quantity_column(j.name, j.type == kin::JointType::rotary ? cal::Quantity::angle : cal::Quantity::length,
+                                       true, f));
+      scale.push_back(j.type == kin::JointType::rotary ? f / kin::kDeg : f);
+    }
+    double unused = 1;
+    if (t->find("id") >= 0) (void)t->quantity_column("id", cal::Quantity::ratio, false, unused);
+    t->report_unused();
+    if (!sink.has_errors())
+      for (std::size_t r = 0; r < t->rows().size(); ++r) {
+        kin::JointVector q(model.joint_count());
+        for (int j = 0; j < model.joint_count(); ++j) {
+          const auto v = t->number(r, col[static_cast<std::size_t>(j)], scale[static_cast<std::size_t>(j)]);
+          q[j] = v.value_or(0);
+        }
+        out.push_back(q);
+      }
+  }
+  printer.finish();
+  if (sink.has_errors() || out.empty()) throw Error(ExitCode::refused, fmt::format("{}: plan file refused", path));
+  return out;
+}
+
+void print_identifiability(std::string_view what, const cal::Identifiability& a) {
+  std::fputs(fmt::format("postproc: {}: rank {} of {}, condition {:.4g}, O1 {:.4g}, O3 {:.4g}, O4 {:.4g}\n", what, a.rank,
+                         a.parameters, a.condition, a.o1, a.o3, a.o4)
+                 .c_str(),
+             stderr);
+}
+
+struct PlanArgs {
+  std::string machine, output, program, kind = "poses";
+  std::vector<std::string> free;
+  int poses = 30, candidates = 2000;
+  std::uint64_t seed = 1;
+  double margin = 0;
+};
+
+struct SimulateArgs {
+  std::string machine, output, plan, kind = "poses";
+  int poses = 30, validate_every = 0;
+  std::uint64_t seed = 1;
+  double noise_um = 10, noise_arcsec = 36;
+};
+
+}  // namespace
+
+void setup_calibrate_plan(CLI::App& calibrate, int& rc) {
+  auto a = std::make_shared<PlanArgs>();
+  auto* cmd = calibrate.add_subcommand("plan", "choose measuring poses that make the errors best identifiable (D-optimal "
+                                               "within the axis limits); write the pose list and an NC program visiting them");
+  cmd->add_option("-m,--machine", a->machine, "machine file")->required();
+  cmd->add_option("--poses", a->poses, "number of poses")->capture_default_str();
+  cmd->add_option("--kind", a->kind, "what will be measured: poses, poses5, positions, directions, struts")->capture_default_str();
+  cmd->add_option("--candidates", a->candidates, "random candidates to choose from")->capture_default_str();
+  cmd->add_option("--seed", a->seed, "random seed")->capture_default_str();
+  cmd->add_option("--margin", a->margin, "keep this far inside the travel (mm / deg)")->capture_default_str();
+  cmd->add_option("--free", a->free, "plan for these parameters only (patterns, comma separated)")->delimiter(',');
+  cmd->add_option("-o,--output", a->output, "pose list (CSV, '# kind: plan')")->required();
+  cmd->add_option("--program", a->program, "also write the NC program that visits the poses");
+  cmd->callback([a, &rc] {
+    const machine::Machine m = load_or_refuse(a->machine);
+    const KindArg k = parse_kind(a->kind);
+    cal::PlanOptions opt;
+    opt.poses = a->poses;
+    opt.kind = k.kind;
+    opt.has_torsion = k.torsion;
+    opt.candidates = a->candidates;
+    opt.seed = a->seed;
+    opt.margin = a->margin;
+    if (!a->free.empty()) opt.parameters = match_parameters(*m.nominal, a->free, "--free");
+    const cal::PlanResult r = cal::plan_poses(*m.nominal, opt);
+    print_identifiability("planned poses", r.planned);
+    print_identifiability("as many random poses", r.random);
+    for (const std::string& c : r.planned.combinations)
+      std::fputs(fmt::format("postproc: not identifiable with any pose of this kind: {}\n", c).c_str(), stderr);
+    io::OutputFile out(a->output, a->machine, false);
+    out.write(plan_csv(*m.nominal, r.joints,
+                       fmt::format("{} poses for {} measurements of {} (sha256 {}), seed {}, {:.2f} s", r.joints.size(), a->kind,
+                                   a->machine, m.sha256, a->seed, r.seconds)));
+    if (!a->program.empty()) {
+      io::OutputFile prog(a->program, a->machine, false);
+      prog.write(cal::plan_program(m, r.joints, fmt::format("calibration poses for {}", m.name)));
+      prog.commit();
+    }
+    out.commit();
+    std::fputs(fmt::format("postproc: wrote {} poses to {}{}\n", r.joints.size(), a->output,
+                           a->program.empty() ? "" : " and the program " + a->program)
+                   .c_str(),
+               stderr);
+    rc = 0;
+  });
+}
+
+void setup_calibrate_simulate(CLI::App& calibrate, int& rc) {
+  auto a = std::make_shared<SimulateArgs>();
+  auto* cmd = calibrate.add_subcommand("simulate", "write synthetic measurements of a machine file's (known) errors plus "
+                                                   "noise, at planned poses");
+  cmd->add_option("-m,--machine", a->machine, "machine file with the true errors")->required();
+  cmd->add_option("--plan", a->plan, "pose list from calibrate plan (default: plan --poses N here)");
+  cmd->add_option("--poses", a->poses, "poses to plan when no --plan is given")->capture_default_str();
+  cmd->add_option("--kind", a->kind, "poses, poses5, positions, directions, struts")->capture_default_str();
+  cmd->add_option("--noise", a->noise_um, "uniform noise ± per position component / strut reading, µm")->capture_default_str();
+  cmd->add_option("--angle-noise", a->noise_arcsec, "uniform noise ± per rotation component, arcsec")->capture_default_str();
+  cmd->add_option("--validate-every", a->validate_every, "mark every k-th measurement as held out (0 = none)")
+      ->capture_default_str();
+  cmd->add_option("--seed", a->seed, "random seed")->capture_default_str();
+  cmd->add_option("-o,--output", a->output, "measurement file to write")->required();
+  cmd->callback([a, &rc] {
+    const machine::Machine m = load_or_refuse(a->machine);
+    const KindArg k = parse_kind(a->kind);
+    std::vector<kin::JointVector> joints;
+    if (!a->plan.empty()) {
+      joints = read_plan(a->plan, *m.nominal);
+    } else {
+      cal::PlanOptions p;
+      p.poses = a->poses;
+      p.kind = k.kind;
+      p.has_torsion = k.torsion;
+      p.seed = a->seed;
+      joints = cal::plan_poses(*m.nominal, p).joints;
+    }
+    cal::SimulateOptions opt;
+    opt.kind = k.kind;
+    opt.has_torsion = k.torsion;
+    opt.noise_mm = a->noise_um / 1000.0;
+    opt.noise_deg = a->noise_arcsec / 3600.0;
+    opt.validate_every = a->validate_every;
+    opt.seed = a->seed;
+    const auto data = cal::simulate_measurements(*m.actual, *m.nominal, joints, opt);
+    io::OutputFile out(a->output, a->machine, false);
+    out.write(cal::write_measurements(
+        data, *m.actual,
+        {fmt::format("simulated by postproc {} calibrate simulate from {} (sha256 {})", POSTPROC_VERSION, a->machine, m.sha256),
+         fmt::format("noise: uniform ±{} um per position component, ±{} arcsec per rotation component; seed {}", a->noise_um,
+                     a->noise_arcsec, a->seed)}));
+    out.commit();
+    std::fputs(fmt::format("postproc: wrote {} simulated {} measurements to {}\n", data.size(), a->kind, a->output).c_str(),
+               stderr);
+    rc = 0;
+  });
+}
+
+}  // namespace postproc::cli

@@ -1,0 +1,299 @@
+// Calibration measurement files (see measurement.hpp and docs/measurements.md).
+#include "postproc/calibration/measurement.hpp"
+
+#include <array>
+#include <cmath>
+
+#include <fmt/format.h>
+
+namespace postproc::cal {
+namespace {
+
+using Vec3 = Eigen::Vector3d;
+
+constexpr std::array<std::string_view, 5> kKinds = {"poses", "positions", "directions", "attitudes", "struts"};
+
+/// Reads three plain-number columns as a unit vector; PP-C005 for a vector far from unit length.
+std::optional<Vec3> unit_vector(CsvTable& t, std::size_t row, const std::array<int, 3>& cols, std::string_view what) {
+  Vec3 v;
+  for (int k = 0; k < 3; ++k) {
+    const auto x = t.number(row, cols[static_cast<std::size_t>(k)]);
+    if (!x) return std::nullopt;
+    v[k] = *x;
+  }
+  const double n = v.norm();
+  if (!(n > 0.9 && n < 1.1)) {
+    t.error(row, cols[0], codes::kCsvRange,
+            fmt::format("the {} ({:g}, {:g}, {:g}) has length {:g}; give a unit vector (direction cosines)", what, v.x(),
+                        v.y(), v.z(), n));
+    return std::nullopt;
+  }
+  return v / n;
+}
+
+bool ratio_columns(CsvTable& t, std::array<std::string_view, 3> names, bool required, std::array<int, 3>& cols) {
+  bool all = true, any = false;
+  for (std::size_t k = 0; k < 3; ++k) {
+    double s = 1;
+    cols[k] = t.find(names[k]) >= 0 || required ? t.quantity_column(names[k], Quantity::ratio, true, s) : -1;
+    all = all && cols[k] >= 0;
+    any = any || t.find(names[k]) >= 0;
+  }
+  if (!required && any && !all) {
+    for (std::size_t k = 0; k < 3; ++k) {
+      double s = 1;
+      if (cols[k] < 0) (void)t.quantity_column(names[k], Quantity::ratio, true, s);
+    }
+    return false;
+  }
+  return all || (!required && !any);
+}
+
+}  // namespace
+
+std::string_view to_string(MeasurementKind k) {
+  switch (k) {
+    case MeasurementKind::pose: return "pose";
+    case MeasurementKind::position: return "position";
+    case MeasurementKind::direction: return "direction";
+    case MeasurementKind::struts: return "struts";
+  }
+  return "?";
+}
+
+int residual_rows(const Measurement& m, int joints) {
+  switch (m.kind) {
+    case MeasurementKind::pose: return m.has_torsion ? 6 : 5;
+    case MeasurementKind::position: return 3;
+    case MeasurementKind::direction: return 2;
+    case MeasurementKind::struts: return joints;
+  }
+  return 0;
+}
+
+std::optional<std::string> measurement_file_kind(CsvTable& table) {
+  const auto kind = table.meta("kind");
+  std::string list;
+  for (auto k : kKinds) list += (list.empty() ? "" : ", ") + std::string(k);
+  if (!kind) {
+    table.error(CsvTable::kHeader, -1, codes::kCsvColumns,
+                fmt::format("the file does not say what it measures; add a first line '# kind: <{}>' (docs/measurements.md)",
+                            list));
+    return std::nullopt;
+  }
+  for (auto k : kKinds)
+    if (*kind == k) return *kind;
+  if (*kind == "step-gauge" || *kind == "step-gauge-edge") return *kind;
+  table.error(CsvTable::kHeader, -1, codes::kCsvColumns,
+              fmt::format("'# kind: {}' is not a measurement kind; use one of {}, step-gauge, step-gauge-edge", *kind, list));
+  return std::nullopt;
+}
+
+bool read_measurements(CsvTable& t, const kin::Model& model, std::vector<Measurement>& out) {
+  const auto kind = measurement_file_kind(t);
+  if (!kind) return false;
+  const std::size_t errors0 = t.sink().count(gcode::Severity::error);
+  const bool hexapod = model.kind().find("hexapod") != std::string::npos;
+  if (*kind == "struts" && !hexapod) {
+    t.error(CsvTable::kHeader, -1, codes::kCsvColumns,
+            fmt::format("strut readings calibrate a hexapod, but this machine is {}; use '# kind: poses' or positions",
+                        model.kind()));
+    return false;
+  }
+
+  // Joint columns: one per model joint, named like the joint, in mm or degrees.
+  const int nj = model.joint_count();
+  std::vector<int> jcol(static_cast<std::size_t>(nj));
+  std::vector<double> jscale(static_cast<std::size_t>(nj), 1.0);
+  for (int j = 0; j < nj; ++j) {
+    const kin::Joint& joint = model.joints()[static_cast<std::size_t>(j)];
+    double s = 1;
+    jcol[static_cast<std::size_t>(j)] =
+        t.quantity_column(joint.name, joint.type == kin::JointType::rotary ? Quantity::angle : Quantity::length, true, s);
+    // Joint values stay in interface units: mm and degrees.
+    jscale[static_cast<std::size_t>(j)] = joint.type == kin::JointType::rotary ? s / kin::kDeg : s;
+  }
+  const bool wants_point = *kind == "poses" || *kind == "positions" || *kind == "struts";
+  const bool wants_axis = *kind == "poses" || *kind == "directions" || *kind == "struts";
+  std::array<int, 3> pcol{-1, -1, -1}, acol{-1, -1, -1}, ucol{-1, -1, -1};
+  double pscale[3] = {1, 1, 1};
+  if (wants_point)
+    for (std::size_t k = 0; k < 3; ++k)
+      pcol[k] = t.quantity_column(std::array<std::string_view, 3>{"x", "y", "z"}[k], Quantity::length, true, pscale[k]);
+  bool cols_ok = true;
+  if (wants_axis) cols_ok = ratio_columns(t, {"i", "j", "k"}, true, acol) && cols_ok;
+  if (*kind == "poses" || *kind == "struts") cols_ok = ratio_columns(t, {"ui", "uj", "uk"}, *kind == "struts", ucol) && cols_ok;
+  // Attitudes: travel and stem extension per linear axis (Z optional).
+  std::array<int, 3> travel{-1, -1, -1}, stem{-1, -1, -1};
+  std::array<double, 3> tscale{1, 1, 1}, sscale{1, 1, 1};
+  if (*kind == "attitudes") {
+    for (std::size_t k = 0; k < 3; ++k) {
+      const std::string axis(1, "xyz"[k]);
+      const bool required = k < 2;
+      if (required || t.find("travel_" + axis) >= 0 || t.find("stem_" + axis) >= 0) {
+        travel[k] = t.quantity_column("travel_" + axis, Quantity::length, true, tscale[k]);
+        stem[k] = t.quantity_column("stem_" + axis, Quantity::length, true, sscale[k]);
+      }
+    }
+  }
+  double unused = 1;
+  const int idcol = t.find("id") >= 0 ? t.quantity_column("id", Quantity::ratio, false, unused) : -1;
+  const int setcol = t.find("set");
+  t.use(idcol);
+  t.use(setcol);
+  t.report_unused();
+  if (t.sink().count(gcode::Severity::error) > errors0 || !cols_ok) return false;
+  for (int c : jcol)
+    if (c < 0) return false;
+
+  for (std::size_t r = 0; r < t.rows().size(); ++r) {
+    Measurement m;
+    m.file = t.file();
+    m.line = t.rows()[r].line;
+    m.label = idcol >= 0 ? t.rows()[r].cells[static_cast<std::size_t>(idcol)] : fmt::format("{}:{}", t.file(), m.line);
+    if (setcol >= 0) {
+      const std::string& s = t.rows()[r].cells[static_cast<std::size_t>(setcol)];
+      if (s == "validate") m.validate = true;
+      else if (s != "fit" && !s.empty()) {
+        t.error(r, setcol, codes::kCsvRange, fmt::format("set '{}' is neither fit nor validate", s));
+        continue;
+      }
+    }
+    m.q.resize(nj);
+    bool ok = true;
+    for (int j = 0; j < nj && ok; ++j) {
+      const auto v = t.number(r, jcol[static_cast<std::size_t>(j)], jscale[static_cast<std::size_t>(j)]);
+      if (!v) ok = false;
+      else m.q[j] = *v;
+    }
+    if (!ok) continue;
+    if (wants_point) {
+      for (int k = 0; k < 3 && ok; ++k) {
+        const auto v = t.number(r, pcol[static_cast<std::size_t>(k)], pscale[k]);
+        if (!v) ok = false;
+        else m.measured.p[k] = *v;
+      }
+    }
+    if (!ok) continue;
+    m.has_torsion = false;
+    if (wants_axis) {
+      const auto o = unit_vector(t, r, acol, "tool axis (i, j, k)");
+      if (!o) continue;
+      Vec3 x = std::abs(o->x()) < 0.9 ? Vec3::UnitX() : Vec3::UnitY();
+      if (ucol[0] >= 0) {
+        const auto u = unit_vector(t, r, ucol, "tool reference direction (ui, uj, uk)");
+        if (!u) continue;
+        if (std::abs(u->dot(*o)) > 0.05) {
+          t.error(r, ucol[0], codes::kCsvRange,
+                  fmt::format("the reference direction is not perpendicular to the tool axis (cosine {:.3g}); give the "
+                              "tool frame's x axis",
+                              u->dot(*o)));
+          continue;
+        }
+        x = *u;
+        m.has_torsion = true;
+      }
+      x = (x - x.dot(*o) * *o).normalized();
+      m.measured.r.col(0) = x;
+      m.measured.r.col(1) = o->cross(x);
+      m.measured.r.col(2) = *o;
+    }
+    if (*kind == "attitudes") {
+      Vec3 c = Vec3::Zero();
+      int given = 0;
+      for (std::size_t k = 0; k < 3 && ok; ++k) {
+        if (travel[k] < 0) continue;
+        const auto d = t.number(r, travel[k], tscale[k]);
+        const auto l = t.number(r, stem[k], sscale[k]);
+        if (!d || !l) {
+          ok = false;
+          break;
+        }
+        if (std::abs(*l) < std::abs(*d) * (1 - 1e-12) || *l == 0) {
+          t.error(r, stem[k], codes::kCsvRange,
+                  fmt::format("the stem moved {:g} mm for a travel of {:g} mm; the stem extension cannot be shorter "
+                              "than the travel (cos = travel / extension ≤ 1): check the record",
+                              *l, *d));
+          ok = false;
+          break;
+        }
+        c[static_cast<Eigen::Index>(k)] = *d / *l;
+        ++given;
+      }
+      if (!ok) continue;
+      if (given == 2) {
+        const double rest = 1 - c.x() * c.x() - c.y() * c.y();
+        if (rest < 0) {
+          t.error(r, travel[0], codes::kCsvRange, "cos²α + cos²β > 1: the X and Y records contradict each other");
+          continue;
+        }
+        c.z() = -std::sqrt(rest);  // the stem points down, toward the table
+      }
+      if (std::abs(c.norm() - 1) > 0.02) {
+        t.error(r, travel[0], codes::kCsvRange,
+                fmt::format("the direction cosines ({:.5f}, {:.5f}, {:.5f}) have length {:.4f}, not 1: the three records "
+                            "do not belong to one direction",
+                            c.x(), c.y(), c.z(), c.norm()));
+        continue;
+      }
+      const Vec3 o = -c.normalized();  // the tool axis points from the tip toward the spindle
+      const Vec3 x = ((std::abs(o.x()) < 0.9 ? Vec3::UnitX() : Vec3::UnitY()) - o.x() * o).normalized();
+      m.measured.r.col(0) = (x - x.dot(o) * o).normalized();
+      m.measured.r.col(1) = o.cross(m.measured.r.col(0));
+      m.measured.r.col(2) = o;
+    }
+    if (*kind == "poses") m.kind = MeasurementKind::pose;
+    else if (*kind == "positions") m.kind = MeasurementKind::position;
+    else if (*kind == "struts") m.kind = MeasurementKind::struts;
+    else m.kind = MeasurementKind::direction;
+    out.push_back(std::move(m));
+  }
+  if (t.rows().empty()) {
+    t.error(CsvTable::kHeader, -1, codes::kCsvSyntax, "the file has a header but no measurements");
+    return false;
+  }
+  return t.sink().count(gcode::Severity::error) == errors0;
+}
+
+std::string write_measurements(std::span<const Measurement> data, const kin::Model& model,
+                               const std::vector<std::string>& comment) {
+  if (data.empty()) return {};
+  const Measurement& first = data.front();
+  std::string kind;
+  switch (first.kind) {
+    case MeasurementKind::pose: kind = "poses"; break;
+    case MeasurementKind::position: kind = "positions"; break;
+    case MeasurementKind::direction: kind = "directions"; break;
+    case MeasurementKind::struts: kind = "struts"; break;
+  }
+  std::string s = fmt::format("# kind: {}\n", kind);
+  for (const std::string& c : comment) s += "# " + c + "\n";
+  s += "id";
+  for (const kin::Joint& j : model.joints()) s += fmt::format(",{}_{}", j.name, j.type == kin::JointType::rotary ? "deg" : "mm");
+  const bool point = first.kind != MeasurementKind::direction;
+  const bool axis = first.kind != MeasurementKind::position;
+  const bool torsion = axis && first.kind != MeasurementKind::direction && first.has_torsion;
+  if (point) s += ",x_mm,y_mm,z_mm";
+  if (axis) s += ",i,j,k";
+  if (torsion) s += ",ui,uj,uk";
+  bool any_validate = false;
+  for (const Measurement& m : data) any_validate = any_validate || m.validate;
+  if (any_validate) s += ",set";
+  s += '\n';
+  for (const Measurement& m : data) {
+    s += m.label.empty() ? std::string("-") : m.label;
+    for (int j = 0; j < m.q.size(); ++j) s += fmt::format(",{:.10g}", m.q[j]);
+    if (point) s += fmt::format(",{:.9f},{:.9f},{:.9f}", m.measured.p.x(), m.measured.p.y(), m.measured.p.z());
+    const Vec3 o = m.measured.axis();
+    if (axis) s += fmt::format(",{:.12f},{:.12f},{:.12f}", o.x(), o.y(), o.z());
+    if (torsion) {
+      const Vec3 u = m.measured.r.col(0);
+      s += fmt::format(",{:.12f},{:.12f},{:.12f}", u.x(), u.y(), u.z());
+    }
+    if (any_validate) s += m.validate ? ",validate" : ",fit";
+    s += '\n';
+  }
+  return s;
+}
+
+}  // namespace postproc::cal

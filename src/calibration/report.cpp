@@ -1,0 +1,261 @@
+// Calibration reports, JSON and self-contained HTML (see report.hpp).
+#include "postproc/calibration/report.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+namespace postproc::cal {
+namespace {
+
+using nlohmann::json;
+
+double finite_or(double v, double alt) { return std::isfinite(v) ? v : alt; }
+
+json number(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
+
+void accumulate(SetFigures& f, const MeasurementError& b, const MeasurementError& a, double& sum_b, double& sum_a) {
+  ++f.count;
+  if (std::isfinite(b.position_mm) || std::isfinite(a.position_mm)) {
+    f.max_position_before_mm = std::max(f.max_position_before_mm, finite_or(b.position_mm, 0));
+    f.max_position_after_mm = std::max(f.max_position_after_mm, finite_or(a.position_mm, 0));
+    sum_b += finite_or(b.position_mm, 0) * finite_or(b.position_mm, 0);
+    sum_a += finite_or(a.position_mm, 0) * finite_or(a.position_mm, 0);
+  }
+  f.max_angle_before_deg = std::max(f.max_angle_before_deg, finite_or(b.angle_deg, 0));
+  f.max_angle_after_deg = std::max(f.max_angle_after_deg, finite_or(a.angle_deg, 0));
+}
+
+json figures(const SetFigures& f) {
+  return {{"measurements", f.count},
+          {"max_position_before_mm", f.max_position_before_mm},
+          {"max_position_after_mm", f.max_position_after_mm},
+          {"rms_position_before_mm", f.rms_position_before_mm},
+          {"rms_position_after_mm", f.rms_position_after_mm},
+          {"max_angle_before_deg", f.max_angle_before_deg},
+          {"max_angle_after_deg", f.max_angle_after_deg}};
+}
+
+json identifiability(const Identifiability& a) {
+  json sv = json::array();
+  for (Eigen::Index i = 0; i < a.singular_values.size(); ++i) sv.push_back(a.singular_values[i]);
+  return {{"rows", a.rows},       {"parameters", a.parameters}, {"rank", a.rank},
+          {"condition", a.condition}, {"O1", a.o1},             {"O3", a.o3},
+          {"O4", a.o4},            {"singular_values_scaled", sv}, {"unidentifiable_combinations", a.combinations}};
+}
+
+std::string status_of(const CalibrationRun& run, int k) {
+  const auto& r = run.result;
+  if (std::find(r.identified.begin(), r.identified.end(), k) != r.identified.end()) return "identified";
+  if (std::find(r.held.begin(), r.held.end(), k) != r.held.end()) return "unidentifiable";
+  return "fixed";
+}
+
+std::string html_escape(std::string_view s) {
+  std::string o;
+  for (char c : s) {
+    switch (c) {
+      case '<': o += "&lt;"; break;
+      case '>': o += "&gt;"; break;
+      case '&': o += "&amp;"; break;
+      case '"': o += "&quot;"; break;
+      default: o += c;
+    }
+  }
+  return o;
+}
+
+/// Value in the unit people read: µm for mm parameters, arcsec for rad ones.
+std::string human(const kin::Parameter& p, double v) {
+  if (!std::isfinite(v)) return "–";
+  return p.unit == "rad" ? fmt::format("{:.3f} arcsec", v * 180.0 / kin::kPi * 3600.0) : fmt::format("{:.3f} µm", v * 1000.0);
+}
+
+/// Log-scale scatter of the per-measurement error before (grey) and after (blue: fitted,
+/// orange: held out), inline SVG.
+std::string residual_plot(const CalibrationRun& run, const Comparison& c, bool angle) {
+  const std::size_t n = run.data.size();
+  auto value = [&](const MeasurementError& e) { return angle ? e.angle_deg : e.position_mm; };
+  double lo = std::numeric_limits<double>::infinity(), hi = 0;
+  for (std::size_t i = 0; i < n; ++i)
+    for (double v : {value(c.before[i]), value(c.after[i])})
+      if (std::isfinite(v) && v > 0) {
+        lo = std::min(lo, v);
+        hi = std::max(hi, v);
+      }
+  if (!(hi > 0)) return {};
+  const double d0 = std::floor(std::log10(lo)), d1 = std::max(d0 + 1, std::ceil(std::log10(hi)));
+  const double w = 760, h = 260, left = 70, right = 10, top = 10, bottom = 40;
+  auto x = [&](std::size_t i) { return left + (w - left - right) * (static_cast<double>(i) + 0.5) / static_cast<double>(n); };
+  auto y = [&](double v) { return top + (h - top - bottom) * (d1 - std::log10(v)) / (d1 - d0); };
+  std::string s = fmt::format(R"(<svg class="plot" xmlns="http://www.w3.org/2000/svg" width="{}" height="{}" viewBox="0 0 {} {}">)",
+                              w, h, w, h);
+  for (double d = d0; d <= d1; d += 1) {
+    s += fmt::format(R"(<line x1="{}" x2="{}" y1="{:.1f}" y2="{:.1f}" stroke="#ddd"/>)", left, w - right, y(std::pow(10, d)),
+                     y(std::pow(10, d)));
+    s += fmt::format(R"(<text x="{}" y="{:.1f}" font-size="11" text-anchor="end">{:g} {}</text>)", left - 4,
+                     y(std::pow(10, d)) + 4, std::pow(10, d), angle ? "°" : "mm");
+  }
+  for (std::size_t i = 0; i < n; ++i) {
+    const double b = value(c.before[i]), a = value(c.after[i]);
+    const std::string label = html_escape(run.data[i].label);
+    if (std::isfinite(b) && b > 0)
+      s += fmt::format(R"(<circle cx="{:.1f}" cy="{:.1f}" r="3" fill="#999"><title>{} before: {:.5g}</title></circle>)", x(i),
+                       y(b), label, b);
+    if (std::isfinite(a) && a > 0)
+      s += fmt::format(R"(<circle cx="{:.1f}" cy="{:.1f}" r="3" fill="{}"><title>{} after: {:.5g}</title></circle>)", x(i),
+                       y(a), run.data[i].validate ? "#e67e22" : "#1f6fb4", label, a);
+  }
+  s += fmt::format(R"(<text x="{}" y="{}" font-size="12">measurement (grey: before, blue: after on fitted data, orange: after on held-out data)</text>)",
+                   left, h - 10);
+  s += "</svg>";
+  return s;
+}
+
+}  // namespace
+
+Comparison compare(const CalibrationRun& run) {
+  Comparison c;
+  double fb = 0, fa = 0, vb = 0, va = 0;
+  for (const Measurement& m : run.data) {
+    c.before.push_back(measurement_error(*run.start, m));
+    c.after.push_back(measurement_error(*run.solved, m));
+    if (m.validate) accumulate(c.validation, c.before.back(), c.after.back(), vb, va);
+    else accumulate(c.fit, c.before.back(), c.after.back(), fb, fa);
+  }
+  if (c.fit.count > 0) {
+    c.fit.rms_position_before_mm = std::sqrt(fb / static_cast<double>(c.fit.count));
+    c.fit.rms_position_after_mm = std::sqrt(fa / static_cast<double>(c.fit.count));
+  }
+  if (c.validation.count > 0) {
+    c.validation.rms_position_before_mm = std::sqrt(vb / static_cast<double>(c.validation.count));
+    c.validation.rms_position_after_mm = std::sqrt(va / static_cast<double>(c.validation.count));
+  }
+  return c;
+}
+
+std::string report_json(const CalibrationRun& run) {
+  const Comparison c = compare(run);
+  const IdentifyResult& r = run.result;
+  json j;
+  j["tool"] = {{"name", "postproc"}, {"version", run.tool_version}};
+  j["machine"] = {{"file", run.machine_file}, {"sha256", run.machine_sha256}, {"name", run.machine_name}};
+  j["output"] = run.output_file;
+  json inputs = json::array();
+  for (const InputFile& f : run.inputs)
+    inputs.push_back({{"file", f.path}, {"sha256", f.sha256}, {"kind", f.kind}, {"measurements", f.measurements}});
+  j["inputs"] = inputs;
+  j["method"] = std::string(to_string(run.options.method));
+  j["ridge_lambda"] = r.lambda;
+  j["orientation_weight_mm_per_rad"] = run.options.orientation_weight;
+  j["solver"] = {{"iterations", r.iterations},
+                 {"seconds", r.seconds},
+                 {"usable", r.usable},
+                 {"message", r.message},
+                 {"initial_cost_mm2", r.initial_cost},
+                 {"final_cost_mm2", r.final_cost},
+                 {"residual_sigma_mm", number(r.sigma)}};
+  j["identifiability"] = {{"start", identifiability(r.start)}, {"solution", identifiability(r.solution)}};
+  json params = json::array();
+  for (std::size_t k = 0; k < run.start->parameters().size(); ++k) {
+    const kin::Parameter& p = run.start->parameters()[k];
+    const std::string st = status_of(run, static_cast<int>(k));
+    if (!p.error && st == "fixed") continue;
+    params.push_back({{"name", p.name},
+                      {"unit", p.unit},
+                      {"status", st},
+                      {"start", run.start->values()[k]},
+                      {"value", r.values[k]},
+                      {"change", r.values[k] - run.start->values()[k]},
+                      {"stddev", number(r.stddev[k])}});
+  }
+  j["parameters"] = params;
+  j["figures"] = {{"fit", figures(c.fit)}, {"validation", figures(c.validation)}};
+  json rows = json::array();
+  for (std::size_t i = 0; i < run.data.size(); ++i) {
+    const Measurement& m = run.data[i];
+    rows.push_back({{"label", m.label},
+                    {"file", m.file},
+                    {"line", m.line},
+                    {"kind", std::string(to_string(m.kind))},
+                    {"set", m.validate ? "validate" : "fit"},
+                    {"position_before_mm", number(c.before[i].position_mm)},
+                    {"position_after_mm", number(c.after[i].position_mm)},
+                    {"angle_before_deg", number(c.before[i].angle_deg)},
+                    {"angle_after_deg", number(c.after[i].angle_deg)}});
+  }
+  j["measurements"] = rows;
+  j["notes"] = run.notes;
+  return j.dump(2) + "\n";
+}
+
+std::string report_html(const CalibrationRun& run) {
+  const Comparison c = compare(run);
+  const IdentifyResult& r = run.result;
+  std::string s = R"(<!DOCTYPE html>
+<html lang="en"><head><meta charset="utf-8"><title>postproc calibration report</title>
+<style>
+body{font-family:sans-serif;margin:1.5em;color:#222}table{border-collapse:collapse;margin:0.5em 0 1.5em}
+td,th{border:1px solid #ccc;padding:2px 8px;text-align:right;font-size:13px}th{background:#f3f3f3}
+td.l,th.l{text-align:left}.held{color:#b00}.plot{border:1px solid #ccc}
+</style></head><body>
+)";
+  s += fmt::format("<h1>Calibration of {}</h1>\n", html_escape(run.machine_name));
+  s += fmt::format("<p id=\"summary\">Machine file <code>{}</code> (SHA-256 {}), written to <code>{}</code> by postproc {}. Method "
+                   "<b>{}</b>{}; {} Ceres iterations, {:.3f} s; {}.</p>\n",
+                   html_escape(run.machine_file), run.machine_sha256, html_escape(run.output_file), run.tool_version,
+                   to_string(run.options.method), r.lambda > 0 ? fmt::format(" (λ = {:.3g})", r.lambda) : "",
+                   r.iterations, r.seconds, html_escape(r.message));
+  s += "<h2>Data</h2><table id=\"inputs\"><tr><th class=l>file</th><th class=l>kind</th><th>measurements</th><th class=l>SHA-256</th></tr>\n";
+  for (const InputFile& f : run.inputs)
+    s += fmt::format("<tr><td class=l>{}</td><td class=l>{}</td><td>{}</td><td class=l>{}</td></tr>\n", html_escape(f.path),
+                     f.kind, f.measurements, f.sha256);
+  s += "</table>\n<h2>Residuals</h2><table id=\"figures\"><tr><th class=l>set</th><th>n</th><th>max position before (mm)</th><th>max after (mm)</th><th>rms before (mm)</th><th>rms after (mm)</th><th>max angle before (°)</th><th>max after (°)</th></tr>\n";
+  for (const auto& [name, f] : {std::pair<const char*, const SetFigures&>{"fitted", c.fit}, {"held out", c.validation}})
+    if (f.count > 0)
+      s += fmt::format("<tr><td class=l>{}</td><td>{}</td><td>{:.5f}</td><td>{:.5f}</td><td>{:.5f}</td><td>{:.5f}</td><td>{:.5f}</td><td>{:.5f}</td></tr>\n",
+                       name, f.count, f.max_position_before_mm, f.max_position_after_mm, f.rms_position_before_mm,
+                       f.rms_position_after_mm, f.max_angle_before_deg, f.max_angle_after_deg);
+  s += "</table>\n<h3>Tool-tip (or strut) error per measurement</h3>\n" + residual_plot(run, c, false) + "\n";
+  const std::string angle_plot = residual_plot(run, c, true);
+  if (!angle_plot.empty()) s += "<h3>Tool-axis error per measurement</h3>\n" + angle_plot + "\n";
+  const Identifiability& a = r.start;
+  s += fmt::format("<h2>Identifiability</h2><p id=\"identifiability\">{} parameters requested, rank {} of the column-scaled "
+                   "identification Jacobian ({} rows); condition number {:.4g}; O1 {:.4g}, O3 {:.4g}, O4 {:.4g}.</p>\n",
+                   a.parameters, a.rank, a.rows, a.condition, a.o1, a.o3, a.o4);
+  if (!a.combinations.empty()) {
+    s += "<p class=held>Not identifiable from these measurements (a change along each combination changes no "
+         "measurement); one parameter of each is held at its start value:</p><ul>\n";
+    for (const std::string& comb : a.combinations) s += "<li>" + html_escape(comb) + "</li>\n";
+    s += "</ul>\n";
+  }
+  s += "<h2>Parameters</h2><table id=\"parameters\"><tr><th class=l>name</th><th class=l>status</th><th>start</th><th>identified</th><th>±1σ</th></tr>\n";
+  for (std::size_t k = 0; k < run.start->parameters().size(); ++k) {
+    const kin::Parameter& p = run.start->parameters()[k];
+    const std::string st = status_of(run, static_cast<int>(k));
+    if (!p.error && st == "fixed") continue;
+    const double start = run.start->values()[k] - (p.error ? p.nominal : 0);
+    const double value = r.values[k] - (p.error ? p.nominal : 0);
+    s += fmt::format("<tr><td class=l>{}</td><td class=\"l{}\">{}</td><td>{}</td><td>{}</td><td>{}</td></tr>\n",
+                     html_escape(p.name), st == "unidentifiable" ? " held" : "", st, human(p, start),
+                     st == "identified" ? human(p, value) : "–", human(p, r.stddev[k]));
+  }
+  s += "</table>\n<h2>Measurements</h2><table id=\"measurements\"><tr><th class=l>label</th><th class=l>source</th><th class=l>kind</th><th class=l>set</th><th>position before (mm)</th><th>after (mm)</th><th>angle before (°)</th><th>after (°)</th></tr>\n";
+  auto cell = [](double v) { return std::isfinite(v) ? fmt::format("{:.5f}", v) : std::string("–"); };
+  for (std::size_t i = 0; i < run.data.size(); ++i) {
+    const Measurement& m = run.data[i];
+    s += fmt::format("<tr><td class=l>{}</td><td class=l>{}:{}</td><td class=l>{}</td><td class=l>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>\n",
+                     html_escape(m.label), html_escape(m.file), m.line, to_string(m.kind), m.validate ? "validate" : "fit",
+                     cell(c.before[i].position_mm), cell(c.after[i].position_mm), cell(c.before[i].angle_deg),
+                     cell(c.after[i].angle_deg));
+  }
+  s += "</table>\n";
+  for (const std::string& note : run.notes) s += "<p class=note>" + html_escape(note) + "</p>\n";
+  s += "</body></html>\n";
+  return s;
+}
+
+}  // namespace postproc::cal
