@@ -15,6 +15,7 @@
 #include "postproc/calibration/report.hpp"
 #include "postproc/calibration/step_gauge.hpp"
 #include "postproc/io/output_file.hpp"
+#include "postproc/kinematics/volumetric_map.hpp"
 #include "postproc/machine/machine.hpp"
 
 namespace postproc::cli {
@@ -36,8 +37,8 @@ struct CalibrateArgs {
   int max_iterations = 150;
   bool numeric = false;
   double angle_weight = cal::kOrientationWeight;
-  std::string map_interpolation = "trilinear";
-  std::string map_outside = "refuse";
+  std::string map_interpolation;  ///< empty: as the machine file's map, else trilinear
+  std::string map_outside;        ///< empty: as the machine file's map, else refuse
   bool in_place = false;
   std::size_t max_per_code = 20;
 };
@@ -102,16 +103,19 @@ void print_summary(const cal::CalibrationRun& run, const cal::Comparison& c) {
     out += fmt::format("postproc: not identifiable (held at the start value): {}\n", comb);
   for (int k : r.start.unobserved)
     out += fmt::format("postproc: no measurement depends on {} (held at the start value)\n", params[static_cast<std::size_t>(k)].name);
-  out += fmt::format("postproc: fitted: tool-tip error max {:.5f} → {:.5f} mm, rms {:.5f} → {:.5f} mm; tool-axis max {:.5f} → "
-                     "{:.5f} deg; residual σ {:.5f} mm\n",
-                     c.fit.max_position_before_mm, c.fit.max_position_after_mm, c.fit.rms_position_before_mm,
-                     c.fit.rms_position_after_mm, c.fit.max_angle_before_deg, c.fit.max_angle_after_deg, r.sigma);
-  if (c.validation.count > 0)
-    out += fmt::format("postproc: held out: tool-tip error max {:.5f} → {:.5f} mm, rms {:.5f} → {:.5f} mm; tool-axis max {:.5f} "
-                       "→ {:.5f} deg\n",
-                       c.validation.max_position_before_mm, c.validation.max_position_after_mm,
-                       c.validation.rms_position_before_mm, c.validation.rms_position_after_mm,
-                       c.validation.max_angle_before_deg, c.validation.max_angle_after_deg);
+  auto figures = [](std::string_view set, const cal::SetFigures& f) {
+    std::string line = fmt::format("postproc: {} ({}):", set, f.count);
+    if (f.positions > 0)
+      line += fmt::format(" tool-tip (strut) error max {:.5f} → {:.5f} mm, rms {:.5f} → {:.5f} mm;", f.max_position_before_mm,
+                          f.max_position_after_mm, f.rms_position_before_mm, f.rms_position_after_mm);
+    if (f.angles > 0)
+      line += fmt::format(" tool-axis error max {:.5f} → {:.5f} deg;", f.max_angle_before_deg, f.max_angle_after_deg);
+    line.back() = '\n';
+    return line;
+  };
+  out += figures("fitted", c.fit);
+  if (c.validation.count > 0) out += figures("held out", c.validation);
+  out += fmt::format("postproc: residual σ {:.5f} mm (mm-equivalent)\n", r.sigma);
   std::fputs(out.c_str(), stderr);
 }
 
@@ -169,11 +173,17 @@ void run_calibrate(const CalibrateArgs& a, int& rc) {
   std::vector<std::string> notes;
   if (have_gauge) {
     cal::StepGaugeOptions sg;
-    sg.interpolation = a.map_interpolation == "smooth" ? kin::VolumetricMap::Interpolation::smooth
-                                                       : kin::VolumetricMap::Interpolation::trilinear;
-    sg.outside = a.map_outside == "clamp"  ? kin::VolumetricMap::Outside::clamp
-                 : a.map_outside == "zero" ? kin::VolumetricMap::Outside::zero
-                                           : kin::VolumetricMap::Outside::refuse;
+    if (const auto* old = dynamic_cast<const kin::VolumetricModel*>(machine->actual.get())) {
+      sg.interpolation = old->map().interpolation();
+      sg.outside = old->map().outside();
+    }
+    if (!a.map_interpolation.empty())
+      sg.interpolation = a.map_interpolation == "smooth" ? kin::VolumetricMap::Interpolation::smooth
+                                                         : kin::VolumetricMap::Interpolation::trilinear;
+    if (!a.map_outside.empty())
+      sg.outside = a.map_outside == "clamp"  ? kin::VolumetricMap::Outside::clamp
+                   : a.map_outside == "zero" ? kin::VolumetricMap::Outside::zero
+                                             : kin::VolumetricMap::Outside::refuse;
     cal::StepGaugeReport sgr;
     const auto map = cal::build_volumetric_map(gauge, sg, sink, &sgr);
     if (!map) {
@@ -303,12 +313,12 @@ void setup_calibrate(CLI::App& app, int& rc) {
   cmd->add_option("--angle-weight", a->angle_weight, "mm-equivalent per rad of orientation residual (default 0.01° ≙ 0.01 mm)")
       ->capture_default_str();
   cmd->add_flag("--numeric-derivatives", a->numeric, "central differences for every parameter (checks the analytic ones)");
-  cmd->add_option("--map-interpolation", a->map_interpolation, "step-gauge map: trilinear or smooth")
-      ->check(CLI::IsMember({"trilinear", "smooth"}))
-      ->capture_default_str();
-  cmd->add_option("--map-outside", a->map_outside, "step-gauge map outside its grid: refuse, clamp or zero")
-      ->check(CLI::IsMember({"refuse", "clamp", "zero"}))
-      ->capture_default_str();
+  cmd->add_option("--map-interpolation", a->map_interpolation,
+                  "step-gauge map: trilinear or smooth (default: as the machine file's map, else trilinear)")
+      ->check(CLI::IsMember({"trilinear", "smooth"}));
+  cmd->add_option("--map-outside", a->map_outside,
+                  "step-gauge map outside its grid: refuse, clamp or zero (default: as the machine file's map, else refuse)")
+      ->check(CLI::IsMember({"refuse", "clamp", "zero"}));
   cmd->add_flag("--in-place", a->in_place, "allow -o to name the machine file (a .bak backup is kept)");
   cmd->add_option("--max-per-code", a->max_per_code, "show at most this many diagnostics per code")->capture_default_str();
   setup_calibrate_plan(*cmd, rc);

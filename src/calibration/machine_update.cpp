@@ -2,6 +2,7 @@
 #include "postproc/calibration/machine_update.hpp"
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 
 #include <fmt/format.h>
@@ -37,19 +38,32 @@ std::string_view trimmed(std::string_view s) {
   return s;
 }
 
-/// The table a header line opens ("errors" of "[errors]  # …", "axes.X" of "[axes.X]"), empty if none.
+/// The table a header line opens ("errors" of "[errors]  # …", "axes.X" of "[axes.X]",
+/// "serial.tool_side" of "[[serial.tool_side]]"), empty if the line is no table header. A line of
+/// an array value ("  [-0.40, 2.03, 7.10],") is not: a header's name starts with a letter or a
+/// quote and holds only key characters, and only a comment may follow it.
 std::string_view header_name(std::string_view line) {
   line = trimmed(line);
-  if (line.size() < 3 || line.front() != '[' || line[1] == '[') return {};
-  const auto close = line.find(']');
+  if (line.size() < 3 || line.front() != '[') return {};
+  const bool array = line[1] == '[';
+  const std::size_t open = array ? 2 : 1;
+  const auto close = line.find(']', open);
   if (close == std::string_view::npos) return {};
-  return trimmed(line.substr(1, close - 1));
+  const std::string_view name = trimmed(line.substr(open, close - open));
+  if (name.empty() || !(std::isalpha(static_cast<unsigned char>(name.front())) || name.front() == '"')) return {};
+  for (char c : name)
+    if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-' || c == '.' || c == '"' || c == ' ')) return {};
+  std::string_view rest = line.substr(close + 1);
+  if (array) {
+    if (rest.empty() || rest.front() != ']') return {};
+    rest.remove_prefix(1);
+  }
+  rest = trimmed(rest);
+  if (!rest.empty() && rest.front() != '#') return {};
+  return name;
 }
 
-bool is_header(std::string_view line) {
-  const std::string_view t = trimmed(line);
-  return !t.empty() && t.front() == '[';
-}
+bool is_header(std::string_view line) { return !header_name(line).empty(); }
 
 }  // namespace
 

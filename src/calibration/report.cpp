@@ -13,13 +13,16 @@ namespace {
 
 using nlohmann::json;
 
-double finite_or(double v, double alt) { return std::isfinite(v) ? v : alt; }
+/// NaN (the kind has no such error) counts as 0; infinity (the model cannot evaluate) stays.
+double finite_or(double v, double alt) { return std::isnan(v) ? alt : v; }
 
 json number(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
 
 void accumulate(SetFigures& f, const MeasurementError& b, const MeasurementError& a, double& sum_b, double& sum_a) {
   ++f.count;
-  if (std::isfinite(b.position_mm) || std::isfinite(a.position_mm)) {
+  if (!std::isnan(b.angle_deg)) ++f.angles;
+  if (!std::isnan(b.position_mm)) {
+    ++f.positions;
     f.max_position_before_mm = std::max(f.max_position_before_mm, finite_or(b.position_mm, 0));
     f.max_position_after_mm = std::max(f.max_position_after_mm, finite_or(a.position_mm, 0));
     sum_b += finite_or(b.position_mm, 0) * finite_or(b.position_mm, 0);
@@ -31,6 +34,8 @@ void accumulate(SetFigures& f, const MeasurementError& b, const MeasurementError
 
 json figures(const SetFigures& f) {
   return {{"measurements", f.count},
+          {"with_position", f.positions},
+          {"with_angle", f.angles},
           {"max_position_before_mm", f.max_position_before_mm},
           {"max_position_after_mm", f.max_position_after_mm},
           {"rms_position_before_mm", f.rms_position_before_mm},
@@ -126,13 +131,13 @@ Comparison compare(const CalibrationRun& run) {
     if (m.validate) accumulate(c.validation, c.before.back(), c.after.back(), vb, va);
     else accumulate(c.fit, c.before.back(), c.after.back(), fb, fa);
   }
-  if (c.fit.count > 0) {
-    c.fit.rms_position_before_mm = std::sqrt(fb / static_cast<double>(c.fit.count));
-    c.fit.rms_position_after_mm = std::sqrt(fa / static_cast<double>(c.fit.count));
+  if (c.fit.positions > 0) {
+    c.fit.rms_position_before_mm = std::sqrt(fb / static_cast<double>(c.fit.positions));
+    c.fit.rms_position_after_mm = std::sqrt(fa / static_cast<double>(c.fit.positions));
   }
-  if (c.validation.count > 0) {
-    c.validation.rms_position_before_mm = std::sqrt(vb / static_cast<double>(c.validation.count));
-    c.validation.rms_position_after_mm = std::sqrt(va / static_cast<double>(c.validation.count));
+  if (c.validation.positions > 0) {
+    c.validation.rms_position_before_mm = std::sqrt(vb / static_cast<double>(c.validation.positions));
+    c.validation.rms_position_after_mm = std::sqrt(va / static_cast<double>(c.validation.positions));
   }
   return c;
 }
@@ -214,11 +219,13 @@ td.l,th.l{text-align:left}.held{color:#b00}.plot{border:1px solid #ccc}
     s += fmt::format("<tr><td class=l>{}</td><td class=l>{}</td><td>{}</td><td class=l>{}</td></tr>\n", html_escape(f.path),
                      f.kind, f.measurements, f.sha256);
   s += "</table>\n<h2>Residuals</h2><table id=\"figures\"><tr><th class=l>set</th><th>n</th><th>max position before (mm)</th><th>max after (mm)</th><th>rms before (mm)</th><th>rms after (mm)</th><th>max angle before (°)</th><th>max after (°)</th></tr>\n";
+  auto fig = [](std::size_t n, double v) { return n > 0 ? fmt::format("{:.5f}", v) : std::string("–"); };
   for (const auto& [name, f] : {std::pair<const char*, const SetFigures&>{"fitted", c.fit}, {"held out", c.validation}})
     if (f.count > 0)
-      s += fmt::format("<tr><td class=l>{}</td><td>{}</td><td>{:.5f}</td><td>{:.5f}</td><td>{:.5f}</td><td>{:.5f}</td><td>{:.5f}</td><td>{:.5f}</td></tr>\n",
-                       name, f.count, f.max_position_before_mm, f.max_position_after_mm, f.rms_position_before_mm,
-                       f.rms_position_after_mm, f.max_angle_before_deg, f.max_angle_after_deg);
+      s += fmt::format("<tr><td class=l>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>\n",
+                       name, f.count, fig(f.positions, f.max_position_before_mm), fig(f.positions, f.max_position_after_mm),
+                       fig(f.positions, f.rms_position_before_mm), fig(f.positions, f.rms_position_after_mm),
+                       fig(f.angles, f.max_angle_before_deg), fig(f.angles, f.max_angle_after_deg));
   s += "</table>\n<h3>Tool-tip (or strut) error per measurement</h3>\n" + residual_plot(run, c, false) + "\n";
   const std::string angle_plot = residual_plot(run, c, true);
   if (!angle_plot.empty()) s += "<h3>Tool-axis error per measurement</h3>\n" + angle_plot + "\n";

@@ -7,8 +7,13 @@
 /// Planning is greedy D-optimal design over random candidates: every candidate contributes the
 /// rows of its identification Jacobian (identify.hpp's linearise() at the model's own prediction,
 /// so the residual is 0), columns scaled by their norms over all candidates (units do not matter);
-/// the pose that most increases log det(JᵀJ + εI) is added until N are chosen, then a Fedorov
-/// exchange pass swaps chosen poses for candidates while that increases the determinant.
+/// the pose that most increases log det(JᵀJ + εI) is added until N are chosen. Fedorov exchange
+/// passes then swap a chosen pose for a candidate while that increases the column-normalised
+/// criterion log det(M) − Σ log M_cc (M = JᵀJ + εI of the chosen set): the determinant of the
+/// information with every column scaled by its norm over the chosen set, i.e. analyse()'s O1
+/// (2r·log(O1·√rows) up to ε). The greedy criterion alone favours large column norms; the
+/// exchange turns them into O1. Every candidate keeps J_i M⁻¹ J_iᵀ, updated by Woodbury's formula
+/// per added or removed pose, so a step costs one (rows × parameters × 6) product.
 ///
 /// Candidates:
 /// - serial models: joint vectors uniform in each joint's [min + margin, max − margin]; a joint
@@ -63,9 +68,11 @@ struct PlanResult {
   int candidates = 0;                    ///< candidates generated
   int draws = 0;                         ///< random draws needed (parallel models reject some)
   int exchanges = 0;                     ///< swaps made by the exchange passes
-  double log_det_greedy = 0;             ///< criterion after the greedy choice
-  double log_det = 0;                    ///< criterion of the result
-  double log_det_random = 0;             ///< criterion of the random set
+  /// The column-normalised criterion log det(M) − Σ log M_cc (see the file comment) after the
+  /// greedy choice, of the result, and of the random set.
+  double log_det_greedy = 0;
+  double log_det = 0;
+  double log_det_random = 0;
   double seconds = 0;                    ///< wall time of plan_poses()
 };
 

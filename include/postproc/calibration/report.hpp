@@ -23,6 +23,8 @@ struct InputFile {
 /// Residual figures of one measurement set before and after.
 struct SetFigures {
   std::size_t count = 0;
+  std::size_t positions = 0;  ///< measurements with a tool-tip (or strut) error
+  std::size_t angles = 0;     ///< measurements with a tool-axis error
   double max_position_before_mm = 0, max_position_after_mm = 0;
   double rms_position_before_mm = 0, rms_position_after_mm = 0;
   double max_angle_before_deg = 0, max_angle_after_deg = 0;

@@ -1,0 +1,101 @@
+#!/usr/bin/env bash
+# End-to-end runs of `postproc calibrate`, `calibrate plan` and `calibrate simulate` on the
+# samples: exit codes, the calibrated machine file is taken by `compensate` as it is, report
+# figures within stated limits, held-out figures present, located errors for bad data, nothing
+# written on refusal.
+# Usage: calibrate_cli.sh POSTPROC SOURCE_DIR
+set -u
+P=$1
+SRC=$2
+M=$SRC/samples/machines
+D=$SRC/samples/measurements
+T=$(mktemp -d)
+trap 'rm -rf "$T"' EXIT
+failures=0
+fail() { echo "FAIL: $*"; failures=$((failures + 1)); }
+
+# The first value of a JSON key inside the object named $2 (the report is written with one key per line).
+json_in() { awk -v obj="\"$2\":" -v key="\"$3\":" 'index($0, obj) {inside = 1} inside && index($0, key) {gsub(/[ ,]/, "", $2); print $2; exit}' FS=': ' "$1"; }
+le() { awk -v a="$1" -v b="$2" 'BEGIN {exit !(a + 0 <= b + 0 && a != "")}'; }
+
+# 1. The 3-PRS hybrid from 5-DoF poses and dial-indicator attitudes (documents 001, 000).
+if "$P" calibrate -m "$M/hybrid_3prs_doc001_nominal.toml" "$D/hybrid_3prs_poses5.csv" "$D/hybrid_3prs_attitudes.csv" \
+     -o "$T/prs.toml" --report "$T/prs.json" --report "$T/prs.html" 2> "$T/prs.err"; then
+  after=$(json_in "$T/prs.json" fit max_position_after_mm)
+  before=$(json_in "$T/prs.json" fit max_position_before_mm)
+  held=$(json_in "$T/prs.json" validation max_position_after_mm)
+  le "$after" 0.004 || fail "prs: fitted max error after $after mm > 0.004 (before $before)"
+  le "$held" 0.005 || fail "prs: held-out max error after $held mm > 0.005"
+  grep -q '"status": "unidentifiable"' "$T/prs.json" || fail "prs: the unidentifiable parameters are not reported"
+  grep -q 'not identifiable (held at the start value): +1 mm limb1.da_y, +1 mm limb2.da_y, +1 mm limb3.da_y' "$T/prs.err" ||
+    fail "prs: the torsion combination of 5-DoF data is not named"
+  grep -q '<svg' "$T/prs.html" || fail "prs: no residual plot in the HTML report"
+  grep -q 'http' "$T/prs.html" && grep -v 'xmlns="http://www.w3.org/2000/svg"' "$T/prs.html" | grep -q 'src="http\|href="http' &&
+    fail "prs: the HTML report loads network resources"
+  grep -q '^# calibrated by postproc' "$T/prs.toml" || fail "prs: no header comment in the calibrated file"
+  "$P" compensate "$SRC/samples/programs/tilted_pocket_3prs.nc" -m "$T/prs.toml" -o "$T/prs.nc" 2> /dev/null ||
+    fail "prs: compensate does not take the calibrated machine file"
+else
+  fail "prs: calibrate exited non-zero"; cat "$T/prs.err"
+fi
+
+# 2. The hexapod from strut readings at known poses (document 003).
+if "$P" calibrate -m "$M/hexapod_doc003_nominal.toml" "$D/hexapod_struts.csv" -o "$T/hex.toml" --report "$T/hex.json" 2> "$T/hex.err"; then
+  after=$(json_in "$T/hex.json" fit max_position_after_mm)
+  le "$after" 0.0015 || fail "hexapod: strut residual after $after mm > 0.0015"
+  grep -q '"identified"' "$T/hex.json" || fail "hexapod: no identified parameters"
+  "$P" compensate "$SRC/samples/programs/freeform_hexapod_g43_5.nc" -m "$T/hex.toml" -o "$T/hex.nc" 2> /dev/null ||
+    fail "hexapod: compensate does not take the calibrated machine file"
+else
+  fail "hexapod: calibrate exited non-zero"; cat "$T/hex.err"
+fi
+
+# 3. The B/C trunnion from positions and directions, with a bound and a fixed parameter.
+if "$P" calibrate -m "$M/trunnion_bc_fanuc_nominal.toml" "$D/trunnion_bc_positions.csv" "$D/trunnion_bc_directions.csv" \
+     --fix EZ0Z --bound 'EX0C=-50um:50um' -o "$T/bc.toml" --report "$T/bc.json" 2> "$T/bc.err"; then
+  after=$(json_in "$T/bc.json" fit max_position_after_mm)
+  # EZ0Z is held at 0 while the true machine has 5 µm: the fit cannot go below that.
+  le "$after" 0.008 || fail "trunnion: fitted max error after $after mm > 0.008"
+  grep -A2 '"name": "EZ0Z"' "$T/bc.json" | grep -q '"status": "fixed"' || fail "trunnion: --fix EZ0Z not honoured"
+  "$P" compensate "$SRC/samples/programs/blade_5axis_g43_4.nc" -m "$T/bc.toml" -o "$T/bc.nc" --max-deviation 2 2> /dev/null ||
+    fail "trunnion: compensate does not take the calibrated machine file"
+else
+  fail "trunnion: calibrate exited non-zero"; cat "$T/bc.err"
+fi
+
+# 4. The step gauge (document 002) rebuilds the sample machine's map.
+if "$P" calibrate -m "$M/mill3_stepgauge_map.toml" "$D"/stepgauge_*.csv -o "$T/map.toml" 2> "$T/map.err"; then
+  grep -q '^\[volumetric_map\]' "$T/map.toml" || fail "step gauge: no [volumetric_map] written"
+  "$P" compensate "$SRC/samples/programs/pocket_3axis_map.nc" -m "$T/map.toml" -o "$T/map.nc" 2> /dev/null ||
+    fail "step gauge: compensate does not take the calibrated machine file"
+else
+  fail "step gauge: calibrate exited non-zero"; cat "$T/map.err"
+fi
+
+# 5. plan → simulate → calibrate closes the loop on the hexapod.
+"$P" calibrate plan -m "$M/hexapod_doc003.toml" --poses 36 --kind struts -o "$T/plan.csv" --program "$T/plan.nc" 2> "$T/plan.err" ||
+  fail "plan exited non-zero"
+"$P" check "$T/plan.nc" --dialect fanuc > /dev/null 2>&1 || fail "plan: the measuring program does not pass check"
+"$P" calibrate simulate -m "$M/hexapod_doc003.toml" --plan "$T/plan.csv" --kind struts --noise 0.5 --validate-every 6 \
+  -o "$T/sim.csv" 2> /dev/null || fail "simulate exited non-zero"
+"$P" calibrate -m "$M/hexapod_doc003_nominal.toml" "$T/sim.csv" -o "$T/sim.toml" --report "$T/sim.json" 2> /dev/null ||
+  fail "calibrate of simulated data exited non-zero"
+le "$(json_in "$T/sim.json" validation max_position_after_mm)" 0.0015 || fail "plan/simulate/calibrate: held-out error too large"
+
+# 6. Bad data: located error, exit 2, nothing written.
+printf '# kind: positions\nX_mm,Y_mm,Z_mm,B_deg,C_deg,x_mm,y_mm,z_mm\n1,2,3,4,5,6,seven,8\n' > "$T/bad.csv"
+"$P" calibrate -m "$M/trunnion_bc_fanuc_nominal.toml" "$T/bad.csv" -o "$T/bad.toml" 2> "$T/bad.err"
+rc=$?
+[ "$rc" = 2 ] || fail "bad data: exit $rc, expected 2"
+grep -q "bad.csv:3:13: error: PP-C003" "$T/bad.err" || { fail "bad data: no located PP-C003"; cat "$T/bad.err"; }
+[ -e "$T/bad.toml" ] && fail "bad data: an output was written"
+"$P" calibrate -m "$M/trunnion_bc_fanuc_nominal.toml" "$D/hexapod_struts.csv" -o "$T/bad2.toml" 2> "$T/bad2.err"
+[ $? = 2 ] || fail "struts on a serial machine: expected exit 2"
+"$P" calibrate -m "$M/trunnion_bc_fanuc_nominal.toml" "$D/trunnion_bc_positions.csv" --free 'NOPE*' -o "$T/bad3.toml" 2> /dev/null
+[ $? = 64 ] || fail "--free with an unknown parameter: expected exit 64"
+
+if [ "$failures" -gt 0 ]; then
+  echo "$failures failure(s)"
+  exit 1
+fi
+echo "calibrate CLI: all checks passed"
