@@ -9,7 +9,9 @@
 #include "common.hpp"
 #include "postproc/calibration/csv.hpp"
 #include "postproc/calibration/plan.hpp"
+#include "postproc/calibration/step_gauge.hpp"
 #include "postproc/io/output_file.hpp"
+#include "postproc/kinematics/volumetric_map.hpp"
 #include "postproc/machine/machine.hpp"
 
 namespace postproc::cli {
@@ -108,6 +110,40 @@ struct SimulateArgs {
   double noise_um = 10, noise_arcsec = 36;
 };
 
+/// Step-gauge files (document 002) for the machine's volumetric map: one plate per z level of its
+/// grid and a column gauge chaining them (cal::grid_layouts), the readings of the map's field plus
+/// noise, plate tilts of a few µrad.
+void simulate_step_gauge_files(const SimulateArgs& a, const machine::Machine& m) {
+  const auto* vm = dynamic_cast<const kin::VolumetricModel*>(m.actual.get());
+  if (vm == nullptr)
+    throw Error(ExitCode::usage, fmt::format("--kind step-gauge: {} has no [volumetric_map] to take the error field from",
+                                             a.machine));
+  const kin::VolumetricMap& map = vm->map();
+  const Eigen::Vector2d tilts[] = {{15e-6, -10e-6}, {-20e-6, 8e-6}, {5e-6, 25e-6}};
+  const auto layouts = cal::grid_layouts(map.origin(), map.spacing(), map.counts(), tilts, a.seed);
+  cal::StepGaugeSimulateOptions o;
+  o.noise_mm = a.noise_um / 1000.0;
+  o.seed = a.seed;
+  o.decimals = 4;
+  o.comment = fmt::format("simulated by postproc {} calibrate simulate from the [volumetric_map] of {} (sha256 {}); "
+                          "uniform reading noise ±{} um, seed {}",
+                          POSTPROC_VERSION, a.machine, m.sha256, a.noise_um, a.seed);
+  const auto files = cal::simulate_step_gauge([&](const Eigen::Vector3d& p) { return *map.error(p); }, layouts, o);
+  for (std::size_t i = 0; i < files.size(); ++i) {
+    const std::string base = a.output + "_" + layouts[i].name;
+    io::OutputFile g(base + ".csv", a.machine, false);
+    g.write(files[i].gauge_csv);
+    g.commit();
+    if (!files[i].edge_csv.empty()) {
+      io::OutputFile e(base + "_edges.csv", a.machine, false);
+      e.write(files[i].edge_csv);
+      e.commit();
+    }
+  }
+  std::fputs(fmt::format("postproc: wrote {} simulated step-gauge placements to {}_*.csv\n", files.size(), a.output).c_str(),
+             stderr);
+}
+
 }  // namespace
 
 void setup_calibrate_plan(CLI::App& calibrate, int& rc) {
@@ -164,15 +200,22 @@ void setup_calibrate_simulate(CLI::App& calibrate, int& rc) {
   cmd->add_option("-m,--machine", a->machine, "machine file with the true errors")->required();
   cmd->add_option("--plan", a->plan, "pose list from calibrate plan (default: plan --poses N here)");
   cmd->add_option("--poses", a->poses, "poses to plan when no --plan is given")->capture_default_str();
-  cmd->add_option("--kind", a->kind, "poses, poses5, positions, directions, struts")->capture_default_str();
+  cmd->add_option("--kind", a->kind, "poses, poses5, positions, directions, struts, step-gauge")->capture_default_str();
   cmd->add_option("--noise", a->noise_um, "uniform noise ± per position component / strut reading, µm")->capture_default_str();
   cmd->add_option("--angle-noise", a->noise_arcsec, "uniform noise ± per rotation component, arcsec")->capture_default_str();
   cmd->add_option("--validate-every", a->validate_every, "mark every k-th measurement as held out (0 = none)")
       ->capture_default_str();
   cmd->add_option("--seed", a->seed, "random seed")->capture_default_str();
-  cmd->add_option("-o,--output", a->output, "measurement file to write")->required();
+  cmd->add_option("-o,--output", a->output,
+                  "measurement file to write (step-gauge: a path prefix; PREFIX_<gauge>.csv and PREFIX_<gauge>_edges.csv)")
+      ->required();
   cmd->callback([a, &rc] {
     const machine::Machine m = load_or_refuse(a->machine);
+    if (a->kind == "step-gauge") {
+      simulate_step_gauge_files(*a, m);
+      rc = 0;
+      return;
+    }
     const KindArg k = parse_kind(a->kind);
     std::vector<kin::JointVector> joints;
     if (!a->plan.empty()) {

@@ -27,6 +27,8 @@ if "$P" calibrate -m "$M/hybrid_3prs_doc001_nominal.toml" "$D/hybrid_3prs_poses5
   le "$after" 0.004 || fail "prs: fitted max error after $after mm > 0.004 (before $before)"
   le "$held" 0.005 || fail "prs: held-out max error after $held mm > 0.005"
   grep -q '"status": "unidentifiable"' "$T/prs.json" || fail "prs: the unidentifiable parameters are not reported"
+  grep -A3 '"status": "unidentifiable"' "$T/prs.json" | grep '"value":' | grep -qv 'null' &&
+    fail "prs: an unidentifiable parameter is reported with a value"
   grep -q 'not identifiable (held at the start value): +1 mm limb1.da_y, +1 mm limb2.da_y, +1 mm limb3.da_y' "$T/prs.err" ||
     fail "prs: the torsion combination of 5-DoF data is not named"
   grep -q '<svg' "$T/prs.html" || fail "prs: no residual plot in the HTML report"
@@ -81,6 +83,12 @@ fi
 "$P" calibrate -m "$M/hexapod_doc003_nominal.toml" "$T/sim.csv" -o "$T/sim.toml" --report "$T/sim.json" 2> /dev/null ||
   fail "calibrate of simulated data exited non-zero"
 le "$(json_in "$T/sim.json" validation max_position_after_mm)" 0.0015 || fail "plan/simulate/calibrate: held-out error too large"
+
+# 5b. calibrate simulate --kind step-gauge → calibrate rebuilds a map.
+"$P" calibrate simulate -m "$M/mill3_stepgauge_map.toml" --kind step-gauge --noise 0.1 -o "$T/sg" 2> /dev/null ||
+  fail "simulate --kind step-gauge exited non-zero"
+"$P" calibrate -m "$M/mill3_stepgauge_map.toml" "$T"/sg_*.csv -o "$T/sg.toml" 2> /dev/null && grep -q "^\[volumetric_map\]" "$T/sg.toml" ||
+  fail "calibrate from simulated step-gauge files"
 
 # 6. Bad data: located error, exit 2, nothing written.
 printf '# kind: positions\nX_mm,Y_mm,Z_mm,B_deg,C_deg,x_mm,y_mm,z_mm\n1,2,3,4,5,6,seven,8\n' > "$T/bad.csv"

@@ -62,7 +62,7 @@ struct Built {
 };
 
 /// Simulates, reads back every file from text, builds.
-std::unique_ptr<Built> run(const std::vector<cal::GaugeLayout>& l, const cal::SimulateOptions& o,
+std::unique_ptr<Built> run(const std::vector<cal::GaugeLayout>& l, const cal::StepGaugeSimulateOptions& o,
                            const std::function<Vector3d(const Vector3d&)>& f = field) {
   auto b = std::make_unique<Built>();
   cal::StepGaugeData data;
@@ -107,7 +107,7 @@ TEST(StepGauge, ExactWithoutNoise) {
 
 TEST(StepGauge, NoiseBound) {
   // ±0.1 µm per reading; |T⁻¹|∞ ≈ 1.3 here, chained over two links (column, plate): ≲ 3 · 1.3 · 2 · 0.1 µm.
-  cal::SimulateOptions o;
+  cal::StepGaugeSimulateOptions o;
   o.noise_mm = 1e-4;
   o.seed = 99;
   const auto b = run(layouts(Vector2d(20e-6, -15e-6)), o);
@@ -390,7 +390,7 @@ TEST(StepGaugeSamples, DISABLED_Regenerate) {
   l[3].chain = "1 = low:1";
   std::filesystem::create_directories(kSamples + "measurements");
   for (std::size_t i = 0; i < 4; ++i) {
-    cal::SimulateOptions o;
+    cal::StepGaugeSimulateOptions o;
     o.noise_mm = 1e-4;
     o.seed = 2002 + i;
     o.decimals = 4;
@@ -407,6 +407,36 @@ TEST(StepGaugeSamples, DISABLED_Regenerate) {
     if (!f[0].edge_csv.empty())
       std::ofstream(kSamples + "measurements/stepgauge_" + l[i].name + "_edges.csv") << f[0].edge_csv;
   }
+}
+
+}  // namespace
+
+namespace {
+
+TEST(StepGauge, GridLayoutsRebuildAMapExactly) {
+  // calibrate simulate --kind step-gauge: the gauges grid_layouts() places over a map's grid give
+  // that map back (no noise: to 1e-9 mm), tilts removed, the root's reference error carried.
+  gc::DiagnosticSink sink;
+  const auto machine = postproc::machine::load_machine(kSamples + "machines/mill3_stepgauge_map.toml", sink);
+  ASSERT_TRUE(machine);
+  const kin::VolumetricMap& map = map_of(*machine);
+  const Vector2d tilts[] = {{15e-6, -10e-6}, {-20e-6, 8e-6}};
+  const auto l = cal::grid_layouts(map.origin(), map.spacing(), map.counts(), tilts, 5);
+  ASSERT_EQ(l.size(), static_cast<std::size_t>(map.counts().z() + 1));
+  const auto files = cal::simulate_step_gauge([&](const Vector3d& p) { return *map.error(p); }, l, {});
+  cal::StepGaugeData data;
+  for (std::size_t i = 0; i < files.size(); ++i) {
+    ASSERT_TRUE(cal::add_step_gauge_text(l[i].name + ".csv", files[i].gauge_csv, data, sink));
+    if (!files[i].edge_csv.empty()) {
+      ASSERT_TRUE(cal::add_step_gauge_text(l[i].name + "_edges.csv", files[i].edge_csv, data, sink));
+    }
+  }
+  const auto built = cal::build_volumetric_map(data, {}, sink);
+  ASSERT_TRUE(built) << (sink.stored().empty() ? "" : sink.stored().front().message);
+  ASSERT_EQ(built->counts(), map.counts());
+  for (int k = 0; k < map.counts().z(); ++k)
+    for (int j = 0; j < map.counts().y(); ++j)
+      for (int i = 0; i < map.counts().x(); ++i) EXPECT_LT((built->node(i, j, k) - map.node(i, j, k)).norm(), 1e-9);
 }
 
 }  // namespace

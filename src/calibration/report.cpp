@@ -173,8 +173,9 @@ std::string report_json(const CalibrationRun& run) {
                       {"unit", p.unit},
                       {"status", st},
                       {"start", run.start->values()[k]},
-                      {"value", r.values[k]},
-                      {"change", r.values[k] - run.start->values()[k]},
+                      // An unidentifiable parameter has no estimate: it keeps its start value.
+                      {"value", st == "unidentifiable" ? json(nullptr) : json(r.values[k])},
+                      {"change", st == "unidentifiable" ? json(nullptr) : json(r.values[k] - run.start->values()[k])},
                       {"stddev", number(r.stddev[k])}});
   }
   j["parameters"] = params;

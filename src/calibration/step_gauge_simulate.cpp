@@ -2,6 +2,7 @@
 // (see step_gauge.hpp).
 #include <cmath>
 #include <random>
+#include <span>
 
 #include <fmt/format.h>
 
@@ -13,6 +14,32 @@ namespace postproc::cal {
 
 using Eigen::Vector3d;
 constexpr char kAxis[3] = {'x', 'y', 'z'};
+
+std::vector<GaugeLayout> grid_layouts(const Vector3d& origin, const Vector3d& spacing, const Eigen::Vector3i& counts,
+                                      std::span<const Eigen::Vector2d> tilts, std::uint64_t seed) {
+  std::vector<GaugeLayout> g;
+  for (int k = 0; k < counts.z(); ++k) {
+    const Vector3d o = origin + Vector3d(0, 0, k * spacing.z());
+    g.push_back(plate_layout(fmt::format("plate{}", k + 1), o, spacing.head<2>(), counts.x(), counts.y(),
+                             seed + static_cast<std::uint64_t>(k)));
+    if (!tilts.empty()) g.back().tilt = tilts[static_cast<std::size_t>(k) % tilts.size()];
+    if (k == 0) g.back().write_reference_error = true;
+    else g.back().chain = fmt::format("1 = column:{}", k + 1);
+  }
+  GaugeLayout column = plate_layout("column", origin, spacing.head<2>(), 1, 1, seed + 1000);
+  column.pyramids.clear();
+  for (int k = 0; k < counts.z(); ++k) {
+    PyramidLayout p = g.front().pyramids.front();
+    p.id = std::to_string(k + 1);
+    p.position = origin + Vector3d(0, 0, k * spacing.z());
+    column.pyramids.push_back(p);
+  }
+  column.reference = "1";
+  column.chain = "1 = plate1:1";
+  column.edges = false;
+  g.push_back(column);
+  return g;
+}
 
 GaugeLayout plate_layout(std::string name, const Vector3d& origin, const Eigen::Vector2d& spacing, int nx, int ny,
                          std::uint64_t seed) {
@@ -39,7 +66,7 @@ GaugeLayout plate_layout(std::string name, const Vector3d& origin, const Eigen::
 }
 
 std::vector<SimulatedGauge> simulate_step_gauge(const std::function<Vector3d(const Vector3d&)>& field,
-                                                std::span<const GaugeLayout> layouts, const SimulateOptions& o) {
+                                                std::span<const GaugeLayout> layouts, const StepGaugeSimulateOptions& o) {
   std::mt19937_64 rng(o.seed);
   std::uniform_real_distribution<double> unit(-1.0, 1.0);
   const auto noise = [&] { return o.noise_mm * unit(rng); };

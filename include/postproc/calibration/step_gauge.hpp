@@ -169,7 +169,16 @@ struct GaugeLayout {
 [[nodiscard]] GaugeLayout plate_layout(std::string name, const Eigen::Vector3d& origin, const Eigen::Vector2d& spacing,
                                        int nx, int ny, std::uint64_t seed = 1);
 
-struct SimulateOptions {
+/// The gauges that cover a map's grid: one plate per z level ("plate1"…, counts.x × counts.y
+/// pyramids on the grid nodes, the plate tilts given per level, repeated cyclically; none: level),
+/// and a vertical "column" gauge with one pyramid per level at the grid's (0, 0) node that chains
+/// the plates (plate k's pyramid 1 = column:k). plate1 is the root and carries the field at its
+/// reference pyramid (write_reference_error), so the map comes out absolute.
+[[nodiscard]] std::vector<GaugeLayout> grid_layouts(const Eigen::Vector3d& origin, const Eigen::Vector3d& spacing,
+                                                    const Eigen::Vector3i& counts,
+                                                    std::span<const Eigen::Vector2d> tilts = {}, std::uint64_t seed = 1);
+
+struct StepGaugeSimulateOptions {
   double noise_mm = 0;         ///< uniform noise ±noise_mm on every sensor and edge reading
   std::uint64_t seed = 1;
   int decimals = -1;           ///< decimals written (in the file's units); -1: shortest exact
@@ -188,6 +197,6 @@ struct SimulatedGauge {
 /// its pyramids.
 [[nodiscard]] std::vector<SimulatedGauge> simulate_step_gauge(
     const std::function<Eigen::Vector3d(const Eigen::Vector3d&)>& field, std::span<const GaugeLayout> layouts,
-    const SimulateOptions& options);
+    const StepGaugeSimulateOptions& options);
 
 }  // namespace postproc::cal
