@@ -41,6 +41,16 @@ else
   fail "prs: calibrate exited non-zero"; cat "$T/prs.err"
 fi
 
+# 1b. 6-DoF poses by ridge (λ by GCV), a whole file held out with --validate.
+if "$P" calibrate -m "$M/hybrid_3prs_doc001_nominal.toml" "$D/hybrid_3prs_poses6.csv" --validate "$D/hybrid_3prs_poses5.csv" \
+     --method ridge -o "$T/ridge.toml" --report "$T/ridge.json" 2> "$T/ridge.err"; then
+  grep -q '"method": "ridge"' "$T/ridge.json" || fail "ridge: method not reported"
+  [ "$(json_in "$T/ridge.json" validation measurements)" = 30 ] || fail "ridge: --validate file not held out"
+  le "$(json_in "$T/ridge.json" validation max_position_after_mm)" 0.005 || fail "ridge: held-out error too large"
+else
+  fail "ridge: calibrate exited non-zero"; cat "$T/ridge.err"
+fi
+
 # 2. The hexapod from strut readings at known poses (document 003).
 if "$P" calibrate -m "$M/hexapod_doc003_nominal.toml" "$D/hexapod_struts.csv" -o "$T/hex.toml" --report "$T/hex.json" 2> "$T/hex.err"; then
   after=$(json_in "$T/hex.json" fit max_position_after_mm)
