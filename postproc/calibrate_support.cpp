@@ -1,8 +1,7 @@
 // Shared pieces of the calibrate commands (see calibrate_support.hpp).
 #include "calibrate_support.hpp"
 
-#include <fstream>
-#include <sstream>
+#include <algorithm>
 
 #include <fmt/format.h>
 
@@ -19,15 +18,6 @@ bool glob(std::string_view p, std::string_view s) {
 }
 
 }  // namespace
-
-std::string read_text_file(const std::string& path, std::string_view what) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw Error(ExitCode::no_input, fmt::format("{}: cannot open the {}", path, what));
-  std::ostringstream s;
-  s << in.rdbuf();
-  if (in.bad()) throw Error(ExitCode::no_input, fmt::format("{}: cannot read the {}", path, what));
-  return s.str();
-}
 
 std::vector<int> match_parameters(const kin::Model& model, const std::vector<std::string>& patterns, std::string_view option) {
   std::vector<int> out;

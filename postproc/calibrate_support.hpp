@@ -9,9 +9,6 @@
 
 namespace postproc::cli {
 
-/// The bytes of a file. Throws postproc::Error (no_input) naming `what` when it cannot be read.
-std::string read_text_file(const std::string& path, std::string_view what);
-
 /// Parameter indices whose names match any of `patterns` (* and ? wildcards). Throws
 /// postproc::Error (usage) for a pattern that matches nothing, listing the parameters.
 std::vector<int> match_parameters(const kin::Model& model, const std::vector<std::string>& patterns, std::string_view option);

@@ -2,9 +2,7 @@
 // the calibrated machine file; `calibrate plan` and `calibrate simulate` (cmd_calibrate_plan.cpp).
 #include <algorithm>
 #include <cmath>
-#include <fstream>
 #include <memory>
-#include <sstream>
 
 #include <fmt/format.h>
 
@@ -14,6 +12,7 @@
 #include "postproc/calibration/machine_update.hpp"
 #include "postproc/calibration/report.hpp"
 #include "postproc/calibration/step_gauge.hpp"
+#include "postproc/io/input_file.hpp"
 #include "postproc/io/output_file.hpp"
 #include "postproc/kinematics/volumetric_map.hpp"
 #include "postproc/machine/machine.hpp"
@@ -52,7 +51,7 @@ struct DataFile {
 DataFile read_data(const std::string& path, gcode::DiagnosticSink& sink) {
   DataFile f;
   f.path = path;
-  f.text = read_text_file(path, "measurement file");
+  f.text = io::read_file(path, "measurement file");
   f.table = cal::CsvTable::parse(path, f.text, sink);
   if (f.table)
     if (auto k = cal::measurement_file_kind(*f.table)) f.kind = *k;
@@ -125,7 +124,7 @@ void run_calibrate(const CalibrateArgs& a, int& rc) {
   if (a.data.empty()) throw Error(ExitCode::usage, "give at least one measurement file (docs/measurements.md)");
   gcode::DiagnosticSink sink;
   DiagnosticPrinter printer(sink, a.max_per_code);
-  const std::string machine_text = read_text_file(a.machine, "machine file");
+  const std::string machine_text = io::read_file(a.machine, "machine file");
   const auto machine = machine::parse_machine(a.machine, machine_text, sink);
   if (!machine) {
     printer.finish();

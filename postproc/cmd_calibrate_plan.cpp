@@ -10,6 +10,7 @@
 #include "postproc/calibration/csv.hpp"
 #include "postproc/calibration/plan.hpp"
 #include "postproc/calibration/step_gauge.hpp"
+#include "postproc/io/input_file.hpp"
 #include "postproc/io/output_file.hpp"
 #include "postproc/kinematics/volumetric_map.hpp"
 #include "postproc/machine/machine.hpp"
@@ -56,7 +57,7 @@ std::string plan_csv(const kin::Model& model, std::span<const kin::JointVector> 
 std::vector<kin::JointVector> read_plan(const std::string& path, const kin::Model& model) {
   gcode::DiagnosticSink sink;
   DiagnosticPrinter printer(sink, 20);
-  const std::string text = read_text_file(path, "plan file");
+  const std::string text = io::read_file(path, "plan file");
   auto t = cal::CsvTable::parse(path, text, sink);
   std::vector<kin::JointVector> out;
   if (t) {

@@ -4,12 +4,10 @@
 #include <cctype>
 #include <charconv>
 #include <cmath>
-#include <fstream>
-#include <sstream>
 
 #include <fmt/format.h>
 
-#include "postproc/error.hpp"
+#include "postproc/io/input_file.hpp"
 #include "src/machine/toml_fields.hpp"
 
 namespace postproc::cal {
@@ -192,12 +190,7 @@ std::optional<CsvTable> CsvTable::parse(std::string file, std::string_view text,
 }
 
 std::optional<CsvTable> CsvTable::load(const std::string& path, gcode::DiagnosticSink& sink) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw Error(ExitCode::no_input, fmt::format("{}: cannot open the measurement file", path));
-  std::ostringstream s;
-  s << in.rdbuf();
-  if (in.bad()) throw Error(ExitCode::no_input, fmt::format("{}: cannot read the measurement file", path));
-  return parse(path, s.str(), sink);
+  return parse(path, io::read_file(path, "measurement file"), sink);
 }
 
 std::optional<std::string> CsvTable::meta(std::string_view key) const {

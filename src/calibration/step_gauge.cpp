@@ -7,17 +7,16 @@
 #include <array>
 #include <charconv>
 #include <cmath>
-#include <fstream>
 #include <limits>
 #include <map>
 #include <random>
-#include <sstream>
 
 #include <Eigen/LU>
 #include <Eigen/SVD>
 #include <fmt/format.h>
 
 #include "postproc/error.hpp"
+#include "postproc/io/input_file.hpp"
 #include "src/calibration/step_gauge_tilt.hpp"
 
 namespace postproc::cal {
@@ -295,11 +294,7 @@ std::optional<StepGaugeData> read_step_gauge(std::span<const std::string> paths,
   StepGaugeData data;
   bool ok = true;
   for (const std::string& path : paths) {
-    std::ifstream in(path, std::ios::binary);
-    if (!in) throw Error(ExitCode::no_input, fmt::format("{}: cannot open the measurement file", path));
-    std::ostringstream s;
-    s << in.rdbuf();
-    ok = add_step_gauge_text(path, s.str(), data, sink) && ok;
+    ok = add_step_gauge_text(path, io::read_file(path, "measurement file"), data, sink) && ok;
   }
   if (!ok) return std::nullopt;
   return data;

@@ -2,14 +2,13 @@
 // tables; the model sections ([serial], [prs_hybrid], [hexapod]) are read in machine_models.cpp.
 #include "postproc/machine/machine.hpp"
 
-#include <fstream>
-#include <sstream>
 
 #include <fmt/format.h>
 #include <openssl/evp.h>
 
 #include "postproc/error.hpp"
 #include "postproc/kinematics/serial.hpp"
+#include "postproc/io/input_file.hpp"
 #include "postproc/kinematics/volumetric_map.hpp"
 #include "src/machine/machine_models.hpp"
 #include "src/machine/toml_fields.hpp"
@@ -315,12 +314,7 @@ std::optional<Machine> parse_machine(std::string file, std::string text, gcode::
 }
 
 std::optional<Machine> load_machine(const std::string& path, gcode::DiagnosticSink& sink) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw Error(ExitCode::no_input, fmt::format("cannot open machine file '{}'", path));
-  std::ostringstream ss;
-  ss << in.rdbuf();
-  if (in.bad()) throw Error(ExitCode::no_input, fmt::format("cannot read machine file '{}'", path));
-  return parse_machine(path, ss.str(), sink);
+  return parse_machine(path, io::read_file(path, "machine file"), sink);
 }
 
 std::string sha256_hex(std::string_view bytes) {
