@@ -2,6 +2,7 @@
 // the calibrated machine file; `calibrate plan` and `calibrate simulate` (cmd_calibrate_plan.cpp).
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <memory>
 
 #include <fmt/format.h>
@@ -260,6 +261,14 @@ void run_calibrate(const CalibrateArgs& a, int& rc) {
                                  cal::to_string(opt.method), run.result.identified.size(), run.result.start.parameters,
                                  run.result.sigma, c.fit.max_position_before_mm, c.fit.max_position_after_mm));
   }
+  if (data.empty()) {
+    // Step-gauge data only: the report names the inputs and the map figures; no parameter moves.
+    run.start = run.solved = machine->actual.get();
+    run.result.values = start.values();
+    run.result.stddev.assign(start.values().size(), std::numeric_limits<double>::quiet_NaN());
+    run.result.usable = true;
+    run.result.message = "no kinematic measurements: only the volumetric map was built";
+  }
   if (!map_section.empty()) {
     out_text = cal::replace_toml_table(out_text, "volumetric_map", map_section);
     header.push_back("  [volumetric_map] from the step-gauge data");
@@ -275,13 +284,12 @@ void run_calibrate(const CalibrateArgs& a, int& rc) {
   }
   io::OutputFile out(a.output, a.machine, a.in_place);
   out.write(out_text);
-  if (!data.empty())
-    for (const std::string& rp : a.reports) {
-      io::OutputFile rep(rp, a.machine, false);
-      const bool html = rp.ends_with(".html") || rp.ends_with(".htm");
-      rep.write(html ? cal::report_html(run) : cal::report_json(run));
-      rep.commit();
-    }
+  for (const std::string& rp : a.reports) {
+    io::OutputFile rep(rp, a.machine, false);
+    const bool html = rp.ends_with(".html") || rp.ends_with(".htm");
+    rep.write(html ? cal::report_html(run) : cal::report_json(run));
+    rep.commit();
+  }
   out.commit();
   printer.finish();
   std::fputs(fmt::format("postproc: wrote {}\n", a.output).c_str(), stderr);

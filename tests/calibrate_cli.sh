@@ -76,8 +76,9 @@ else
 fi
 
 # 4. The step gauge (document 002) rebuilds the sample machine's map.
-if "$P" calibrate -m "$M/mill3_stepgauge_map.toml" "$D"/stepgauge_*.csv -o "$T/map.toml" 2> "$T/map.err"; then
+if "$P" calibrate -m "$M/mill3_stepgauge_map.toml" "$D"/stepgauge_*.csv -o "$T/map.toml" --report "$T/map.json" 2> "$T/map.err"; then
   grep -q '^\[volumetric_map\]' "$T/map.toml" || fail "step gauge: no [volumetric_map] written"
+  grep -q 'volumetric map from 4 gauges' "$T/map.json" || fail "step gauge: the report does not describe the map"
   "$P" compensate "$SRC/samples/programs/pocket_3axis_map.nc" -m "$T/map.toml" -o "$T/map.nc" 2> /dev/null ||
     fail "step gauge: compensate does not take the calibrated machine file"
 else

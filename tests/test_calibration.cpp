@@ -481,6 +481,29 @@ TEST(Identify, FixedAndBoundedParameters) {
   EXPECT_TRUE(std::isnan(r.stddev[static_cast<std::size_t>(ex0c)]));
 }
 
+TEST(Identify, AnalyseNamesEveryNullDirection) {
+  // Two rows, four parameters: p0 and p1 enter only as p0 + p1, p3 not at all. Rank 2; one
+  // combination (+1 p0, −1 p1) and p3 unobserved, even with fewer rows than columns.
+  const auto mach = load("machines/trunnion_bc_fanuc.toml");
+  const kin::Model& m = *mach.actual;
+  Eigen::MatrixXd j(2, 4);
+  j << 1, 1, 0, 0,  //
+      0, 0, 2, 0;
+  const std::vector<int> cols{0, 1, 2, 3};
+  const cal::Identifiability a = cal::analyse(j, cols, m);
+  EXPECT_EQ(a.rank, 2);
+  ASSERT_EQ(a.combinations.size(), 1u);
+  const std::string& c = a.combinations.front();
+  EXPECT_NE(c.find(m.parameters()[0].name), std::string::npos) << c;
+  EXPECT_NE(c.find(m.parameters()[1].name), std::string::npos) << c;
+  EXPECT_NE(c.find("-1"), std::string::npos) << c;
+  EXPECT_EQ(a.unobserved, std::vector<int>{3});
+  ASSERT_EQ(a.dependent.size(), 2u);  // one of p0/p1, and p3
+  EXPECT_TRUE(a.dependent[0] == 0 || a.dependent[0] == 1);
+  EXPECT_EQ(a.dependent[1], 3);
+  EXPECT_NEAR(a.condition, std::sqrt(2.0), 1e-12);  // column-scaled J = [[1, 1, 0], [0, 0, 1]]: σ = √2, 1
+}
+
 TEST(Identify, UnobservedParametersAreHeldAndNamed) {
   // Directions alone cannot see position errors: every mm parameter is unobserved, held at its
   // start value and never returned as an estimate.

@@ -399,7 +399,8 @@ Identifiability analyse(const Eigen::MatrixXd& j, std::span<const int> columns, 
   if (observed.empty()) return a;
   Eigen::MatrixXd js(j.rows(), static_cast<Eigen::Index>(observed.size()));
   for (std::size_t c = 0; c < observed.size(); ++c) js.col(static_cast<Eigen::Index>(c)) = j.col(observed[c]) / scale[c];
-  const Eigen::JacobiSVD<Eigen::MatrixXd> svd(js, Eigen::ComputeThinV);
+  // Full V: with fewer rows than columns the null directions beyond the rows are needed too.
+  const Eigen::JacobiSVD<Eigen::MatrixXd> svd(js, Eigen::ComputeFullV);
   a.singular_values = svd.singularValues();
   const Eigen::Index m = a.singular_values.size();
   const double smax = a.singular_values[0];
