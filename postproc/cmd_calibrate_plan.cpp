@@ -8,6 +8,7 @@
 #include "calibrate_support.hpp"
 #include "common.hpp"
 #include "postproc/calibration/csv.hpp"
+#include "postproc/calibration/measurement.hpp"
 #include "postproc/calibration/plan.hpp"
 #include "postproc/calibration/step_gauge.hpp"
 #include "postproc/io/input_file.hpp"
@@ -63,26 +64,13 @@ std::vector<kin::JointVector> read_plan(const std::string& path, const kin::Mode
   if (t) {
     if (t->meta("kind") != "plan")
       t->error(cal::CsvTable::kHeader, -1, cal::codes::kCsvColumns, "a plan file starts with '# kind: plan' (written by calibrate plan)");
-    std::vector<int> col;
-    std::vector<double> scale;
-    for (const kin::Joint& j : model.joints()) {
-      double f = 1;
-      col.push_back(t->quantity_column(j.name, j.type == kin::JointType::rotary ? cal::Quantity::angle : cal::Quantity::length,
-                                       true, f));
-      scale.push_back(j.type == kin::JointType::rotary ? f / kin::kDeg : f);
-    }
+    const cal::JointColumns joints = cal::joint_columns(*t, model);
     double unused = 1;
     if (t->find("id") >= 0) (void)t->quantity_column("id", cal::Quantity::ratio, false, unused);
     t->report_unused();
-    if (!sink.has_errors())
-      for (std::size_t r = 0; r < t->rows().size(); ++r) {
-        kin::JointVector q(model.joint_count());
-        for (int j = 0; j < model.joint_count(); ++j) {
-          const auto v = t->number(r, col[static_cast<std::size_t>(j)], scale[static_cast<std::size_t>(j)]);
-          q[j] = v.value_or(0);
-        }
-        out.push_back(q);
-      }
+    if (!sink.has_errors() && joints.ok())
+      for (std::size_t r = 0; r < t->rows().size(); ++r)
+        if (const auto q = cal::joints_of_row(*t, joints, r)) out.push_back(*q);
   }
   printer.finish();
   if (sink.has_errors() || out.empty()) throw Error(ExitCode::refused, fmt::format("{}: plan file refused", path));

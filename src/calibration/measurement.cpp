@@ -31,6 +31,17 @@ std::optional<Vec3> unit_vector(CsvTable& t, std::size_t row, const std::array<i
   return v / n;
 }
 
+/// The tool frame with axis o (unit): x = `hint` made orthogonal to o (a fixed seed when the
+/// rotation about o is not measured), y = o × x.
+Eigen::Matrix3d frame_with_axis(const Vec3& o, const std::optional<Vec3>& hint = std::nullopt) {
+  const Vec3 seed = hint ? *hint : (std::abs(o.x()) < 0.9 ? Vec3::UnitX() : Vec3::UnitY());
+  Eigen::Matrix3d r;
+  r.col(0) = (seed - seed.dot(o) * o).normalized();
+  r.col(1) = o.cross(r.col(0));
+  r.col(2) = o;
+  return r;
+}
+
 bool ratio_columns(CsvTable& t, std::array<std::string_view, 3> names, bool required, std::array<int, 3>& cols) {
   bool all = true, any = false;
   for (std::size_t k = 0; k < 3; ++k) {
@@ -50,6 +61,28 @@ bool ratio_columns(CsvTable& t, std::array<std::string_view, 3> names, bool requ
 }
 
 }  // namespace
+
+JointColumns joint_columns(CsvTable& t, const kin::Model& model) {
+  JointColumns out;
+  for (const kin::Joint& joint : model.joints()) {
+    double s = 1;
+    out.column.push_back(
+        t.quantity_column(joint.name, joint.type == kin::JointType::rotary ? Quantity::angle : Quantity::length, true, s));
+    // Joint values stay in interface units: mm and degrees.
+    out.scale.push_back(joint.type == kin::JointType::rotary ? s / kin::kDeg : s);
+  }
+  return out;
+}
+
+std::optional<kin::JointVector> joints_of_row(CsvTable& t, const JointColumns& c, std::size_t row) {
+  kin::JointVector q(static_cast<Eigen::Index>(c.column.size()));
+  for (std::size_t j = 0; j < c.column.size(); ++j) {
+    const auto v = t.number(row, c.column[j], c.scale[j]);
+    if (!v) return std::nullopt;
+    q[static_cast<Eigen::Index>(j)] = *v;
+  }
+  return q;
+}
 
 std::string_view to_string(MeasurementKind k) {
   switch (k) {
@@ -101,18 +134,7 @@ bool read_measurements(CsvTable& t, const kin::Model& model, std::vector<Measure
     return false;
   }
 
-  // Joint columns: one per model joint, named like the joint, in mm or degrees.
-  const int nj = model.joint_count();
-  std::vector<int> jcol(static_cast<std::size_t>(nj));
-  std::vector<double> jscale(static_cast<std::size_t>(nj), 1.0);
-  for (int j = 0; j < nj; ++j) {
-    const kin::Joint& joint = model.joints()[static_cast<std::size_t>(j)];
-    double s = 1;
-    jcol[static_cast<std::size_t>(j)] =
-        t.quantity_column(joint.name, joint.type == kin::JointType::rotary ? Quantity::angle : Quantity::length, true, s);
-    // Joint values stay in interface units: mm and degrees.
-    jscale[static_cast<std::size_t>(j)] = joint.type == kin::JointType::rotary ? s / kin::kDeg : s;
-  }
+  const JointColumns joints = joint_columns(t, model);
   const bool wants_point = *kind == "poses" || *kind == "positions" || *kind == "struts";
   const bool wants_axis = *kind == "poses" || *kind == "directions" || *kind == "struts";
   std::array<int, 3> pcol{-1, -1, -1}, acol{-1, -1, -1}, ucol{-1, -1, -1};
@@ -143,8 +165,7 @@ bool read_measurements(CsvTable& t, const kin::Model& model, std::vector<Measure
   t.use(setcol);
   t.report_unused();
   if (t.sink().count(gcode::Severity::error) > errors0 || !cols_ok) return false;
-  for (int c : jcol)
-    if (c < 0) return false;
+  if (!joints.ok()) return false;
 
   for (std::size_t r = 0; r < t.rows().size(); ++r) {
     Measurement m;
@@ -159,14 +180,10 @@ bool read_measurements(CsvTable& t, const kin::Model& model, std::vector<Measure
         continue;
       }
     }
-    m.q.resize(nj);
+    const auto q = joints_of_row(t, joints, r);
+    if (!q) continue;
+    m.q = *q;
     bool ok = true;
-    for (int j = 0; j < nj && ok; ++j) {
-      const auto v = t.number(r, jcol[static_cast<std::size_t>(j)], jscale[static_cast<std::size_t>(j)]);
-      if (!v) ok = false;
-      else m.q[j] = *v;
-    }
-    if (!ok) continue;
     if (wants_point) {
       for (int k = 0; k < 3 && ok; ++k) {
         const auto v = t.number(r, pcol[static_cast<std::size_t>(k)], pscale[k]);
@@ -179,7 +196,7 @@ bool read_measurements(CsvTable& t, const kin::Model& model, std::vector<Measure
     if (wants_axis) {
       const auto o = unit_vector(t, r, acol, "tool axis (i, j, k)");
       if (!o) continue;
-      Vec3 x = std::abs(o->x()) < 0.9 ? Vec3::UnitX() : Vec3::UnitY();
+      std::optional<Vec3> x;
       if (ucol[0] >= 0) {
         const auto u = unit_vector(t, r, ucol, "tool reference direction (ui, uj, uk)");
         if (!u) continue;
@@ -193,10 +210,7 @@ bool read_measurements(CsvTable& t, const kin::Model& model, std::vector<Measure
         x = *u;
         m.has_torsion = true;
       }
-      x = (x - x.dot(*o) * *o).normalized();
-      m.measured.r.col(0) = x;
-      m.measured.r.col(1) = o->cross(x);
-      m.measured.r.col(2) = *o;
+      m.measured.r = frame_with_axis(*o, x);
     }
     if (*kind == "attitudes") {
       Vec3 c = Vec3::Zero();
@@ -236,11 +250,7 @@ bool read_measurements(CsvTable& t, const kin::Model& model, std::vector<Measure
                             c.x(), c.y(), c.z(), c.norm()));
         continue;
       }
-      const Vec3 o = -c.normalized();  // the tool axis points from the tip toward the spindle
-      const Vec3 x = ((std::abs(o.x()) < 0.9 ? Vec3::UnitX() : Vec3::UnitY()) - o.x() * o).normalized();
-      m.measured.r.col(0) = (x - x.dot(o) * o).normalized();
-      m.measured.r.col(1) = o.cross(m.measured.r.col(0));
-      m.measured.r.col(2) = o;
+      m.measured.r = frame_with_axis(-c.normalized());  // the tool axis points from the tip toward the spindle
     }
     if (*kind == "poses") m.kind = MeasurementKind::pose;
     else if (*kind == "positions") m.kind = MeasurementKind::position;

@@ -46,6 +46,21 @@ struct Measurement {
 /// direction 2, struts = joint count.
 [[nodiscard]] int residual_rows(const Measurement& m, int joints);
 
+/// The joint columns of a file: one per model joint, named like the joint, with a length unit
+/// (linear joints) or an angle unit (rotary joints); missing or wrongly united ones are reported.
+struct JointColumns {
+  std::vector<int> column;    ///< per joint, -1 when missing or bad
+  std::vector<double> scale;  ///< to mm / degrees
+  [[nodiscard]] bool ok() const {
+    for (int c : column)
+      if (c < 0) return false;
+    return true;
+  }
+};
+[[nodiscard]] JointColumns joint_columns(CsvTable& table, const kin::Model& model);
+/// The joint values of one row (mm / degrees); nullopt after reporting a bad cell.
+[[nodiscard]] std::optional<kin::JointVector> joints_of_row(CsvTable& table, const JointColumns& c, std::size_t row);
+
 /// Reads the measurements of one parsed file for `model` (its joint names are the joint
 /// columns). Reports located diagnostics (PP-C0xx) and returns false on any error; appends to out.
 bool read_measurements(CsvTable& table, const kin::Model& model, std::vector<Measurement>& out);
