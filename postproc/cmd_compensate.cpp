@@ -8,6 +8,7 @@
 
 #include "common.hpp"
 #include "postproc/compensation/compensate.hpp"
+#include "postproc/io/input_file.hpp"
 #include "postproc/machine/machine.hpp"
 
 namespace postproc::cli {
@@ -25,7 +26,26 @@ struct CompensateArgs {
   bool no_header = false;
   bool in_place = false;
   std::size_t max_per_code = 20;
+  int iterations = 12;
 };
+
+/// --mode all: the figures of the geometric stage next to the contour stage's.
+void merge_geometric(comp::CompensateResult& r, const comp::CompensateResult& g) {
+  r.subdivided_blocks = g.subdivided_blocks;
+  r.segments_added = g.segments_added;
+  r.arcs_kept = g.arcs_kept;
+  r.arcs_linearized = g.arcs_linearized;
+  r.reference_moves = g.reference_moves;
+  r.rapids_as_written = g.rapids_as_written;
+  r.singular_fallbacks = g.singular_fallbacks;
+  r.max_error_before_mm = g.max_error_before_mm;
+  r.max_error_before_rad = g.max_error_before_rad;
+  r.max_residual_mm = g.max_residual_mm;
+  r.max_residual_rad = g.max_residual_rad;
+  r.worst_line = g.worst_line;
+  r.max_correction_mm = std::max(r.max_correction_mm, g.max_correction_mm);
+  r.max_correction_deg = std::max(r.max_correction_deg, g.max_correction_deg);
+}
 
 nlohmann::json report_json(const CompensateArgs& a, const machine::Machine& m, const comp::CompensateResult& r,
                            double seconds, bool ok, const gcode::DiagnosticSink& sink) {
@@ -56,6 +76,17 @@ nlohmann::json report_json(const CompensateArgs& a, const machine::Machine& m, c
                   {"worst_line_before", r.worst_line},
                   {"max_residual_after_mm", r.max_residual_mm},
                   {"max_residual_after_deg", r.max_residual_rad * 180.0 / 3.14159265358979323846}};
+  if (a.mode != "geometric") {
+    constexpr double kArcsec = 180.0 / 3.14159265358979323846 * 3600.0;
+    j["contour"] = {{"before_tip_um", r.contour_before_mm * 1000},
+                    {"before_axis_arcsec", r.contour_before_rad * kArcsec},
+                    {"after_tip_um", r.contour_after_mm * 1000},
+                    {"after_axis_arcsec", r.contour_after_rad * kArcsec},
+                    {"worst_line_before", r.contour_worst_line},
+                    {"iterations", r.contour_iterations},
+                    {"converged", r.contour_converged},
+                    {"fit_residual_um", r.fit_residual_mm * 1000}};
+  }
   j["seconds"] = seconds;
   nlohmann::json diags = nlohmann::json::array();
   for (const auto& d : sink.stored())
@@ -79,7 +110,9 @@ void setup_compensate(CLI::App& app, int& rc) {
   cmd->add_option("-m,--machine", o->machine, "machine file (TOML, docs/machine-file.md)")->required();
   cmd->add_option("-o,--output", o->output, "output file ('-' = stdout)")->required();
   cmd->add_option("--report", o->report, "write a JSON report of the run here");
-  cmd->add_option("--mode", o->mode, "geometric (contour and all come with the servo model)")
+  cmd->add_option("--mode", o->mode,
+                  "geometric: the calibrated machine's errors; contour: the servo contour errors (precompensation "
+                  "from the drives in the machine file); all: geometric, then contour")
       ->check(CLI::IsMember({"geometric", "contour", "all"}))
       ->capture_default_str();
   cmd->add_option("--max-deviation", o->max_deviation_um,
@@ -91,14 +124,14 @@ void setup_compensate(CLI::App& app, int& rc) {
                   "Fanuc: whole numbers without a point are 'increment' (X100 = 0.1 mm) or 'calculator' (100 mm); "
                   "overrides the machine file")
       ->check(CLI::IsMember({"increment", "calculator"}));
+  cmd->add_option("--iterations", o->iterations,
+                  "contour modes: most prediction / correction rounds (stops earlier when the predicted contour error "
+                  "stops improving)")
+      ->capture_default_str();
   cmd->add_flag("--no-header", o->no_header, "do not write the header comment naming tool, machine file and hash");
   cmd->add_flag("--in-place", o->in_place, "allow -o to name the input (a .bak backup is kept)");
   cmd->add_option("--max-per-code", o->max_per_code, "show at most this many diagnostics per code")->capture_default_str();
   cmd->callback([o, &rc] {
-    if (o->mode != "geometric")
-      throw Error(ExitCode::usage, fmt::format("--mode {}: the contour (servo) compensation is not available in this "
-                                               "version; use --mode geometric",
-                                               o->mode));
     if (!(o->max_deviation_um > 0) || !std::isfinite(o->max_deviation_um))
       throw Error(ExitCode::usage, "--max-deviation must be a positive number of µm, e.g. 1");
     if (!(o->max_angle_arcsec > 0) || !std::isfinite(o->max_angle_arcsec))
@@ -124,9 +157,38 @@ void setup_compensate(CLI::App& app, int& rc) {
     opt.header = !o->no_header;
     opt.tool_version = POSTPROC_VERSION;
     opt.mode = o->mode;
-    gcode::LineReader reader(o->input);
     io::OutputFile out(o->output, o->input, o->in_place);
-    const comp::CompensateResult r = comp::compensate(reader, o->input, d, *machine, opt, out, sink);
+    comp::CompensateResult r;
+    comp::ContourDetails contour;
+    const bool servo = o->mode != "geometric";
+    if (!servo) {
+      gcode::LineReader reader(o->input);
+      r = comp::compensate(reader, o->input, d, *machine, opt, out, sink);
+    } else {
+      // The contour stage reads the program twice (path, then writing): it is held in memory.
+      std::string text = io::read_file(o->input, "NC program");
+      comp::CompensateResult geo;
+      std::vector<std::uint64_t> geo_lines;  // intermediate line → input line
+      if (o->mode == "all") {
+        comp::CompensateOptions gopt = opt;
+        gopt.header = false;
+        gopt.line_map = &geo_lines;
+        auto mem = io::OutputFile::memory();
+        gcode::LineReader reader{std::string_view(text)};
+        geo = comp::compensate(reader, o->input, d, *machine, gopt, mem, sink);
+        text = mem.take();
+      }
+      if (!sink.has_errors()) {
+        contour::PrecompensateOptions popt;
+        popt.max_iterations = o->iterations;
+        r = comp::compensate_contour(text, o->input, d, *machine, opt, popt, out, sink, &contour);
+      }
+      if (o->mode == "all") {
+        merge_geometric(r, geo);
+        if (r.contour_worst_line >= 1 && r.contour_worst_line <= geo_lines.size())
+          r.contour_worst_line = geo_lines[r.contour_worst_line - 1];
+      }
+    }
     printer.finish();
     const bool ok = !sink.has_errors();
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -149,6 +211,14 @@ void setup_compensate(CLI::App& app, int& rc) {
                            r.max_correction_deg, r.max_error_before_mm, r.worst_line, r.max_residual_mm)
                    .c_str(),
                stderr);
+    if (servo)
+      std::fputs(fmt::format("postproc: contour: predicted tool-tip contour error {:.3f} → {:.3f} µm (worst before: line "
+                             "{}), tool-axis {:.2f} → {:.2f} arcsec, {} iterations{}; NURBS fit residual {:.4f} µm\n",
+                             r.contour_before_mm * 1000, r.contour_after_mm * 1000, r.contour_worst_line,
+                             r.contour_before_rad * 206264.80624709636, r.contour_after_rad * 206264.80624709636,
+                             r.contour_iterations, r.contour_converged ? "" : " (not converged)", r.fit_residual_mm * 1000)
+                     .c_str(),
+                 stderr);
     rc = 0;
   });
 }

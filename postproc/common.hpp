@@ -43,5 +43,7 @@ void setup_dump(CLI::App& app, int& rc);
 void setup_convert(CLI::App& app, int& rc);
 void setup_compensate(CLI::App& app, int& rc);
 void setup_calibrate(CLI::App& app, int& rc);
+void setup_predict(CLI::App& app, int& rc);
+void setup_simulate(CLI::App& app, int& rc);
 
 }  // namespace postproc::cli

@@ -17,6 +17,8 @@ int main(int argc, char** argv) {
   postproc::cli::setup_convert(app, rc);
   postproc::cli::setup_compensate(app, rc);
   postproc::cli::setup_calibrate(app, rc);
+  postproc::cli::setup_predict(app, rc);
+  postproc::cli::setup_simulate(app, rc);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -39,6 +39,13 @@ double program_units(int a, double v, const Motion& m) {
   return v;
 }
 
+bool header_waits(const gcode::Block& b) {
+  bool leading = b.leader || b.raw.empty();
+  for (const gcode::Token& t : b.tokens)
+    leading = leading || t.kind == gcode::TokenKind::percent || t.kind == gcode::TokenKind::program_number;
+  return leading && b.words.empty() && b.line <= 3;
+}
+
 gcode::AxisMask written_axes(const machine::Machine& m, Form f) {
   gcode::AxisMask mask = 0;
   if (f == Form::axes || f == Form::tcp_rotary) {

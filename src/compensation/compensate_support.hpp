@@ -12,6 +12,10 @@
 
 namespace postproc::comp {
 
+/// True while the header comment must wait: it goes after a leading '%' line and the program
+/// number / name line.
+[[nodiscard]] bool header_waits(const gcode::Block& b);
+
 /// mm (or degrees) per program unit of axis `a` in motion `m` (inch programs, X as a diameter).
 [[nodiscard]] double unit_scale(int a, const gcode::Motion& m);
 /// A value in mm / degrees as the program writes it (inch, diameter).

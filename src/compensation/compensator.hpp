@@ -131,11 +131,7 @@ class Compensator final : public gcode::BlockVisitor {
 
   void maybe_header(const Block& b) {
     if (header_done_ || !opt_.header) return;
-    // The header goes after a leading '%' line and the program number / name line.
-    bool leading = b.leader || b.raw.empty();
-    for (const gcode::Token& t : b.tokens)
-      leading = leading || t.kind == gcode::TokenKind::percent || t.kind == gcode::TokenKind::program_number;
-    if (leading && b.words.empty() && b.line <= 3) return;
+    if (header_waits(b)) return;
     header_done_ = true;
     emit(header_comment(d_, m_, opt_), eol_, 0);
   }

@@ -1,6 +1,8 @@
 // Servo drive model (see drive.hpp).
 #include "postproc/contour/drive.hpp"
 
+#include <cmath>
+
 #include <unsupported/Eigen/MatrixFunctions>
 
 namespace postproc::contour {
@@ -43,6 +45,48 @@ void step(const Drive& d, DriveState& s, double r0, double r1, double a, double 
     s.y = z[0];
     s.v = z[1] - d.kv * s.y;
   }
+}
+
+void velocity_jump(const Drive& d, ErrorState& s, double dw) {
+  if (d.velocity_loop_time > 0) s.rate += (1 - d.acceleration_feed_forward) * dw;
+}
+
+void propagate(const Drive& d, ErrorState& s, double w, double dt) {
+  if (dt <= 0) return;
+  const double steady = (1 - d.feed_forward) * w / d.kv;
+  const double d0 = s.e - steady;
+  const double T = d.velocity_loop_time;
+  if (T <= 0) {
+    s.e = steady + d0 * std::exp(-d.kv * dt);
+    s.rate = -d.kv * (s.e - steady);
+    return;
+  }
+  // The deviation from the steady state solves T·d̈ + ḋ + Kv·d = 0, roots of T·s² + s + Kv.
+  const double v0 = s.rate;
+  const double disc = 1 - 4 * T * d.kv;
+  double dd = 0, dv = 0;
+  if (disc > 1e-12) {
+    const double r = std::sqrt(disc);
+    const double s1 = (-1 + r) / (2 * T), s2 = (-1 - r) / (2 * T);
+    const double a = (v0 - s2 * d0) / (s1 - s2), b = d0 - a;
+    const double e1 = std::exp(s1 * dt), e2 = std::exp(s2 * dt);
+    dd = a * e1 + b * e2;
+    dv = a * s1 * e1 + b * s2 * e2;
+  } else if (disc < -1e-12) {
+    const double al = -1 / (2 * T), be = std::sqrt(-disc) / (2 * T);
+    const double c = (v0 - al * d0) / be;
+    const double ex = std::exp(al * dt), cs = std::cos(be * dt), sn = std::sin(be * dt);
+    dd = ex * (d0 * cs + c * sn);
+    dv = al * dd + ex * be * (-d0 * sn + c * cs);
+  } else {
+    const double al = -1 / (2 * T);
+    const double c = v0 - al * d0;
+    const double ex = std::exp(al * dt);
+    dd = (d0 + c * dt) * ex;
+    dv = c * ex + al * dd;
+  }
+  s.e = steady + dd;
+  s.rate = dv;
 }
 
 }  // namespace postproc::contour

@@ -183,9 +183,12 @@ std::vector<Eigen::Vector3d> solve_ls(const std::vector<Eigen::Vector3d>& Q, con
       }
     }
   }
-  if (!A.factor())
-    throw Error(ExitCode::internal, "fit_cubic: singular normal matrix with " + std::to_string(n) +
-                                        " control points for " + std::to_string(m + 1) + " points");
+  if (!A.factor()) {
+    if (n == m + 1)
+      throw Error(ExitCode::internal, "fit_cubic: singular interpolation matrix with " + std::to_string(n) +
+                                          " control points");
+    return {};  // a knot span without data (Schoenberg–Whitney): the caller interpolates instead
+  }
   A.solve(rhs);
   for (std::size_t c = 0; c < unknowns; ++c) P[c + 1] = rhs[c];
   return P;
@@ -301,8 +304,16 @@ FitResult fit_cubic(std::span<const Eigen::Vector3d> points, const FitOptions& o
     const std::size_t cap = options.max_control_points == 0 ? N : std::clamp<std::size_t>(options.max_control_points, 4, N);
     std::size_t n = std::min(cap, std::min(N, 4 + N / 8));
     for (;;) {
+      // Close to one control point per point, eq. 9.69 can leave a knot span without data (a
+      // singular normal matrix): interpolate instead.
+      if (cap == N && n < N && 10 * n > 7 * N) n = N;
       U = knots_for(ub, n);
       P = solve_ls(Q, ub, U, n);
+      if (P.empty()) {
+        n = N;
+        U = knots_for(ub, n);
+        P = solve_ls(Q, ub, U, n);
+      }
       result.curve = CubicCurve(U, P);
       ++result.rounds;
       double worst = 0.0;

@@ -45,8 +45,10 @@ OutputFile::OutputFile(std::string path, std::string_view input_path, bool allow
     throw Error(ExitCode::cannot_write, fmt::format("{}: cannot create: {}", temp_, std::strerror(errno)));
 }
 
+OutputFile OutputFile::memory() { return OutputFile(MemoryTag{}); }
+
 OutputFile::~OutputFile() {
-  if (committed_) return;
+  if (committed_ || memory_) return;
   if (stdout_ || direct_) {
     if (f_ != nullptr) std::fclose(f_);
     return;
@@ -57,6 +59,10 @@ OutputFile::~OutputFile() {
 
 void OutputFile::write(std::string_view bytes) {
   if (bytes.empty()) return;
+  if (memory_) {
+    held_.append(bytes);
+    return;
+  }
   if (stdout_ && f_ == nullptr) {
     if (held_.size() + bytes.size() <= kStdoutMemory) {
       held_.append(bytes);
@@ -79,6 +85,7 @@ void OutputFile::write_all(std::string_view bytes) {
 }
 
 void OutputFile::commit() {
+  if (memory_) return;
   if (stdout_) {
     bool failed = std::fwrite(held_.data(), 1, held_.size(), stdout) != held_.size();
     if (f_ != nullptr) {

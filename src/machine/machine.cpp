@@ -294,6 +294,33 @@ std::optional<Machine> parse_machine(std::string file, std::string text, gcode::
       m.axes[static_cast<std::size_t>(ax)] = s;
     }
   }
+  // [drives.q1] … servo data of joints that are not program axes (parallel machines).
+  if (const toml::table* t = top.table("drives", false)) {
+    for (const auto& [k, v] : *t) {
+      const std::string key(k.str());
+      const toml::table* dt = v.as_table();
+      bool joint = false;
+      bool rotary = false;
+      if (m.actual)
+        for (const kin::Joint& jt : m.actual->joints())
+          if (jt.name == key) {
+            joint = true;
+            rotary = jt.type == kin::JointType::rotary;
+          }
+      if (!joint || dt == nullptr) {
+        std::string names;
+        if (m.actual)
+          for (const kin::Joint& jt : m.actual->joints()) names += (names.empty() ? "" : ", ") + jt.name;
+        doc.error(k.source(), codes::kUnknownKey,
+                  fmt::format("[drives.{}] does not name a joint of this machine; its joints are {}", key, names));
+        continue;
+      }
+      Fields f(doc, *dt, "drives." + key);
+      AxisSettings s;
+      read_axis(f, s, rotary);
+      m.drives[key] = s;
+    }
+  }
   if (m.actual && m.model_kind == "serial") {
     for (int j = 0; j < m.actual->joint_count(); ++j) {
       const std::string& n = m.actual->joints()[static_cast<std::size_t>(j)].name;

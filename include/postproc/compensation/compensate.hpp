@@ -5,9 +5,13 @@
 /// remap per program form). Blocks that need no change are copied byte for byte.
 
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
+#include "postproc/contour/path.hpp"
+#include "postproc/contour/predict.hpp"
+#include "postproc/contour/reference.hpp"
 #include "postproc/gcode/diagnostic.hpp"
 #include "postproc/gcode/dialect.hpp"
 #include "postproc/gcode/line_reader.hpp"
@@ -53,6 +57,15 @@ struct CompensateResult {
   double max_residual_mm = 0;            ///< tool-tip error of the corrected (written) end points, mm
   double max_residual_rad = 0;           ///< … tool-axis angle, rad
   std::uint64_t worst_line = 0;          ///< line of max_error_before_mm
+  // --mode contour / all: the predicted servo contour errors (contour/predict.hpp)
+  double contour_before_mm = 0;          ///< largest tool-tip contour error of the program, mm
+  double contour_before_rad = 0;         ///< largest tool-axis contour error, rad
+  double contour_after_mm = 0;           ///< … of the corrected commands, mm
+  double contour_after_rad = 0;          ///< rad
+  std::uint64_t contour_worst_line = 0;  ///< line of contour_before_mm
+  int contour_iterations = 0;
+  bool contour_converged = false;
+  double fit_residual_mm = 0;            ///< largest NURBS fit residual of the intended contour, mm
 };
 
 /// Compensates the program read by `in` into `out`. Refusals go to `sink` as errors (the caller
@@ -60,6 +73,24 @@ struct CompensateResult {
 CompensateResult compensate(gcode::LineReader& in, std::string_view file, const gcode::Dialect& dialect,
                             const machine::Machine& m, const CompensateOptions& opt, io::OutputFile& out,
                             gcode::DiagnosticSink& sink);
+
+/// What --mode contour / all did, beyond CompensateResult: the path, the reference contour and
+/// the prediction before and after (contour/predict.hpp).
+struct ContourDetails {
+  contour::Path path;
+  std::optional<contour::Reference> reference;
+  contour::Precompensation result;
+};
+
+/// `compensate --mode contour`: predicts the servo contour errors of the program held in `text`
+/// (machine data: the drives of every joint) and writes it with every linear feed move's end
+/// point corrected so that the predicted contour errors cancel (predict.hpp). Arcs, rapids and
+/// cycles are predicted but written as they are (linearise arcs first to correct them). The
+/// header names mode `opt.mode`. Blocks whose words do not change are copied byte for byte.
+CompensateResult compensate_contour(std::string_view text, std::string_view file, const gcode::Dialect& dialect,
+                                    const machine::Machine& m, const CompensateOptions& opt,
+                                    const contour::PrecompensateOptions& popt, io::OutputFile& out,
+                                    gcode::DiagnosticSink& sink, ContourDetails* details = nullptr);
 
 /// The header comment line in the dialect's comment syntax (no end of line).
 [[nodiscard]] std::string header_comment(const gcode::Dialect& d, const machine::Machine& m,

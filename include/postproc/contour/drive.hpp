@@ -35,6 +35,22 @@ struct Drive {
   }
 };
 
+/// Following error e = r − y of a drive and its rate ė, for commands that move at a constant
+/// velocity w between path points (the prediction of predict.hpp).
+struct ErrorState {
+  double e = 0;     ///< mm / degrees
+  double rate = 0;  ///< de/dt, unit/s (used with a velocity loop, T > 0)
+};
+
+/// The command velocity changes by dw at a path point: e is continuous; with a velocity loop the
+/// actual velocity is too (plus what the acceleration feed-forward impulse g·T·Δṙ adds), so ė
+/// jumps by (1 − g)·dw.
+void velocity_jump(const Drive& d, ErrorState& s, double dw);
+/// Exact evolution over dt seconds of the error while the command moves at constant velocity w:
+/// T·ë + ė + Kv·e = (1 − f)·w (T > 0), or ė + Kv·e = (1 − f)·w (T = 0). The steady state is
+/// e = (1 − f)·w/Kv, document 004's q̇/Kv in lag mode.
+void propagate(const Drive& d, ErrorState& s, double w, double dt);
+
 /// The drive of a program axis from its machine-file settings; nullopt when the axis has no kv
 /// (the machine file must give Kv for prediction; docs/machine-file.md [axes.X]).
 [[nodiscard]] std::optional<Drive> drive_of(const machine::AxisSettings& s);

@@ -19,6 +19,10 @@ class OutputFile {
   OutputFile(const OutputFile&) = delete;
   OutputFile& operator=(const OutputFile&) = delete;
 
+  /// An output held in memory (an intermediate stage, e.g. the geometric pass of --mode all):
+  /// commit() does nothing, take() hands the bytes over.
+  [[nodiscard]] static OutputFile memory();
+  [[nodiscard]] std::string take() { return std::move(held_); }
   void write(std::string_view bytes);
   /// Flushes, closes and renames the temporary file into place. Throws postproc::Error on failure.
   void commit();
@@ -30,6 +34,9 @@ class OutputFile {
   static constexpr std::size_t kStdoutMemory = std::size_t{16} << 20;
   std::string path_, temp_, held_;
   std::FILE* f_ = nullptr;
+  struct MemoryTag {};
+  explicit OutputFile(MemoryTag) : memory_(true) {}
+  bool memory_ = false;
   bool stdout_ = false, direct_ = false, committed_ = false, backup_ = false;
 };
 

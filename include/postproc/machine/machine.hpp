@@ -62,6 +62,9 @@ struct Machine {
   double interpolation_period = 0.001;  ///< s
   /// Program axes the machine has (index gcode::Axis), with their settings.
   std::array<std::optional<AxisSettings>, gcode::kAxisCount> axes;
+  /// Servo data of joints that are not program axes (parallel machines: "q1" …), from
+  /// [drives.<joint>]; `decimals` is unused there.
+  std::map<std::string, AxisSettings> drives;
   kin::ModelPtr actual;   ///< the calibrated machine (with its volumetric map, if any)
   kin::ModelPtr nominal;  ///< the controller's model: the drawing, no errors, no map
   /// Work offsets by name ("G54", "G55", … "G54.1P1", "G59.1"): mm / degrees per axis.

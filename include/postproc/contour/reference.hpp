@@ -1,0 +1,104 @@
+#pragma once
+/// @file
+/// The intended contour of a commanded path (document 004): cubic B-spline fits through the
+/// intended tool points P_i = FK(q_i) and through the tool-axis marker points Q_i = P_i + L·O_i
+/// (L = marker_length_mm), run by run, in windows so that memory stays bounded; and the contour
+/// error of an actual pose against them:
+/// - tool tip: the foot point C(u*) of the actual tip P' on the tool-point curve (tangential-error
+///   back-estimation with a Newton fallback, nurbs.hpp); the error vector is C(u*) − P' (mm), normal
+///   to the curve, so the harmless lag along the path is not part of it;
+/// - tool axis: the intended axis at the foot, O*(u*) = (Q(v) − C(u*)) / |Q(v) − C(u*)|, where v is
+///   the marker curve's parameter at the same place (mapped through the point parameters of both
+///   fits: the same fraction between the same two points); the error is the angle between the
+///   actual axis O' and O*(u*) (rad), and the rotation vector O' × O* scaled to that angle.
+///
+/// Intended poses come from the model given (for contour work the calibrated machine: the path
+/// the machine would follow without servo lag).
+
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+#include "postproc/contour/nurbs.hpp"
+#include "postproc/contour/path.hpp"
+#include "postproc/kinematics/model.hpp"
+
+namespace postproc::contour {
+
+struct ReferenceOptions {
+  FitOptions fit;                  ///< tolerance 0.1 µm by default
+  std::size_t window = 2000;       ///< points per fitted piece
+  std::size_t overlap = 64;        ///< points shared by consecutive pieces
+  double marker_length_mm = 100;   ///< L: distance of the tool-axis marker point from the tip
+  /// Intended poses through the controller's nominal model instead of the calibrated one (the
+  /// path the drawing means: for judging geometric and servo errors together, --mode all).
+  bool nominal = false;
+};
+
+/// The contour error of one actual pose.
+struct ContourError {
+  Eigen::Vector3d foot = Eigen::Vector3d::Zero();    ///< C(u*), mm
+  Eigen::Vector3d vector = Eigen::Vector3d::Zero();  ///< C(u*) − P', mm (what the tip must move by)
+  double distance = 0;                               ///< |vector|, mm
+  Eigen::Vector3d axis = Eigen::Vector3d::UnitZ();   ///< intended tool axis O*(u*) (unit)
+  Eigen::Vector3d rotation = Eigen::Vector3d::Zero();///< rotation taking O' to O*, rad (axis × angle)
+  double angle = 0;                                  ///< |rotation|, rad
+  std::size_t point = 0;                             ///< index (Path::points) of the reference point nearest the foot
+  double u = 0;                                      ///< foot parameter on its piece
+  bool converged = true;
+};
+
+class Reference {
+ public:
+  /// Fits every run of `path` (intended poses through `model`, usually the calibrated machine).
+  /// Runs of a single pose (one point, or points whose tips and markers all coincide within
+  /// fit.duplicate_mm) have no curve: errors there are plain distances to that point and the angle
+  /// to its axis. Throws postproc::Error: refused when the model's forward kinematics fails at a
+  /// point (naming it and its line), usage for marker_length_mm ≤ 0 or a bad window / overlap.
+  Reference(const Path& path, const kin::Model& model, const ReferenceOptions& opt = {});
+
+  /// Intended pose of path point i.
+  [[nodiscard]] const kin::Pose& intended(std::size_t i) const { return poses_[i]; }
+  /// The contour error of actual pose `actual`, searching from path point `hint` (the point the
+  /// actual pose is supposed to be near: its commanded point) within the run containing it. The
+  /// foot is searched locally (a local minimum near the hint) on the piece where the hint is most
+  /// central, then on the piece of the point nearest the foot if that is another one. Where the
+  /// foot falls among coincident tool points (an orientation-only move), the actual marker point
+  /// P′ + L·O′ is projected on the marker curve instead of mapping the tip parameter. No
+  /// allocation; thread-safe. Throws postproc::Error (usage) when `hint` is not on a run.
+  [[nodiscard]] ContourError error(const kin::Pose& actual, std::size_t hint) const;
+  /// Largest fit residual over all pieces of both curves, mm.
+  [[nodiscard]] double max_fit_residual_mm() const { return max_residual_; }
+  [[nodiscard]] bool within_tolerance() const { return within_; }
+  [[nodiscard]] const ReferenceOptions& options() const { return opt_; }
+  /// Number of runs (those of the path given, one to one, single-point runs included).
+  [[nodiscard]] std::size_t runs() const { return runs_.size(); }
+  /// Run r's points [begin, end) in the path given. Throws postproc::Error (usage) when r ≥ runs().
+  [[nodiscard]] Run run(std::size_t r) const;
+
+ private:
+  struct RunFit {
+    std::size_t begin = 0, end = 0;   ///< path points
+    bool curve = false;               ///< false: fewer than 2 distinct poses, no fit (plain distances)
+    WindowedFit tip, marker;          ///< same windows: tip.pieces[j] and marker.pieces[j] hold the same points
+  };
+  [[nodiscard]] const RunFit* run_of(std::size_t i) const;
+  ReferenceOptions opt_;
+  std::vector<kin::Pose> poses_;
+  std::vector<RunFit> runs_;
+  std::vector<std::uint32_t> run_index_;  ///< per path point: its run (index into runs_)
+  double max_residual_ = 0;
+  bool within_ = true;
+};
+
+/// max, RMS and 95th percentile of a set of non-negative figures, with where the max is.
+struct Summary {
+  double max = 0;
+  double rms = 0;
+  double p95 = 0;
+  std::size_t count = 0;
+  std::size_t worst = 0;  ///< index (into whatever the figures were taken over) of the max
+};
+[[nodiscard]] Summary summarise(const std::vector<double>& values);
+
+}  // namespace postproc::contour

@@ -1,0 +1,55 @@
+#pragma once
+/// @file
+/// Time-domain simulation (issue 6): the controller's discrete interpolator (path.hpp) samples the
+/// commands at the interpolation period, every joint's closed-loop drive (drive.hpp, integrated
+/// exactly per period) follows them, and the actual pose FK(y) at every period is measured against
+/// an intended contour (reference.hpp) — independently of the quasi-static prediction.
+
+#include <cstdint>
+#include <vector>
+
+#include "postproc/contour/path.hpp"
+#include "postproc/contour/reference.hpp"
+
+namespace postproc::contour {
+
+struct SimulateOptions {
+  double settle_s = 0.1;       ///< time simulated at rest after each run's end, s
+  std::size_t keep_every = 0;  ///< keep every k-th sample in Simulation::samples (0: none)
+};
+
+struct SimSample {
+  double t = 0;               ///< s, from the start of the program's first run; runs follow each other
+                              ///< on the interpolation grid (a run's first sample one period after the
+                              ///< previous run's last settling sample), so t = sample index × period
+  std::size_t run = 0;
+  std::uint64_t line = 0;     ///< source line of the segment being interpolated
+  kin::JointVector command;   ///< mm / degrees
+  kin::JointVector actual;    ///< mm / degrees
+  Eigen::Vector3d tip = Eigen::Vector3d::Zero();  ///< actual tool tip, mm
+  double tip_mm = 0;          ///< tool-tip contour error, mm
+  double axis_rad = 0;        ///< tool-axis contour error, rad
+};
+
+struct Simulation {
+  Summary tip;                       ///< mm, over every sample
+  Summary axis;                      ///< rad
+  std::vector<double> max_following; ///< per joint, mm / degrees
+  std::uint64_t samples = 0;
+  std::uint64_t worst_tip_line = 0;  ///< source line at the largest tip error
+  std::uint64_t worst_axis_line = 0;
+  std::vector<SimSample> kept;
+};
+
+/// Simulates `commanded` (the program that runs) and measures against `ref` (the intended contour,
+/// usually built from the original program's path; `commanded` may be that same path). The runs of
+/// the two paths correspond one to one (same number of runs); within a run the foot point is
+/// tracked from sample to sample, so the point counts may differ (e.g. subdivided moves). Each run
+/// starts with every drive at rest on the run's first command; the acceleration handed to the
+/// drives' feed-forward is the second difference of the last three command samples. Throws
+/// postproc::Error: usage when the numbers of runs differ (or the joints / drives do not match
+/// the model), refused when the actual model's forward kinematics fails at a sample.
+[[nodiscard]] Simulation simulate(const Path& commanded, const Reference& ref, const kin::Model& actual,
+                                  const SimulateOptions& opt = {});
+
+}  // namespace postproc::contour

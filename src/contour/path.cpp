@@ -1,0 +1,507 @@
+// The commanded path of a program: feed moves → joint commands with the controller's timing
+// (feed interpretation, velocity limits, look-ahead acceleration profile), and the discrete
+// interpolator that samples it at the interpolation period.
+#include "postproc/contour/path.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include <fmt/format.h>
+
+#include "postproc/error.hpp"
+#include "postproc/gcode/lexer.hpp"
+#include "postproc/gcode/program.hpp"
+#include "src/compensation/compensate_support.hpp"
+#include "src/gcode/block_words.hpp"
+#include "src/gcode/linearize.hpp"
+
+namespace postproc::contour {
+namespace {
+
+using gcode::AxisMask;
+using gcode::Motion;
+using gcode::MotionType;
+
+constexpr std::string_view kMachineData = "PP-E602";
+constexpr std::string_view kKinematics = "PP-E604";
+constexpr std::string_view kNoFeed = "PP-E612";
+constexpr std::string_view kUnknownStart = "PP-E613";
+/// Path acceleration used where no joint has an acceleration limit, mm/s² (a jump in one period).
+constexpr double kUnlimited = 1e12;
+
+struct JointLimits {
+  double v = std::numeric_limits<double>::infinity();  ///< unit/s
+  double a = std::numeric_limits<double>::infinity();  ///< unit/s²
+};
+
+const machine::AxisSettings* settings_of(const machine::Machine& m, const std::string& joint) {
+  if (const auto it = m.drives.find(joint); it != m.drives.end()) return &it->second;
+  const int ax = joint.size() == 1 ? gcode::axis_index(joint[0]) : -1;
+  if (ax >= 0 && m.axes[static_cast<std::size_t>(ax)]) return &*m.axes[static_cast<std::size_t>(ax)];
+  return nullptr;
+}
+
+bool is_stop(const gcode::Block& b) {
+  for (const gcode::Word& w : b.words)
+    if (w.letter == 'M' && w.name_len == 1 && w.kind == gcode::ValueKind::number) {
+      const double v = w.number;
+      if (v == 0 || v == 1 || v == 2 || v == 30 || v == 60 || v == 6) return true;
+    }
+  return false;
+}
+
+/// Duration of a trapezoidal move of length L from v0 to v1 under cruise vc and acceleration A
+/// (v0, v1 ≤ vc, reachable); also the peak speed used.
+double trapezoid(double L, double v0, double v1, double vc, double A, double& peak) {
+  if (L <= 0) {
+    peak = 0;
+    return 0;
+  }
+  const double da = (vc * vc - v0 * v0) / (2 * A);
+  const double dd = (vc * vc - v1 * v1) / (2 * A);
+  if (da + dd <= L) {
+    peak = vc;
+    return (vc - v0) / A + (vc - v1) / A + (L - da - dd) / vc;
+  }
+  peak = std::sqrt(std::max((2 * A * L + v0 * v0 + v1 * v1) / 2, std::max(v0 * v0, v1 * v1)));
+  return (peak - v0) / A + (peak - v1) / A;
+}
+
+/// Distance covered after tau seconds of a segment's profile.
+double position_at(const SegmentProfile& s, double tau) {
+  if (s.duration <= 0 || s.length <= 0) return s.length;
+  tau = std::clamp(tau, 0.0, s.duration);
+  const double A = s.accel;
+  const double vp = s.v_cruise;
+  const double ta = (vp - s.v_start) / A;
+  const double td = (vp - s.v_end) / A;
+  const double tc = std::max(0.0, s.duration - ta - td);
+  if (tau <= ta) return s.v_start * tau + 0.5 * A * tau * tau;
+  const double sa = s.v_start * ta + 0.5 * A * ta * ta;
+  if (tau <= ta + tc) return sa + vp * (tau - ta);
+  const double r = tau - ta - tc;
+  return std::min(s.length, sa + vp * tc + vp * r - 0.5 * A * r * r);
+}
+
+class Builder final : public gcode::BlockVisitor {
+ public:
+  Builder(std::string_view file, const gcode::Dialect& d, const machine::Machine& m, const PathOptions& opt,
+          gcode::DiagnosticSink& sink, Path& path, std::vector<JointLimits> limits)
+      : file_(file), m_(m), opt_(opt), sink_(sink), p_(path), track_(d), models_(m), limits_(std::move(limits)) {
+    collect_.on_report = [this](const gcode::Diagnostic& diag) { sink_.report(diag); };
+  }
+  gcode::DiagnosticSink& collector() { return collect_; }
+
+  void block(const gcode::Block& b, std::span<const Motion> motions, bool lexed_ok) override {
+    ++p_.blocks;
+    track_.update(b);
+    // Motions are counted as the writer of --mode contour counts them (every motion of every
+    // block that lexed).
+    if (lexed_ok) p_.motions += motions.size();
+    const bool home = track_.has(gcode::GMeaning::home_return);
+    // Exact stop: G9 stops at the end of its block, G61 (Siemens G60) at the end of every block
+    // until G64 and friends.
+    bool exact_here = false;
+    if (const auto* g = track_.find(gcode::GMeaning::exact_stop)) {
+      if (g->def->group == gcode::GGroup::non_modal) exact_here = true;
+      else exact_mode_ = true;
+    }
+    if (track_.has(gcode::GMeaning::path_control)) exact_mode_ = false;
+    const bool stop = !lexed_ok || home || track_.has(gcode::GMeaning::dwell) || is_stop(b) || motions.size() > 1 ||
+                      exact_here || exact_mode_;
+    if (lexed_ok && !home && motions.size() == 1) {
+      Motion mo = motions.front();
+      with_vector(mo);
+      const bool feed = mo.type == MotionType::linear || mo.type == MotionType::arc_cw || mo.type == MotionType::arc_ccw;
+      if (feed && !mo.tilted_plane) {
+        feed_move(b, mo);
+      } else {
+        end_run();
+        note_position(mo);
+      }
+    }
+    if (stop || (motions.empty() && (track_.has(gcode::GMeaning::work_offset) ||
+                                     track_.has(gcode::GMeaning::set_offsets_g10))))
+      end_run();
+  }
+
+  void finish() { end_run(); }
+
+ private:
+  void with_vector(Motion& m) {
+    if (m.tool_vector_known) {
+      vector_ = m.tool_vector;
+      vector_known_ = true;
+    } else if (vector_known_ && (m.tcp != gcode::TcpMode::off || m_.coordinates == machine::ProgramCoordinates::tool_tip)) {
+      m.tool_vector = vector_;
+      m.tool_vector_known = true;
+    }
+    if (m.tcp == gcode::TcpMode::off && m_.coordinates != machine::ProgramCoordinates::tool_tip) vector_known_ = false;
+  }
+
+  void note_position(const Motion& m) {
+    last_vector_ = m.tool_vector;
+  }
+
+  void error(const gcode::Block& b, const Motion& m, std::string_view code, std::string why) {
+    const gcode::Span s{m.column > 0 ? m.column - 1 : 0, m.column > 0 ? m.column : 1};
+    gcode::report_at(gcode::LexContext{file_, &sink_}, b, s, gcode::Severity::error, code, std::move(why));
+  }
+
+  /// The controller map of the motion's context (index into p_.maps); -1 after an error.
+  int map_for(const gcode::Block& b, const Motion& m) {
+    const comp::Form form = comp::form_of(m_, m);
+    const auto offset = comp::program_offset(m_, m);
+    if (!offset) {
+      error(b, m, kMachineData,
+            fmt::format("work offset {} is not in machine file {}; add it under [work_offsets]",
+                        machine::work_offset_name(m.work_offset), m_.file));
+      return -1;
+    }
+    double length = m_.tool_length;
+    if (m.tool_length_active && m.tool_length_h != 0) {
+      const auto it = m_.tool_lengths.find(m.tool_length_h);
+      if (it == m_.tool_lengths.end()) {
+        error(b, m, kMachineData,
+              fmt::format("tool length H{} is not in machine file {}; add [tool.lengths] {} = \"<length> mm\"",
+                          m.tool_length_h, m_.file, m.tool_length_h));
+        return -1;
+      }
+      length = it->second;
+    }
+    const bool on_z = form == comp::Form::axes && m.tool_length_active;
+    if (map_index_ >= 0 && form == key_form_ && *offset == key_offset_ && on_z == key_on_z_ && length == key_length_)
+      return map_index_;
+    end_run();
+    const auto& [nom, act] = models_.with_tool_length(length);
+    p_.maps.emplace_back(m_, nom, act, form, *offset, on_z, length);
+    key_form_ = form;
+    key_offset_ = *offset;
+    key_on_z_ = on_z;
+    key_length_ = length;
+    map_index_ = static_cast<int>(p_.maps.size() - 1);
+    return map_index_;
+  }
+
+  /// Feed-metric length of the segment between two commands.
+  double metric(const comp::ProgramMap& map, const comp::Command& a, const comp::Command& b, AxisMask mask) const {
+    if (m_.feed == machine::FeedReference::tool_tip) {
+      double len = 0;
+      if (map.form() != comp::Form::axes) {
+        len = (b.c.head<3>() - a.c.head<3>()).norm();
+      } else {
+        // Tool-tip length of an axis move: the nominal machine's tip along the joint line.
+        constexpr int kSteps = 8;
+        kin::JointVector qa, qb;
+        kin::Pose pa, pb;
+        if (map.joints(a, q_, qa).ok() && map.joints(b, q_, qb).ok() && map.nominal().forward(qa, pa).ok()) {
+          for (int k = 1; k <= kSteps; ++k) {
+            const kin::JointVector qk = qa + (qb - qa) * (static_cast<double>(k) / kSteps);
+            if (!map.nominal().forward(qk, pb).ok()) break;
+            len += (pb.p - pa.p).norm();
+            pa = pb;
+          }
+        }
+      }
+      if (len > 1e-9) return len;
+      // A move of the orientation only: the rotary axes' combined rate (deg/min as mm/min).
+    }
+    double sum = 0;
+    for (int a_ = 0; a_ < gcode::kAxisCount; ++a_)
+      if ((mask >> a_) & 1u) sum += (b.c[a_] - a.c[a_]) * (b.c[a_] - a.c[a_]);
+    return std::sqrt(sum);
+  }
+
+  void feed_move(const gcode::Block& b, const Motion& mo) {
+    const int mi = map_for(b, mo);
+    if (mi < 0) {
+      end_run();
+      return;
+    }
+    const comp::ProgramMap& map = p_.maps[static_cast<std::size_t>(mi)];
+    const AxisMask need = comp::written_axes(m_, map.form());
+    if ((mo.known & need) != need) {
+      end_run();
+      std::string names;
+      for (int a = 0; a < gcode::kAxisCount; ++a)
+        if (((need & ~mo.known) >> a) & 1u) names += gcode::kAxisLetters[static_cast<std::size_t>(a)];
+      error(b, mo, kUnknownStart,
+            fmt::format("the position of axis {} is not known at this feed move (no earlier block sets it), so its "
+                        "path cannot be predicted; program {} before it",
+                        names, names));
+      note_position(mo);
+      return;
+    }
+    if (!mo.feed_known || mo.feed <= 0 || mo.feed_mode == gcode::FeedMode::per_rev) {
+      end_run();
+      error(b, mo, kNoFeed,
+            mo.feed_mode == gcode::FeedMode::per_rev
+                ? std::string("feed per revolution (G95 / G99) needs the spindle speed over time, which prediction "
+                              "does not model; program the cut in feed per minute")
+                : std::string("this feed move has no feed rate (F); program F before it"));
+      note_position(mo);
+      return;
+    }
+    // The run's start: the end of the previous motion (the controller holds it).
+    if (!in_run_) {
+      comp::Command start{mo.start, last_vector_};
+      if (!mo.tool_vector_known) start.vector = mo.tool_vector;
+      kin::JointVector q;
+      q_ = kin::JointVector::Zero(m_.nominal->joint_count());
+      if (!map.joints(start, q_, q).ok()) {
+        error(b, mo, kKinematics, "the controller's inverse kinematics failed at the start of this move");
+        note_position(mo);
+        return;
+      }
+      q_ = q;
+      PathPoint p;
+      p.q = q;
+      p.command = start;
+      p.line = b.line;
+      p.column = mo.column;
+      p.motion = static_cast<std::uint32_t>(p_.motions - 1);
+      p.map = static_cast<std::uint32_t>(mi);
+      p.block_end = false;
+      p.run_start = true;
+      p_.points.push_back(p);
+      p_.segments.emplace_back();
+      run_begin_ = p_.points.size() - 1;
+      in_run_ = true;
+      prev_cmd_ = start;
+    }
+    const bool arc = mo.type != MotionType::linear;
+    std::uint64_t n = 1;
+    if (arc) {
+      ++p_.arcs;
+      const auto k = gcode::arc_segments(mo.arc.radius, mo.arc.sweep, opt_.arc_tolerance_mm, 0.0);
+      n = k ? std::max<std::uint64_t>(*k, 2) : 2;
+    }
+    for (std::uint64_t i = 1; i <= n; ++i) {
+      comp::Command c{arc ? gcode::arc_point(mo, static_cast<double>(i) / static_cast<double>(n)) : mo.end, mo.tool_vector};
+      if (i == n) c.c = mo.end;
+      kin::JointVector q;
+      if (!map.joints(c, q_, q).ok()) {
+        error(b, mo, kKinematics, "the controller's inverse kinematics failed for this move's end point");
+        end_run();
+        note_position(mo);
+        return;
+      }
+      add_point(b, mo, mi, c, q, i == n, arc);
+    }
+    ++p_.feed_moves;
+    note_position(mo);
+  }
+
+  void add_point(const gcode::Block& b, const Motion& mo, int mi, const comp::Command& c, const kin::JointVector& q,
+                 bool block_end, bool arc) {
+    const comp::ProgramMap& map = p_.maps[static_cast<std::size_t>(mi)];
+    const AxisMask need = comp::written_axes(m_, map.form());
+    SegmentProfile s;
+    s.length = metric(map, prev_cmd_, c, need);
+    const kin::JointVector dq = q - q_;
+    // Cruise speed: the programmed feed (inverse time: this chord's share of the block's time),
+    // then every joint's velocity limit; the path acceleration from the joints' limits.
+    double v = 0;
+    if (mo.feed_mode == gcode::FeedMode::inverse_time) {
+      double total = metric(map, comp::Command{mo.start, prev_cmd_.vector}, comp::Command{mo.end, mo.tool_vector}, need);
+      if (mo.type != MotionType::linear && mo.arc.radius > 0)
+        total = std::max(total, std::abs(mo.arc.sweep) * mo.arc.radius);
+      const double block_time = 60.0 / mo.feed;
+      v = total > 0 ? total / block_time : 0;
+      if (v <= 0) v = s.length / block_time;
+    } else {
+      v = mo.feed / 60.0;
+    }
+    double accel = kUnlimited;
+    for (int j = 0; j < q.size(); ++j) {
+      const double d = std::abs(dq[j]);
+      if (d <= 1e-12 || s.length <= 0) continue;
+      const JointLimits& lim = limits_[static_cast<std::size_t>(j)];
+      v = std::min(v, lim.v * s.length / d);
+      accel = std::min(accel, lim.a * s.length / d);
+    }
+    s.v_cruise = v;
+    s.accel = accel;
+    PathPoint p;
+    p.q = q;
+    p.command = c;
+    p.line = b.line;
+    p.column = mo.column;
+    p.motion = static_cast<std::uint32_t>(p_.motions - 1);
+    p.map = static_cast<std::uint32_t>(mi);
+    p.block_end = block_end && !arc;
+    p_.points.push_back(p);
+    p_.segments.push_back(s);
+    q_ = q;
+    prev_cmd_ = c;
+  }
+
+  /// Look-ahead over the finished run: junction speeds (corner slow-down), backward and forward
+  /// acceleration passes, then every segment's trapezoid and the point times.
+  void end_run() {
+    if (!in_run_) return;
+    in_run_ = false;
+    const std::size_t b = run_begin_, e = p_.points.size();
+    if (e - b < 2) {  // a run without a move
+      p_.points.resize(b);
+      p_.segments.resize(b);
+      return;
+    }
+    const std::size_t n = e - b;
+    std::vector<double> vj(n, 0.0);  // speed at each point
+    auto dir = [&](std::size_t i) -> kin::JointVector {  // dq/ds of segment i (ending at point i)
+      const double L = p_.segments[i].length;
+      kin::JointVector d = p_.points[i].q - p_.points[i - 1].q;
+      return L > 0 ? kin::JointVector(d / L) : kin::JointVector(d * 0.0);
+    };
+    for (std::size_t k = 1; k + 1 < n; ++k) {
+      const std::size_t i = b + k;
+      double v = std::min(p_.segments[i].v_cruise, p_.segments[i + 1].v_cruise);
+      const kin::JointVector jump = dir(i + 1) - dir(i);
+      for (int j = 0; j < jump.size(); ++j) {
+        const double a = limits_[static_cast<std::size_t>(j)].a;
+        if (std::isfinite(a) && std::abs(jump[j]) > 1e-12) v = std::min(v, a * opt_.corner_time / std::abs(jump[j]));
+      }
+      vj[k] = v;
+    }
+    for (std::size_t k = n - 1; k-- > 1;) {  // backward: able to slow down in time
+      const SegmentProfile& s = p_.segments[b + k + 1];
+      vj[k] = std::min(vj[k], std::sqrt(vj[k + 1] * vj[k + 1] + 2 * s.accel * s.length));
+    }
+    for (std::size_t k = 1; k < n; ++k) {  // forward: able to speed up in time
+      const SegmentProfile& s = p_.segments[b + k];
+      vj[k] = std::min(vj[k], std::sqrt(vj[k - 1] * vj[k - 1] + 2 * s.accel * s.length));
+    }
+    double t = p_.duration;
+    p_.points[b].t = t;
+    p_.points[b].speed = 0;
+    for (std::size_t k = 1; k < n; ++k) {
+      SegmentProfile& s = p_.segments[b + k];
+      s.v_start = std::min(vj[k - 1], s.v_cruise);
+      s.v_end = std::min(vj[k], s.v_cruise);
+      double peak = 0;
+      s.duration = s.v_cruise > 0 ? trapezoid(s.length, s.v_start, s.v_end, s.v_cruise, s.accel, peak) : 0;
+      s.v_cruise = peak;
+      t += s.duration;
+      p_.points[b + k].t = t;
+      p_.points[b + k].speed = vj[k];
+    }
+    p_.duration = t;
+    p_.runs.push_back(Run{b, e});
+  }
+
+  std::string_view file_;
+  const machine::Machine& m_;
+  const PathOptions& opt_;
+  gcode::DiagnosticSink& sink_;
+  Path& p_;
+  gcode::ModalTrack track_;
+  comp::ToolLengthModels models_;
+  std::vector<JointLimits> limits_;
+  gcode::DiagnosticSink collect_{0};
+  bool in_run_ = false;
+  bool exact_mode_ = false;  ///< G61 / G60 active
+  std::size_t run_begin_ = 0;
+  kin::JointVector q_;
+  comp::Command prev_cmd_;
+  Eigen::Vector3d last_vector_ = Eigen::Vector3d::UnitZ();
+  Eigen::Vector3d vector_ = Eigen::Vector3d::UnitZ();
+  bool vector_known_ = false;
+  int map_index_ = -1;
+  comp::Form key_form_ = comp::Form::axes;
+  gcode::AxisVector key_offset_ = gcode::AxisVector::Zero();
+  bool key_on_z_ = false;
+  double key_length_ = 0;
+};
+
+}  // namespace
+
+std::optional<std::vector<Drive>> joint_drives(const machine::Machine& m, std::string& why) {
+  std::vector<Drive> out;
+  for (const kin::Joint& j : m.actual->joints()) {
+    const machine::AxisSettings* s = settings_of(m, j.name);
+    const auto d = s != nullptr ? drive_of(*s) : std::nullopt;
+    if (!d) {
+      const bool axis = j.name.size() == 1 && gcode::axis_index(j.name[0]) >= 0;
+      why = fmt::format("joint {} has no servo data: add kv (position-loop gain, e.g. kv = \"30 1/s\") to [{}.{}] in "
+                        "machine file {}",
+                        j.name, axis ? "axes" : "drives", j.name, m.file);
+      return std::nullopt;
+    }
+    out.push_back(*d);
+  }
+  return out;
+}
+
+Path build_path(gcode::LineReader& in, std::string_view file, const gcode::Dialect& d, const machine::Machine& m,
+                const PathOptions& opt, gcode::DiagnosticSink& sink) {
+  Path path;
+  path.joints = m.actual->joint_count();
+  path.period = m.interpolation_period;
+  std::string why;
+  if (auto drives = joint_drives(m, why)) {
+    path.drives = std::move(*drives);
+  } else {
+    gcode::Diagnostic diag;
+    diag.severity = gcode::Severity::error;
+    diag.code = "PP-E611";
+    diag.file = m.file;
+    diag.message = why;
+    sink.report(diag);
+    path.drives.assign(static_cast<std::size_t>(path.joints), Drive{});
+  }
+  std::vector<JointLimits> limits;
+  for (const kin::Joint& j : m.actual->joints()) {
+    JointLimits l;
+    if (const machine::AxisSettings* s = settings_of(m, j.name)) {
+      if (s->max_velocity) l.v = *s->max_velocity / 60.0;
+      if (s->max_acceleration) l.a = *s->max_acceleration;
+    }
+    limits.push_back(l);
+  }
+  Builder b(file, d, m, opt, sink, path, std::move(limits));
+  gcode::run_program(in, d, file, b.collector(), b);
+  b.finish();
+  return path;
+}
+
+void interpolate(const Path& path, const Run& run, double settle, const std::function<void(const Sample&)>& visit) {
+  if (run.size() < 2) return;
+  const double t0 = path.points[run.begin].t;
+  const double t_end = path.points[run.end - 1].t;
+  const double dt = path.period;
+  std::size_t seg = run.begin + 1;
+  Sample s;
+  kin::JointVector q_prev = path.points[run.begin].q;
+  // The last period of the move lands on the end point; then `settle` seconds at rest.
+  const auto total = static_cast<std::uint64_t>(std::ceil((t_end - t0) / dt - 1e-9) + std::floor(settle / dt + 1e-9));
+  for (std::uint64_t k = 0; k <= total; ++k) {
+    const double t = t0 + static_cast<double>(k) * dt;
+    while (seg + 1 < run.end && path.points[seg].t < t) ++seg;
+    const PathPoint& a = path.points[seg - 1];
+    const PathPoint& b = path.points[seg];
+    const SegmentProfile& prof = path.segments[seg];
+    double f = 1.0;
+    if (t < b.t && prof.length > 0) f = std::clamp(position_at(prof, t - a.t) / prof.length, 0.0, 1.0);
+    else if (t < b.t && prof.duration > 0) f = std::clamp((t - a.t) / prof.duration, 0.0, 1.0);
+    const comp::ProgramMap& map = path.maps[b.map];
+    s.t = t;
+    s.segment = seg;
+    s.fraction = f;
+    if (map.form() == comp::Form::axes || f <= 0.0 || f >= 1.0) {
+      s.q = f >= 1.0 ? b.q : (f <= 0.0 ? a.q : kin::JointVector(a.q + (b.q - a.q) * f));
+    } else {
+      comp::Command c;
+      c.c = a.command.c + (b.command.c - a.command.c) * f;
+      c.vector = (a.command.vector + (b.command.vector - a.command.vector) * f).normalized();
+      kin::JointVector q;
+      if (map.joints(c, q_prev, q).ok()) s.q = q;
+      else s.q = a.q + (b.q - a.q) * f;
+    }
+    q_prev = s.q;
+    visit(s);
+  }
+}
+
+}  // namespace postproc::contour

@@ -1,0 +1,231 @@
+// The intended contour of a path and the contour error of actual poses against it (see reference.hpp).
+#include "postproc/contour/reference.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <string>
+
+#include "postproc/error.hpp"
+
+namespace postproc::contour {
+namespace {
+
+constexpr std::uint32_t kNoRun = std::numeric_limits<std::uint32_t>::max();
+
+/// Index (into `params`, non-decreasing, non-empty) of the parameter nearest u; on a tie the lower.
+std::size_t nearest(const std::vector<double>& params, double u) {
+  const auto it = std::upper_bound(params.begin(), params.end(), u);
+  std::size_t k = it == params.begin() ? 0 : static_cast<std::size_t>(it - params.begin()) - 1;
+  if (k + 1 < params.size() && params[k + 1] - u < u - params[k]) ++k;
+  return k;
+}
+
+/// Whether a piece's points all share one parameter (its tool points coincide: the piece is an
+/// orientation-only stretch and its tip curve is a single point).
+bool degenerate(const FitPiece& piece) { return piece.fit.params.front() == piece.fit.params.back(); }
+
+/// Sets the axis part of `e`: intended axis o_star (unit) against the actual axis o_act (unit).
+void set_axis(ContourError& e, const Eigen::Vector3d& o_act, const Eigen::Vector3d& o_star) {
+  e.axis = o_star;
+  const Eigen::Vector3d c = o_act.cross(o_star);
+  const double s = c.norm();
+  e.angle = std::atan2(s, o_act.dot(o_star));
+  e.rotation = s > 0 ? Eigen::Vector3d(c * (e.angle / s)) : Eigen::Vector3d::Zero();
+}
+
+}  // namespace
+
+Reference::Reference(const Path& path, const kin::Model& model, const ReferenceOptions& opt) : opt_(opt) {
+  if (!(opt_.marker_length_mm > 0) || !std::isfinite(opt_.marker_length_mm))
+    throw Error(ExitCode::usage, "contour reference: marker_length_mm must be > 0, got " + std::to_string(opt_.marker_length_mm));
+  if (path.runs.size() >= kNoRun) throw Error(ExitCode::internal, "contour reference: too many runs");
+  const std::size_t n = path.points.size();
+  poses_.resize(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const kin::Model& mi = model_at(path, i, model, opt_.nominal);
+    const kin::Solve s = kin::forward(mi, path.points[i].q, poses_[i]);
+    if (!s.ok())
+      throw Error(ExitCode::refused, "contour reference: the forward kinematics of the " + mi.kind() +
+                                         " model failed at path point " + std::to_string(i) + " (line " +
+                                         std::to_string(path.points[i].line) + "): " + std::string(kin::to_string(s.status)));
+  }
+  run_index_.assign(n, kNoRun);
+  runs_.reserve(path.runs.size());
+  const double dup = opt_.fit.duplicate_mm;
+  const double l = opt_.marker_length_mm;
+  std::vector<Eigen::Vector3d> tips, markers;
+  for (const Run& run : path.runs) {
+    if (run.begin >= run.end || run.end > n)
+      throw Error(ExitCode::internal, "contour reference: run [" + std::to_string(run.begin) + ", " +
+                                          std::to_string(run.end) + ") outside the path's " + std::to_string(n) + " points");
+    RunFit f;
+    f.begin = run.begin;
+    f.end = run.end;
+    tips.clear();
+    markers.clear();
+    bool distinct = false;
+    for (std::size_t i = run.begin; i < run.end; ++i) {
+      if (run_index_[i] != kNoRun) throw Error(ExitCode::internal, "contour reference: path point " + std::to_string(i) + " is in two runs");
+      run_index_[i] = static_cast<std::uint32_t>(runs_.size());
+      tips.push_back(poses_[i].p);
+      markers.push_back(poses_[i].p + l * poses_[i].axis());
+      distinct = distinct || (tips.back() - tips.front()).norm() > dup || (markers.back() - markers.front()).norm() > dup;
+    }
+    if (distinct) {
+      f.curve = true;
+      f.tip = fit_windows(tips, opt_.window, opt_.overlap, opt_.fit);
+      f.marker = fit_windows(markers, opt_.window, opt_.overlap, opt_.fit);
+      if (f.tip.pieces.size() != f.marker.pieces.size())
+        throw Error(ExitCode::internal, "contour reference: tip and marker fits have different windows");
+      max_residual_ = std::max({max_residual_, f.tip.max_residual_mm(), f.marker.max_residual_mm()});
+      within_ = within_ && f.tip.within_tolerance() && f.marker.within_tolerance();
+    }
+    runs_.push_back(std::move(f));
+  }
+}
+
+Run Reference::run(std::size_t r) const {
+  if (r >= runs_.size())
+    throw Error(ExitCode::usage, "contour reference: run " + std::to_string(r) + " out of range (" + std::to_string(runs_.size()) + " runs)");
+  return Run{runs_[r].begin, runs_[r].end};
+}
+
+const Reference::RunFit* Reference::run_of(std::size_t i) const {
+  if (i >= run_index_.size() || run_index_[i] == kNoRun)
+    throw Error(ExitCode::usage, "contour reference: path point " + std::to_string(i) + " is not on a run (" +
+                                     std::to_string(run_index_.size()) + " points)");
+  return &runs_[run_index_[i]];
+}
+
+ContourError Reference::error(const kin::Pose& actual, std::size_t hint) const {
+  const RunFit& run = *run_of(hint);
+  const Eigen::Vector3d o_act = actual.axis();
+  ContourError e;
+  if (!run.curve) {  // a single pose: plain distances
+    const kin::Pose& ref = poses_[run.begin];
+    e.foot = ref.p;
+    e.vector = ref.p - actual.p;
+    e.distance = e.vector.norm();
+    e.point = run.begin;
+    e.u = 0;
+    set_axis(e, o_act, ref.axis());
+    return e;
+  }
+
+  // Tool tip: the foot on the tip curve of the piece where the hint is most central; when the foot
+  // lies nearer points another piece is more central for (or stops at a piece's free end inside
+  // the run), again on that piece. Bounded, and the closest answer is kept if it does not settle.
+  const std::size_t n = run.end - run.begin;
+  const WindowedFit& tip = run.tip;
+  std::size_t local = hint - run.begin;
+  const FitPiece* piece = &tip.piece_for(local);
+  const FitPiece* previous = nullptr;
+  double u0 = piece->param(local);
+  ProjectResult foot;
+  const FitPiece* foot_piece = nullptr;
+  for (int attempt = 0; attempt < 4; ++attempt) {
+    ProjectResult r;
+    if (degenerate(*piece)) {  // one tool point: the curve is that point
+      r.u = piece->fit.params.front();
+      r.point = piece->fit.curve.point(r.u);
+      r.distance = (r.point - actual.p).norm();
+      r.converged = true;
+    } else {
+      r = project(piece->fit.curve, actual.p, u0);
+    }
+    if (foot_piece == nullptr || r.distance <= foot.distance) {
+      foot = r;
+      foot_piece = piece;
+    }
+    // Where the foot is: the point nearest it, and the piece that point belongs to.
+    std::size_t k = piece->begin + nearest(piece->fit.params, r.u);
+    const FitPiece* next = &tip.piece_for(k);
+    if (next == piece) {
+      const CubicCurve::Domain dom = piece->fit.curve.domain();
+      if (r.u <= dom.begin && piece->begin > 0) {
+        k = piece->begin - 1;
+        next = &tip.piece_for(k);
+      } else if (r.u >= dom.end && piece->end < n) {
+        k = piece->end;
+        next = &tip.piece_for(k);
+      }
+    }
+    if (next == piece) {  // settled: this piece is the one for the foot's point
+      foot = r;
+      foot_piece = piece;
+      break;
+    }
+    if (next == previous) break;  // ping-pong across a boundary: keep the closer
+    previous = piece;
+    piece = next;
+    u0 = piece->param(k);
+  }
+
+  const FitPiece& tp = *foot_piece;
+  const std::vector<double>& pt = tp.fit.params;
+  const std::size_t j = static_cast<std::size_t>(foot_piece - tip.pieces.data());
+  const FitPiece& mp = run.marker.pieces[j];
+  const std::vector<double>& pm = mp.fit.params;
+  const double u = foot.u;
+  e.foot = foot.point;
+  e.vector = foot.point - actual.p;
+  e.distance = e.vector.norm();
+  e.u = u;
+  e.converged = foot.converged;
+
+  // Tool axis: the marker curve's parameter at the same place. Nearest point k; when it is one of
+  // several coincident tool points (an orientation-only stretch), the tip parameter says nothing
+  // about the orientation, so the actual marker point is projected onto the marker curve.
+  const std::size_t k = nearest(pt, u);
+  std::size_t a = k, b = k;  // the group of points sharing k's parameter
+  while (a > 0 && pt[a - 1] == pt[k]) --a;
+  while (b + 1 < pt.size() && pt[b + 1] == pt[k]) ++b;
+  double v = 0;
+  std::size_t point = k;
+  if (a == b) {
+    std::size_t lo = k;  // pt[lo] ≤ u ≤ pt[lo + 1]
+    if (u < pt[k] && k > 0) lo = k - 1;
+    if (lo + 1 >= pt.size()) lo = pt.size() - 2;
+    const double span = pt[lo + 1] - pt[lo];
+    const double f = span > 0 ? std::clamp((u - pt[lo]) / span, 0.0, 1.0) : 0.0;
+    v = pm[lo] + f * (pm[lo + 1] - pm[lo]);
+  } else {
+    const Eigen::Vector3d q = actual.p + opt_.marker_length_mm * o_act;
+    const std::size_t h = std::clamp(hint - run.begin, tp.begin + a, tp.begin + b) - tp.begin;
+    const ProjectResult m = project(mp.fit.curve, q, pm[h]);
+    v = m.u;
+    point = std::clamp(nearest(pm, v), a, b);
+    e.converged = e.converged && m.converged;
+  }
+  e.point = tp.begin + point + run.begin;
+  const Eigen::Vector3d d = mp.fit.curve.point(v) - foot.point;
+  const double dn = d.norm();
+  set_axis(e, o_act, dn > 0 ? Eigen::Vector3d(d / dn) : poses_[e.point].axis());
+  return e;
+}
+
+Summary summarise(const std::vector<double>& values) {
+  Summary s;
+  s.count = values.size();
+  if (values.empty()) return s;
+  double sum2 = 0;
+  for (std::size_t i = 0; i < values.size(); ++i) {
+    const double x = values[i];
+    sum2 += x * x;
+    if (i == 0 || x > s.max) {
+      s.max = x;
+      s.worst = i;
+    }
+  }
+  s.rms = std::sqrt(sum2 / static_cast<double>(values.size()));
+  // Nearest rank: the ⌈0.95·n⌉-th smallest (integer arithmetic, no rounding at n = 20, 100 …).
+  std::vector<double> sorted(values);
+  const std::size_t rank = (95 * sorted.size() + 99) / 100;
+  const auto nth = sorted.begin() + static_cast<std::ptrdiff_t>(rank - 1);
+  std::nth_element(sorted.begin(), nth, sorted.end());
+  s.p95 = *nth;
+  return s;
+}
+
+}  // namespace postproc::contour

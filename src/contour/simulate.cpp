@@ -1,0 +1,119 @@
+// Time-domain simulation of the servo drives along the commanded path (see simulate.hpp).
+#include "postproc/contour/simulate.hpp"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <string>
+
+#include "postproc/error.hpp"
+
+namespace postproc::contour {
+
+Simulation simulate(const Path& commanded, const Reference& ref, const kin::Model& actual, const SimulateOptions& opt) {
+  if (commanded.runs.size() != ref.runs())
+    throw Error(ExitCode::usage, "simulate: the commanded path has " + std::to_string(commanded.runs.size()) +
+                                     " runs, the reference " + std::to_string(ref.runs()));
+  const int nj = commanded.joints;
+  if (nj <= 0 || nj > kin::kMaxJoints || nj != actual.joint_count())
+    throw Error(ExitCode::usage, "simulate: the path has " + std::to_string(nj) + " joints, the model " +
+                                     std::to_string(actual.joint_count()));
+  if (commanded.drives.size() != static_cast<std::size_t>(nj))
+    throw Error(ExitCode::usage, "simulate: " + std::to_string(commanded.drives.size()) + " drives for " +
+                                     std::to_string(nj) + " joints");
+  if (!(commanded.period > 0)) throw Error(ExitCode::usage, "simulate: the interpolation period must be > 0");
+  if (!(opt.settle_s >= 0)) throw Error(ExitCode::usage, "simulate: settle_s must be ≥ 0");
+
+  const auto uj = static_cast<std::size_t>(nj);
+  const double dt = commanded.period;
+  Simulation sim;
+  sim.max_following.assign(uj, 0.0);
+  std::vector<double> tip_mm, axis_rad;  // per sample, for the summaries
+  double worst_tip = -1, worst_axis = -1;
+  // s: start of the current run in simulation time. Runs follow each other on the interpolation
+  // grid: a run's first sample comes one period after the previous run's last (settling) sample.
+  double offset = 0;
+  std::array<DriveState, kin::kMaxJoints> state{};
+  kin::JointVector prev(nj), prev2(nj), y(nj);
+  kin::Pose pose;
+
+  for (std::size_t r = 0; r < commanded.runs.size(); ++r) {
+    const Run& run = commanded.runs[r];
+    if (run.begin >= run.end || run.end > commanded.points.size())
+      throw Error(ExitCode::internal, "simulate: run " + std::to_string(r) + " outside the path's points");
+    const kin::JointVector& q0 = commanded.points[run.begin].q;
+    for (std::size_t j = 0; j < uj; ++j) state[j] = DriveState{q0[static_cast<Eigen::Index>(j)], 0.0};
+    prev = q0;
+    prev2 = q0;
+    int history = 0;       // command samples behind prev that are known (for the acceleration)
+    double t_prev = 0;     // s, run time of the last sample
+    const double t0 = commanded.points[run.begin].t;  // s, the path's time at the run start
+    std::size_t hint = ref.run(r).begin;
+    bool sampled = false;  // a run without a move has no samples and takes no time
+    double t_last = 0;     // s, run time of the run's last sample
+
+    interpolate(commanded, run, opt.settle_s, [&](const Sample& s) {
+      const double t = s.t - t0;  // run time
+      sampled = true;
+      t_last = t;
+      const double h = t - t_prev;
+      if (h > 0) {  // a sample at the run's start (t = 0) is where the drives already are
+        for (std::size_t j = 0; j < uj; ++j) {
+          const auto ej = static_cast<Eigen::Index>(j);
+          // Acceleration of the command for the feed-forward term: second difference of the last
+          // three samples (0 until there are three).
+          const double a = history >= 1 ? (s.q[ej] - 2 * prev[ej] + prev2[ej]) / (dt * dt) : 0.0;
+          step(commanded.drives[j], state[j], prev[ej], s.q[ej], a, h);
+        }
+        prev2 = prev;
+        prev = s.q;
+        history = std::min(history + 1, 2);
+        t_prev = t;
+      }
+      for (std::size_t j = 0; j < uj; ++j) {
+        const auto ej = static_cast<Eigen::Index>(j);
+        y[ej] = state[j].y;
+        sim.max_following[j] = std::max(sim.max_following[j], std::abs(s.q[ej] - y[ej]));
+      }
+      const kin::Model& model = model_at(commanded, s.segment, actual);
+      const kin::Solve fk = model.forward(y, pose);
+      if (!fk.ok())
+        throw Error(ExitCode::refused, "simulate: the forward kinematics of the " + model.kind() + " model failed at t = " +
+                                           std::to_string(offset + t) + " s (line " +
+                                           std::to_string(commanded.points[s.segment].line) + "): " +
+                                           std::string(kin::to_string(fk.status)));
+      const ContourError ce = ref.error(pose, hint);
+      hint = ce.point;
+      const std::uint64_t line = commanded.points[s.segment].line;
+      if (ce.distance > worst_tip) {
+        worst_tip = ce.distance;
+        sim.worst_tip_line = line;
+      }
+      if (ce.angle > worst_axis) {
+        worst_axis = ce.angle;
+        sim.worst_axis_line = line;
+      }
+      tip_mm.push_back(ce.distance);
+      axis_rad.push_back(ce.angle);
+      if (opt.keep_every > 0 && sim.samples % opt.keep_every == 0) {
+        SimSample k;
+        k.t = offset + t;
+        k.run = r;
+        k.line = line;
+        k.command = s.q;
+        k.actual = y;
+        k.tip = pose.p;
+        k.tip_mm = ce.distance;
+        k.axis_rad = ce.angle;
+        sim.kept.push_back(std::move(k));
+      }
+      ++sim.samples;
+    });
+    if (sampled) offset += t_last + dt;
+  }
+  sim.tip = summarise(tip_mm);
+  sim.axis = summarise(axis_rad);
+  return sim;
+}
+
+}  // namespace postproc::contour
