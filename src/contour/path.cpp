@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <fstream>
 #include <limits>
 
 #include <fmt/format.h>
@@ -40,6 +41,26 @@ const machine::AxisSettings* settings_of(const machine::Machine& m, const std::s
   const int ax = joint.size() == 1 ? gcode::axis_index(joint[0]) : -1;
   if (ax >= 0 && m.axes[static_cast<std::size_t>(ax)]) return &*m.axes[static_cast<std::size_t>(ax)];
   return nullptr;
+}
+
+/// Points a machine-file diagnostic at the table it names ("[axes.X]" in `why`), when the file
+/// can be read and has it; otherwise it stays about the file as a whole.
+void locate_table(const machine::Machine& m, const std::string& why, gcode::Diagnostic& diag) {
+  const auto open = why.find('['), close = why.find(']', open);
+  if (open == std::string::npos || close == std::string::npos) return;
+  const std::string header = why.substr(open, close - open + 1);
+  std::ifstream in(m.file);
+  std::string line;
+  for (std::uint64_t n = 1; std::getline(in, line); ++n) {
+    const auto b = line.find_first_not_of(" \t");
+    if (b != std::string::npos && line.compare(b, header.size(), header) == 0) {
+      diag.where.line = n;
+      diag.where.column = static_cast<std::uint32_t>(b + 1);
+      diag.length = static_cast<std::uint32_t>(header.size());
+      diag.source_line = line;
+      return;
+    }
+  }
 }
 
 bool is_stop(const gcode::Block& b) {
@@ -448,6 +469,7 @@ Path build_path(gcode::LineReader& in, std::string_view file, const gcode::Diale
     diag.code = "PP-E611";
     diag.file = m.file;
     diag.message = why;
+    locate_table(m, why, diag);
     sink.report(diag);
     path.drives.assign(static_cast<std::size_t>(path.joints), Drive{});
   }

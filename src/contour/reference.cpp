@@ -12,6 +12,10 @@ namespace postproc::contour {
 namespace {
 
 constexpr std::uint32_t kNoRun = std::numeric_limits<std::uint32_t>::max();
+/// A turn of the tip or marker path sharper than this between two moves is a corner: the contour
+/// is fitted in spans between corners. Dense CAM output of a smooth surface turns by a few
+/// degrees per point at most; a polygon's corners (pockets, coarse programs) turn by more.
+constexpr double kCornerDeg = 15.0;
 
 /// Index (into `params`, non-decreasing, non-empty) of the parameter nearest u; on a tie the lower.
 std::size_t nearest(const std::vector<double>& params, double u) {
@@ -59,36 +63,62 @@ Reference::Reference(const Path& path, const kin::Model& model, const ReferenceO
     if (run.begin >= run.end || run.end > n)
       throw Error(ExitCode::internal, "contour reference: run [" + std::to_string(run.begin) + ", " +
                                           std::to_string(run.end) + ") outside the path's " + std::to_string(n) + " points");
-    RunFit f;
-    f.begin = run.begin;
-    f.end = run.end;
-    tips.clear();
-    markers.clear();
-    bool distinct = false;
-    for (std::size_t i = run.begin; i < run.end; ++i) {
-      if (run_index_[i] != kNoRun) throw Error(ExitCode::internal, "contour reference: path point " + std::to_string(i) + " is in two runs");
-      run_index_[i] = static_cast<std::uint32_t>(runs_.size());
-      tips.push_back(poses_[i].p);
-      markers.push_back(poses_[i].p + l * poses_[i].axis());
-      distinct = distinct || (tips.back() - tips.front()).norm() > dup || (markers.back() - markers.front()).norm() > dup;
+    path_runs_.push_back(run);
+    // Spans: the run cut at corners (a turn of the tip path or of the marker path above
+    // kCornerDeg between consecutive moves). A cubic through a corner would overshoot; each
+    // span is fitted on its own and the corner point ends one span and starts the next.
+    std::size_t span_begin = run.begin;
+    for (std::size_t k = run.begin + 1; k < run.end; ++k) {
+      const bool last = k + 1 == run.end;
+      if (!last && !corner(poses_, k, l, dup)) continue;
+      fit_span(span_begin, k + 1, l, dup, tips, markers);
+      span_begin = k;
     }
-    if (distinct) {
-      f.curve = true;
-      f.tip = fit_windows(tips, opt_.window, opt_.overlap, opt_.fit);
-      f.marker = fit_windows(markers, opt_.window, opt_.overlap, opt_.fit);
-      if (f.tip.pieces.size() != f.marker.pieces.size())
-        throw Error(ExitCode::internal, "contour reference: tip and marker fits have different windows");
-      max_residual_ = std::max({max_residual_, f.tip.max_residual_mm(), f.marker.max_residual_mm()});
-      within_ = within_ && f.tip.within_tolerance() && f.marker.within_tolerance();
-    }
-    runs_.push_back(std::move(f));
+    if (run.end - run.begin == 1) fit_span(run.begin, run.end, l, dup, tips, markers);
   }
 }
 
+bool Reference::corner(const std::vector<kin::Pose>& poses, std::size_t k, double l, double dup) {
+  const auto turn = [&](const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c) {
+    const Eigen::Vector3d u = b - a, v = c - b;
+    if (u.norm() <= dup || v.norm() <= dup) return false;
+    return u.normalized().dot(v.normalized()) < std::cos(kCornerDeg * kin::kDeg);
+  };
+  const kin::Pose &a = poses[k - 1], &b = poses[k], &c = poses[k + 1];
+  return turn(a.p, b.p, c.p) || turn(a.p + l * a.axis(), b.p + l * b.axis(), c.p + l * c.axis());
+}
+
+void Reference::fit_span(std::size_t begin, std::size_t end, double l, double dup, std::vector<Eigen::Vector3d>& tips,
+                         std::vector<Eigen::Vector3d>& markers) {
+  RunFit f;
+  f.begin = begin;
+  f.end = end;
+  tips.clear();
+  markers.clear();
+  bool distinct = false;
+  for (std::size_t i = begin; i < end; ++i) {
+    if (run_index_[i] == kNoRun) run_index_[i] = static_cast<std::uint32_t>(runs_.size());
+    tips.push_back(poses_[i].p);
+    markers.push_back(poses_[i].p + l * poses_[i].axis());
+    distinct = distinct || (tips.back() - tips.front()).norm() > dup || (markers.back() - markers.front()).norm() > dup;
+  }
+  if (distinct) {
+    f.curve = true;
+    f.tip = fit_windows(tips, opt_.window, opt_.overlap, opt_.fit);
+    f.marker = fit_windows(markers, opt_.window, opt_.overlap, opt_.fit);
+    if (f.tip.pieces.size() != f.marker.pieces.size())
+      throw Error(ExitCode::internal, "contour reference: tip and marker fits have different windows");
+    max_residual_ = std::max({max_residual_, f.tip.max_residual_mm(), f.marker.max_residual_mm()});
+    within_ = within_ && f.tip.within_tolerance() && f.marker.within_tolerance();
+  }
+  runs_.push_back(std::move(f));
+}
+
 Run Reference::run(std::size_t r) const {
-  if (r >= runs_.size())
-    throw Error(ExitCode::usage, "contour reference: run " + std::to_string(r) + " out of range (" + std::to_string(runs_.size()) + " runs)");
-  return Run{runs_[r].begin, runs_[r].end};
+  if (r >= path_runs_.size())
+    throw Error(ExitCode::usage, "contour reference: run " + std::to_string(r) + " out of range (" +
+                                     std::to_string(path_runs_.size()) + " runs)");
+  return path_runs_[r];
 }
 
 const Reference::RunFit* Reference::run_of(std::size_t i) const {
@@ -99,7 +129,23 @@ const Reference::RunFit* Reference::run_of(std::size_t i) const {
 }
 
 ContourError Reference::error(const kin::Pose& actual, std::size_t hint) const {
-  const RunFit& run = *run_of(hint);
+  const RunFit* span = run_of(hint);
+  ContourError e = error_in(*span, actual, hint);
+  // At a corner the neighbouring span of the same run (which shares the corner point) may hold
+  // the nearer foot.
+  const auto si = static_cast<std::size_t>(span - runs_.data());
+  if (e.point + 1 == span->end && si + 1 < runs_.size() && runs_[si + 1].begin + 1 == span->end) {
+    const ContourError f = error_in(runs_[si + 1], actual, span->end - 1);
+    if (f.distance < e.distance) e = f;
+  }
+  if (e.point == span->begin && si > 0 && runs_[si - 1].end == span->begin + 1) {
+    const ContourError f = error_in(runs_[si - 1], actual, span->begin);
+    if (f.distance < e.distance) e = f;
+  }
+  return e;
+}
+
+ContourError Reference::error_in(const RunFit& run, const kin::Pose& actual, std::size_t hint) const {
   const Eigen::Vector3d o_act = actual.axis();
   ContourError e;
   if (!run.curve) {  // a single pose: plain distances

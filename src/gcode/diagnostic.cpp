@@ -14,8 +14,10 @@ std::string_view to_string(Severity s) {
 }
 
 std::string format(const Diagnostic& d, bool with_source) {
-  std::string out = fmt::format("{}:{}:{}: {}: {}: {}\n", d.file, d.where.line, d.where.column, to_string(d.severity),
-                                d.code, d.message);
+  // A diagnostic about a file as a whole (no line) names the file alone.
+  std::string out = d.where.line > 0 ? fmt::format("{}:{}:{}: {}: {}: {}\n", d.file, d.where.line, d.where.column,
+                                                   to_string(d.severity), d.code, d.message)
+                                     : fmt::format("{}: {}: {}: {}\n", d.file, to_string(d.severity), d.code, d.message);
   if (with_source && d.where.line > 0) {
     // Tabs are kept so the caret lines up under the same bytes in a terminal.
     std::string caret;

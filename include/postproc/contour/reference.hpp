@@ -2,7 +2,9 @@
 /// @file
 /// The intended contour of a commanded path (document 004): cubic B-spline fits through the
 /// intended tool points P_i = FK(q_i) and through the tool-axis marker points Q_i = P_i + L·O_i
-/// (L = marker_length_mm), run by run, in windows so that memory stays bounded; and the contour
+/// (L = marker_length_mm), run by run, in windows so that the fitting work stays bounded, and cut
+/// into spans at corners (a turn of more than 15° of the tip or marker path between two moves: a
+/// cubic through a corner would overshoot; the controller moves straight there); and the contour
 /// error of an actual pose against them:
 /// - tool tip: the foot point C(u*) of the actual tip P' on the tool-point curve (tangential-error
 ///   back-estimation with a Newton fallback, nurbs.hpp); the error vector is C(u*) − P' (mm), normal
@@ -72,7 +74,7 @@ class Reference {
   [[nodiscard]] bool within_tolerance() const { return within_; }
   [[nodiscard]] const ReferenceOptions& options() const { return opt_; }
   /// Number of runs (those of the path given, one to one, single-point runs included).
-  [[nodiscard]] std::size_t runs() const { return runs_.size(); }
+  [[nodiscard]] std::size_t runs() const { return path_runs_.size(); }
   /// Run r's points [begin, end) in the path given. Throws postproc::Error (usage) when r ≥ runs().
   [[nodiscard]] Run run(std::size_t r) const;
 
@@ -83,6 +85,12 @@ class Reference {
     WindowedFit tip, marker;          ///< same windows: tip.pieces[j] and marker.pieces[j] hold the same points
   };
   [[nodiscard]] const RunFit* run_of(std::size_t i) const;
+  [[nodiscard]] ContourError error_in(const RunFit& span, const kin::Pose& actual, std::size_t hint) const;
+  /// Whether the path turns by more than kCornerDeg at point k (tip or marker path).
+  [[nodiscard]] static bool corner(const std::vector<kin::Pose>& poses, std::size_t k, double l, double dup);
+  void fit_span(std::size_t begin, std::size_t end, double l, double dup, std::vector<Eigen::Vector3d>& tips,
+                std::vector<Eigen::Vector3d>& markers);
+  std::vector<Run> path_runs_;
   ReferenceOptions opt_;
   std::vector<kin::Pose> poses_;
   std::vector<RunFit> runs_;
