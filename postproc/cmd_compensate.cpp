@@ -48,7 +48,7 @@ void merge_geometric(comp::CompensateResult& r, const comp::CompensateResult& g)
 }
 
 nlohmann::json report_json(const CompensateArgs& a, const machine::Machine& m, const comp::CompensateResult& r,
-                           double seconds, bool ok, const gcode::DiagnosticSink& sink) {
+                           const comp::ContourDetails& contour, double seconds, bool ok, const gcode::DiagnosticSink& sink) {
   nlohmann::json j;
   j["tool"] = {{"name", "postproc"}, {"version", POSTPROC_VERSION}};
   j["input"] = a.input;
@@ -86,6 +86,11 @@ nlohmann::json report_json(const CompensateArgs& a, const machine::Machine& m, c
                     {"iterations", r.contour_iterations},
                     {"converged", r.contour_converged},
                     {"fit_residual_um", r.fit_residual_mm * 1000}};
+    nlohmann::json hu = nlohmann::json::array(), ha = nlohmann::json::array();
+    for (double v : contour.result.history_mm) hu.push_back(v * 1000);
+    for (double v : contour.result.history_rad) ha.push_back(v * kArcsec);
+    j["contour"]["history_tip_um"] = hu;
+    j["contour"]["history_axis_arcsec"] = ha;
   }
   j["seconds"] = seconds;
   nlohmann::json diags = nlohmann::json::array();
@@ -194,7 +199,7 @@ void setup_compensate(CLI::App& app, int& rc) {
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     if (!o->report.empty()) {
       io::OutputFile rep(o->report, o->input, false);
-      rep.write(report_json(*o, *machine, r, seconds, ok, sink).dump(2) + "\n");
+      rep.write(report_json(*o, *machine, r, contour, seconds, ok, sink).dump(2) + "\n");
       rep.commit();
     }
     if (!ok) {

@@ -4,7 +4,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include <Eigen/SVD>
+#include <Eigen/Cholesky>
 
 #include "postproc/error.hpp"
 
@@ -103,9 +103,11 @@ Precompensation precompensate(const Path& path, const kin::Model& actual, const 
   Prediction current = r.before;
   std::vector<kin::JointVector> trial;
   const int n = path.joints;
+  std::vector<kin::JointVector> shift(path.points.size(), kin::JointVector::Zero(n));
   using Matrix6n = Eigen::Matrix<double, 6, Eigen::Dynamic, Eigen::ColMajor, 6, kin::kMaxJoints + 1>;
   for (int it = 1; it <= opt.max_iterations; ++it) {
     trial = r.commands;
+    for (auto& d : shift) d.setZero(n);
     for (const Run& run : path.runs)
       for (std::size_t i = run.begin; i < run.end; ++i) {
         const PathPoint& p = path.points[i];
@@ -141,12 +143,30 @@ Precompensation precompensate(const Path& path, const kin::Model& actual, const 
         Eigen::Matrix<double, 6, 1> rhs;
         rhs.head<3>() = pp.error;
         rhs.tail<3>() = opt.orientation_length_mm * (tilt * pp.rotation);
-        Eigen::JacobiSVD<Matrix6n> svd(a, Eigen::ComputeThinU | Eigen::ComputeThinV);
-        // With the slide the system is square and can be nearly singular (the slide direction close
-        // to what the joints do): directions below a looser cut are left alone.
-        svd.setThreshold(slide ? std::max(opt.rcond, 1e-3) : opt.rcond);
-        trial[i] += svd.solve(rhs).head(n);
+        // Damped normal equations (a 5 × 5 or 6 × 6 solve): least squares, and close to the
+        // minimum-norm solution where the machine is redundant; directions weaker than rcond
+        // (relative to the strongest) are damped away.
+        using Square = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::ColMajor, kin::kMaxJoints + 1,
+                                     kin::kMaxJoints + 1>;
+        Square normal = a.transpose() * a;
+        const double cut = slide ? std::max(opt.rcond, 1e-3) : opt.rcond;
+        normal.diagonal().array() += cut * cut * normal.diagonal().maxCoeff();
+        shift[i] = normal.ldlt().solve(a.transpose() * rhs).head(n);
       }
+    // The shift is wanted in the actual joints; the drives lag the commands, so the commands take
+    // the shift plus its own lag (the servo model inverted for a slowly varying shift:
+    // δ = d + e₁·ḋ), which lets the iteration converge in a few steps.
+    if (opt.invert_lag)
+      for (const Run& run : path.runs)
+        for (std::size_t i = run.begin + 1; i + 1 < run.end; ++i) {
+          const double dt = path.points[i + 1].t - path.points[i - 1].t;
+          if (dt <= 0 || (shift[i].array() == 0).all()) continue;
+          for (int j = 0; j < n; ++j) {
+            const Drive& dr = path.drives[static_cast<std::size_t>(j)];
+            trial[i][j] += dr.lag((shift[i + 1][j] - shift[i - 1][j]) / dt);
+          }
+        }
+    for (std::size_t i = 0; i < trial.size(); ++i) trial[i] += shift[i];
     Prediction next = predict(path, actual, ref, &trial);
     // One figure for the iteration: the largest tip error plus L × the largest axis error (mm).
     const auto score = [&](const Prediction& p) { return p.tip.max + opt.orientation_length_mm * p.axis.max; };
@@ -160,7 +180,7 @@ Precompensation precompensate(const Path& path, const kin::Model& actual, const 
     r.iterations = it;
     r.history_mm.push_back(current.tip.max);
     r.history_rad.push_back(current.axis.max);
-    if (gain < opt.tolerance_mm) {
+    if (gain < opt.tolerance_mm || gain < opt.relative_tolerance * score(current)) {
       r.converged = true;
       break;
     }

@@ -54,12 +54,18 @@ struct Prediction {
 
 struct PrecompensateOptions {
   int max_iterations = 12;
-  /// Stop when the largest tip contour error improved by less than this between iterations, mm.
+  /// Stop when the iteration's figure (largest tip error + L × largest axis error, mm) improved by
+  /// less than this, mm …
   double tolerance_mm = 1e-6;
+  /// … or by less than this fraction of itself.
+  double relative_tolerance = 0.05;
   /// L of the orientation rows, mm per rad.
   double orientation_length_mm = 100;
   /// Relative singular-value cut of the pseudo-inverse.
   double rcond = 1e-6;
+  /// Add the drives' lag of the correction itself to the commands (δ = d + e₁·ḋ), so that the
+  /// actual joints move by d: fewer iterations.
+  bool invert_lag = true;
 };
 
 struct Precompensation {
