@@ -460,6 +460,7 @@ Path build_path(gcode::LineReader& in, std::string_view file, const gcode::Diale
   Path path;
   path.joints = m.actual->joint_count();
   path.period = m.interpolation_period;
+  path.combined_feed = m.feed == machine::FeedReference::combined_axes;
   std::string why;
   if (auto drives = joint_drives(m, why)) {
     path.drives = std::move(*drives);

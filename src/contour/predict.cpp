@@ -2,6 +2,7 @@
 #include "postproc/contour/predict.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 
 #include <Eigen/Cholesky>
@@ -32,6 +33,48 @@ Slide slide_at(const Reference& ref, const Run& run, std::size_t i) {
   return s;
 }
 
+
+/// One piece of a segment's speed profile: its duration and the share of the segment covered.
+struct Piece {
+  double seconds = 0;
+  double fraction = 0;
+};
+
+/// The segment's speed profile (path.hpp: accelerate, cruise, decelerate) as pieces of constant
+/// velocity for the drive model: each acceleration phase in two halves at their mean speeds, the
+/// cruise as one. Returns the number of pieces written to `out` (≤ 5).
+std::size_t profile_pieces(const SegmentProfile& s, double dt, std::array<Piece, 5>& out) {
+  const double A = s.accel;
+  if (!(s.length > 0) || !(A > 0) || !std::isfinite(A) || A >= 1e11) {
+    out[0] = {dt, 1.0};
+    return 1;
+  }
+  const double vp = s.v_cruise;
+  const double ta = std::max(0.0, (vp - s.v_start) / A);
+  const double td = std::max(0.0, (vp - s.v_end) / A);
+  const double tc = std::max(0.0, dt - ta - td);
+  std::size_t n = 0;
+  const auto ramp = [&](double v0, double a, double t) {  // two halves of a ramp from v0 at a
+    for (int h = 0; h < 2; ++h) {
+      const double t0 = 0.5 * t * h, t1 = 0.5 * t * (h + 1);
+      const double dist = v0 * (t1 - t0) + 0.5 * a * (t1 * t1 - t0 * t0);
+      if (t1 > t0) out[n++] = {t1 - t0, dist / s.length};
+    }
+  };
+  if (ta > 0) ramp(s.v_start, A, ta);
+  if (tc > 0) out[n++] = {tc, vp * tc / s.length};
+  if (td > 0) ramp(vp, -A, td);
+  // The pieces cover the segment exactly: rescale the shares for rounding.
+  double sum = 0;
+  for (std::size_t k = 0; k < n; ++k) sum += out[k].fraction;
+  if (n == 0 || !(sum > 0)) {
+    out[0] = {dt, 1.0};
+    return 1;
+  }
+  for (std::size_t k = 0; k < n; ++k) out[k].fraction /= sum;
+  return n;
+}
+
 }  // namespace
 
 Prediction predict(const Path& path, const kin::Model& actual, const Reference& ref,
@@ -51,6 +94,7 @@ Prediction predict(const Path& path, const kin::Model& actual, const Reference& 
   kin::JointVector qa;
   std::vector<ErrorState> state(static_cast<std::size_t>(path.joints));
   std::vector<double> w_prev(static_cast<std::size_t>(path.joints));
+  std::array<Piece, 5> cuts{};
   for (const Run& run : path.runs) {
     // Every run starts at rest with no following error; between points the commands move at a
     // constant velocity, and each drive's error evolves exactly (drive.hpp).
@@ -59,14 +103,24 @@ Prediction predict(const Path& path, const kin::Model& actual, const Reference& 
     for (std::size_t i = run.begin; i < run.end; ++i) {
       PointPrediction& pp = out.points[i];
       pp.following.resize(path.joints);
-      const double dt = i > run.begin ? path.points[i].t - path.points[i - 1].t : 0.0;
+      double dt = i > run.begin ? path.points[i].t - path.points[i - 1].t : 0.0;
+      // Corrected axis values change a move's length in the combined-axes feed metric, and so the
+      // time the controller gives it (the joints of an axis program are its axes).
+      if (dt > 0 && commands != &own && path.combined_feed && !path.maps.empty() &&
+          path.maps[path.points[i].map].form() == comp::Form::axes) {
+        const double was = (path.points[i].q - path.points[i - 1].q).norm();
+        const double now = ((*commands)[i] - (*commands)[i - 1]).norm();
+        if (was > 1e-12) dt *= now / was;
+      }
+      const std::size_t pieces = dt > 0 ? profile_pieces(path.segments[i], dt, cuts) : 0;
       for (int j = 0; j < path.joints; ++j) {
         const auto ju = static_cast<std::size_t>(j);
         const Drive& drive = path.drives[ju];
-        if (dt > 0) {
-          const double w = ((*commands)[i][j] - (*commands)[i - 1][j]) / dt;
+        const double dq = pieces > 0 ? (*commands)[i][j] - (*commands)[i - 1][j] : 0.0;
+        for (std::size_t k = 0; k < pieces; ++k) {
+          const double w = dq * cuts[k].fraction / cuts[k].seconds;
           velocity_jump(drive, state[ju], w - w_prev[ju]);
-          propagate(drive, state[ju], w, dt);
+          propagate(drive, state[ju], w, cuts[k].seconds);
           w_prev[ju] = w;
         }
         pp.following[j] = state[ju].e;
@@ -104,10 +158,12 @@ Precompensation precompensate(const Path& path, const kin::Model& actual, const 
   std::vector<kin::JointVector> trial;
   const int n = path.joints;
   std::vector<kin::JointVector> shift(path.points.size(), kin::JointVector::Zero(n));
+  std::vector<bool> solved(path.points.size(), false);
   using Matrix6n = Eigen::Matrix<double, 6, Eigen::Dynamic, Eigen::ColMajor, 6, kin::kMaxJoints + 1>;
   for (int it = 1; it <= opt.max_iterations; ++it) {
     trial = r.commands;
     for (auto& d : shift) d.setZero(n);
+    std::fill(solved.begin(), solved.end(), false);
     for (const Run& run : path.runs)
       for (std::size_t i = run.begin; i < run.end; ++i) {
         const PathPoint& p = path.points[i];
@@ -152,6 +208,7 @@ Precompensation precompensate(const Path& path, const kin::Model& actual, const 
         const double cut = slide ? std::max(opt.rcond, 1e-3) : opt.rcond;
         normal.diagonal().array() += cut * cut * normal.diagonal().maxCoeff();
         shift[i] = normal.ldlt().solve(a.transpose() * rhs).head(n);
+        solved[i] = true;
       }
     // The shift is wanted in the actual joints; the drives lag the commands, so the commands take
     // the shift plus its own lag (the servo model inverted for a slowly varying shift:
@@ -159,11 +216,16 @@ Precompensation precompensate(const Path& path, const kin::Model& actual, const 
     if (opt.invert_lag)
       for (const Run& run : path.runs)
         for (std::size_t i = run.begin + 1; i + 1 < run.end; ++i) {
-          const double dt = path.points[i + 1].t - path.points[i - 1].t;
-          if (dt <= 0 || (shift[i].array() == 0).all()) continue;
+          if (!solved[i]) continue;
+          // Neighbours without a correction of their own (run ends, arc chord points) do not
+          // count: a one-sided difference there, not a kick toward zero.
+          const std::size_t lo = solved[i - 1] ? i - 1 : i;
+          const std::size_t hi = solved[i + 1] ? i + 1 : i;
+          const double dt = path.points[hi].t - path.points[lo].t;
+          if (dt <= 0) continue;
           for (int j = 0; j < n; ++j) {
             const Drive& dr = path.drives[static_cast<std::size_t>(j)];
-            trial[i][j] += dr.lag((shift[i + 1][j] - shift[i - 1][j]) / dt);
+            trial[i][j] += dr.lag((shift[hi][j] - shift[lo][j]) / dt);
           }
         }
     for (std::size_t i = 0; i < trial.size(); ++i) trial[i] += shift[i];

@@ -80,6 +80,9 @@ struct Path {
   std::uint64_t feed_moves = 0;          ///< moves on the path
   std::uint64_t arcs = 0;                ///< arcs taken as chords
   double duration = 0;                   ///< total time of the runs, s
+  /// F measures the combined rate of the program axes (machine file feed = combined-axes): a
+  /// move's time then follows its axis lengths, so corrected axis values change it.
+  bool combined_feed = false;
 };
 
 struct PathOptions {
