@@ -135,6 +135,7 @@ Prediction predict(const Path& path, const kin::Model& actual, const Reference& 
       const ContourError ce = ref.error(pose, i);
       if (!ce.converged) ++out.unconverged;
       pp.tip = pose.p;
+      pp.axis = pose.axis();
       pp.error = ce.vector;
       pp.tip_mm = ce.distance;
       pp.axis_rad = ce.angle;
@@ -176,9 +177,7 @@ Precompensation precompensate(const Path& path, const kin::Model& actual, const 
         const kin::JointVector qa = r.commands[i] - pp.following;
         const kin::Model& model = model_at(path, i, actual);
         const kin::Jacobian jac = model.jacobian(qa);
-        kin::Pose pose;
-        if (!model.forward(qa, pose).ok()) continue;
-        const Eigen::Vector3d o = pose.axis();
+        const Eigen::Vector3d& o = pp.axis;
         const Eigen::Matrix3d tilt = Eigen::Matrix3d::Identity() - o * o.transpose();
         // The actual pose is moved onto the intended pose at the foot: the tip by the normal error
         // vector (its tangential part is zero: the lag along the path stays), the tool axis by the

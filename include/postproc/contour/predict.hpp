@@ -33,6 +33,7 @@ namespace postproc::contour {
 struct PointPrediction {
   kin::JointVector following;                       ///< following error per joint, mm / degrees
   Eigen::Vector3d tip = Eigen::Vector3d::Zero();    ///< actual tool tip P′, mm
+  Eigen::Vector3d axis = Eigen::Vector3d::UnitZ();  ///< actual tool axis O′ (unit)
   Eigen::Vector3d error = Eigen::Vector3d::Zero();  ///< tool-tip contour error vector (foot − P′), mm
   double tip_mm = 0;                                ///< |error|, mm
   double axis_rad = 0;                              ///< tool-axis contour error angle, rad
