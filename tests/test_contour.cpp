@@ -8,6 +8,7 @@
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 
+#include "contour_support.hpp"
 #include "postproc/compensation/compensate.hpp"
 #include "postproc/contour/path.hpp"
 #include "postproc/contour/predict.hpp"
@@ -26,46 +27,7 @@ namespace comp = postproc::comp;
 constexpr double kKv = 30;                // 1/s
 constexpr double kSpeed = 2000.0 / 60.0;  // mm/s at F2000
 
-std::string mill(const std::string& axes_extra = "", const std::string& machine_extra = "") {
-  std::string s = R"([machine]
-name = "contour test mill"
-dialect = "fanuc"
-integer_input = "calculator"
-model = "serial"
-)" + machine_extra + R"(
-[tool]
-length = "100 mm"
-
-[work_offsets]
-G54 = { X = 0, Y = 0, Z = 0 }
-
-[serial]
-spindle_point = [0, 0, 0]
-
-[[serial.tool_side]]
-axis = "X"
-type = "linear"
-direction = [1, 0, 0]
-min = -1000
-max = 1000
-
-[[serial.tool_side]]
-axis = "Y"
-type = "linear"
-direction = [0, 1, 0]
-min = -1000
-max = 1000
-
-[[serial.tool_side]]
-axis = "Z"
-type = "linear"
-direction = [0, 0, 1]
-min = -1000
-max = 1000
-)";
-  for (const char* a : {"X", "Y", "Z"}) s += fmt::format("[axes.{}]\ndecimals = 4\nkv = \"30 1/s\"\n{}", a, axes_extra);
-  return s;
-}
+std::string mill(const std::string& axes_extra = "") { return pptest::mill3_toml(axes_extra); }
 
 mc::Machine load(const std::string& text) {
   gc::DiagnosticSink sink;

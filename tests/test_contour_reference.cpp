@@ -13,6 +13,7 @@
 
 #include <Eigen/Geometry>
 
+#include "contour_support.hpp"
 #include "postproc/compensation/program_map.hpp"
 #include "postproc/contour/path.hpp"
 #include "postproc/contour/reference.hpp"
@@ -28,113 +29,11 @@ namespace gc = postproc::gcode;
 
 constexpr double kPi = kin::kPi;
 
-/// A 3-axis XYZ mill (tool length 100 mm), Kv = 30 1/s on every axis.
-const std::string kMill = R"([machine]
-name = "contour test mill"
-dialect = "fanuc"
-model = "serial"
-
-[tool]
-length = "100 mm"
-
-[serial]
-spindle_point = [0, 0, 0]
-
-[[serial.tool_side]]
-axis = "X"
-type = "linear"
-direction = [1, 0, 0]
-min = -1000
-max = 1000
-
-[[serial.tool_side]]
-axis = "Y"
-type = "linear"
-direction = [0, 1, 0]
-min = -1000
-max = 1000
-
-[[serial.tool_side]]
-axis = "Z"
-type = "linear"
-direction = [0, 0, 1]
-min = -1000
-max = 1000
-
-[axes.X]
-kv = "30 1/s"
-[axes.Y]
-kv = "30 1/s"
-[axes.Z]
-kv = "30 1/s"
-)";
-
-const mc::Machine& mill() {
-  static const mc::Machine m = [] {
-    gc::DiagnosticSink sink;
-    auto parsed = mc::parse_machine("mill.toml", kMill, sink);
-    for (const auto& d : sink.stored()) ADD_FAILURE() << gc::format(d);
-    if (!parsed) throw std::runtime_error("test machine does not parse");
-    return std::move(*parsed);
-  }();
-  return m;
-}
-
-/// Starts an empty axis-form path on the mill.
-ct::Path empty_path(const mc::Machine& m) {
-  ct::Path p;
-  p.joints = m.actual->joint_count();
-  p.period = 0.001;
-  std::string why;
-  auto drives = ct::joint_drives(m, why);
-  EXPECT_TRUE(drives.has_value()) << why;
-  if (drives) p.drives = *drives;
-  p.maps.emplace_back(m, m.nominal, m.actual, postproc::comp::Form::axes, gc::AxisVector::Zero(), false, 0.0);
-  return p;
-}
-
-/// Appends a run through joint positions `qs` at constant speed `v` (mm/s), times continuing
-/// from the path's duration.
-void add_run(ct::Path& p, const std::vector<kin::JointVector>& qs, double v) {
-  const std::size_t begin = p.points.size();
-  double t = p.duration;
-  for (std::size_t k = 0; k < qs.size(); ++k) {
-    ct::PathPoint pt;
-    pt.q = qs[k];
-    pt.line = p.points.size() + 1;
-    pt.run_start = k == 0;
-    ct::SegmentProfile s;
-    if (k > 0) {
-      s.length = (qs[k] - qs[k - 1]).norm();
-      s.v_cruise = s.v_start = s.v_end = v;
-      s.accel = 1e12;
-      s.duration = s.length / v;
-      t += s.duration;
-      pt.speed = k + 1 < qs.size() ? v : 0;
-    }
-    pt.t = t;
-    p.points.push_back(pt);
-    p.segments.push_back(s);
-  }
-  p.runs.push_back(ct::Run{begin, p.points.size()});
-  p.duration = t;
-}
-
-kin::JointVector xyz(double x, double y, double z) {
-  kin::JointVector q(3);
-  q << x, y, z;
-  return q;
-}
-
-/// Joint positions of a full circle of radius r (mm) about `centre` in the XY plane, n chords.
-std::vector<kin::JointVector> circle(const Eigen::Vector3d& centre, double r, int n) {
-  std::vector<kin::JointVector> qs;
-  for (int i = 0; i <= n; ++i) {
-    const double a = 2 * kPi * i / n;
-    qs.push_back(xyz(centre.x() + r * std::cos(a), centre.y() + r * std::sin(a), centre.z()));
-  }
-  return qs;
-}
+using pptest::add_run;
+using pptest::circle;
+using pptest::empty_path;
+using pptest::mill;
+using pptest::xyz;
 
 constexpr double kRadius = 50;
 constexpr int kChords = 3600;

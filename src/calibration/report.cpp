@@ -1,5 +1,6 @@
 // Calibration reports, JSON and self-contained HTML (see report.hpp).
 #include "postproc/calibration/report.hpp"
+#include "src/io/html.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -59,19 +60,7 @@ std::string status_of(const CalibrationRun& run, int k) {
   return "fixed";
 }
 
-std::string html_escape(std::string_view s) {
-  std::string o;
-  for (char c : s) {
-    switch (c) {
-      case '<': o += "&lt;"; break;
-      case '>': o += "&gt;"; break;
-      case '&': o += "&amp;"; break;
-      case '"': o += "&quot;"; break;
-      default: o += c;
-    }
-  }
-  return o;
-}
+using io::html_escape;
 
 /// Value in the unit people read: µm for mm parameters, arcsec for rad ones.
 std::string human(const kin::Parameter& p, double v) {

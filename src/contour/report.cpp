@@ -14,6 +14,7 @@
 #include <nlohmann/json.hpp>
 
 #include "postproc/error.hpp"
+#include "src/io/html.hpp"
 
 namespace postproc::contour {
 namespace {
@@ -70,21 +71,7 @@ const PointPrediction* at(const Prediction* pr, std::size_t i) {
 /// The intended tool tip nearest the actual one: the foot point C(u*) = P′ + error.
 Eigen::Vector3d intended_tip(const PointPrediction& p) { return p.tip + p.error; }
 
-std::string html_escape(std::string_view s) {
-  std::string o;
-  o.reserve(s.size());
-  for (char c : s) {
-    switch (c) {
-      case '<': o += "&lt;"; break;
-      case '>': o += "&gt;"; break;
-      case '&': o += "&amp;"; break;
-      case '"': o += "&quot;"; break;
-      case '\'': o += "&#39;"; break;
-      default: o += c;
-    }
-  }
-  return o;
-}
+using io::html_escape;
 
 std::string csv_field(std::string_view s) {
   if (s.find_first_of(",\"\n\r") == std::string_view::npos) return std::string(s);
