@@ -276,17 +276,7 @@ class Builder final : public gcode::BlockVisitor {
         return;
       }
       q_ = q;
-      PathPoint p;
-      p.q = q;
-      p.command = start;
-      p.line = b.line;
-      p.column = mo.column;
-      p.motion = static_cast<std::uint32_t>(p_.motions - 1);
-      p.map = static_cast<std::uint32_t>(mi);
-      p.block_end = false;
-      p.run_start = true;
-      p_.points.push_back(p);
-      p_.segments.emplace_back();
+      push_point(b, mo, mi, start, q, false, true, SegmentProfile{});
       run_begin_ = p_.points.size() - 1;
       in_run_ = true;
       prev_cmd_ = start;
@@ -344,6 +334,15 @@ class Builder final : public gcode::BlockVisitor {
     }
     s.v_cruise = v;
     s.accel = accel;
+    push_point(b, mo, mi, c, q, block_end && !arc, false, s);
+    q_ = q;
+    prev_cmd_ = c;
+  }
+
+  /// A point of the block's motion (the block's single motion is the last one counted) with the
+  /// profile of the segment ending there.
+  void push_point(const gcode::Block& b, const Motion& mo, int mi, const comp::Command& c, const kin::JointVector& q,
+                  bool block_end, bool run_start, const SegmentProfile& s) {
     PathPoint p;
     p.q = q;
     p.command = c;
@@ -351,11 +350,10 @@ class Builder final : public gcode::BlockVisitor {
     p.column = mo.column;
     p.motion = static_cast<std::uint32_t>(p_.motions - 1);
     p.map = static_cast<std::uint32_t>(mi);
-    p.block_end = block_end && !arc;
+    p.block_end = block_end;
+    p.run_start = run_start;
     p_.points.push_back(p);
     p_.segments.push_back(s);
-    q_ = q;
-    prev_cmd_ = c;
   }
 
   /// Look-ahead over the finished run: junction speeds (corner slow-down), backward and forward
