@@ -8,6 +8,7 @@
 
 #include "common.hpp"
 #include "postproc/compensation/compensate.hpp"
+#include "postproc/contour/report.hpp"
 #include "postproc/io/input_file.hpp"
 #include "postproc/machine/machine.hpp"
 
@@ -19,6 +20,7 @@ struct CompensateArgs {
   std::string output;
   std::string machine;
   std::string report;
+  std::string html;
   std::string mode = "geometric";
   std::string integer_input;
   double max_deviation_um = 1.0;
@@ -115,6 +117,9 @@ void setup_compensate(CLI::App& app, int& rc) {
   cmd->add_option("-m,--machine", o->machine, "machine file (TOML, docs/machine-file.md)")->required();
   cmd->add_option("-o,--output", o->output, "output file ('-' = stdout)")->required();
   cmd->add_option("--report", o->report, "write a JSON report of the run here");
+  cmd->add_option("--html", o->html,
+                  "contour modes: write a self-contained HTML report of the predicted contour errors before and "
+                  "after compensation here");
   cmd->add_option("--mode", o->mode,
                   "geometric: the calibrated machine's errors; contour: the servo contour errors (precompensation "
                   "from the drives in the machine file); all: geometric, then contour")
@@ -137,6 +142,8 @@ void setup_compensate(CLI::App& app, int& rc) {
   cmd->add_flag("--in-place", o->in_place, "allow -o to name the input (a .bak backup is kept)");
   cmd->add_option("--max-per-code", o->max_per_code, "show at most this many diagnostics per code")->capture_default_str();
   cmd->callback([o, &rc] {
+    if (!o->html.empty() && o->mode == "geometric")
+      throw Error(ExitCode::usage, "--html shows contour errors: use it with --mode contour or --mode all");
     if (!(o->max_deviation_um > 0) || !std::isfinite(o->max_deviation_um))
       throw Error(ExitCode::usage, "--max-deviation must be a positive number of µm, e.g. 1");
     if (!(o->max_angle_arcsec > 0) || !std::isfinite(o->max_angle_arcsec))
@@ -200,6 +207,22 @@ void setup_compensate(CLI::App& app, int& rc) {
     if (!o->report.empty()) {
       io::OutputFile rep(o->report, o->input, false);
       rep.write(report_json(*o, *machine, r, contour, seconds, ok, sink).dump(2) + "\n");
+      rep.commit();
+    }
+    if (!o->html.empty() && ok) {
+      contour::ContourReport cr;
+      cr.title = fmt::format("compensate --mode {} {}", o->mode, o->input);
+      cr.program = o->input;
+      cr.machine_file = machine->file;
+      cr.machine_sha256 = machine->sha256;
+      cr.tool_version = POSTPROC_VERSION;
+      cr.path = &contour.path;
+      cr.before = &contour.result.before;
+      cr.after = &contour.result.after;
+      cr.compensation = &contour.result;
+      cr.fit_residual_mm = r.fit_residual_mm;
+      io::OutputFile rep(o->html, o->input, false);
+      rep.write(contour::report_html(cr));
       rep.commit();
     }
     if (!ok) {

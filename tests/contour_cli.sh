@@ -36,9 +36,12 @@ check_sample() {  # name program machine
   fit=$(json_top "$T/$name.json" fit_residual_um)
   le_frac "$fit" 0.1 1 || fail "$name: NURBS fit residual $fit µm > 0.1 µm"
 
-  "$P" compensate "$prog" -m "$mach" --mode contour -o "$T/$name.c" --report "$T/$name.report.json" 2> "$T/$name.c.err" ||
+  "$P" compensate "$prog" -m "$mach" --mode contour -o "$T/$name.c" --report "$T/$name.report.json" \
+    --html "$T/$name.c.html" 2> "$T/$name.c.err" ||
     { fail "$name: compensate --mode contour failed: $(cat "$T/$name.c.err")"; return; }
   grep -q 'compensate mode=contour' "$T/$name.c" || fail "$name: no header naming the mode"
+  grep -q '<svg' "$T/$name.c.html" || fail "$name: no plot in the compensate HTML report"
+  grep -q '"history_tip_um"' "$T/$name.report.json" || fail "$name: no iteration history in the report"
   # Comment lines and the program end are copied byte for byte.
   diff <(grep '^(' "$prog") <(grep '^(' "$T/$name.c" | grep -v 'compensate mode=') > /dev/null ||
     fail "$name: comment lines changed"

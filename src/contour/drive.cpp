@@ -1,6 +1,7 @@
 // Servo drive model (see drive.hpp).
 #include "postproc/contour/drive.hpp"
 
+#include <array>
 #include <cmath>
 
 #include <unsupported/Eigen/MatrixFunctions>
@@ -17,6 +18,49 @@ std::optional<Drive> drive_of(const machine::AxisSettings& s) {
   return d;
 }
 
+namespace {
+
+/// The loop's transition over one period depends only on Kv, T and dt: a few drives, one period,
+/// so a small per-thread cache saves the matrix exponential on almost every step.
+struct Transition {
+  double kv = -1, t = -1, dt = -1;
+  Eigen::Matrix4d m4 = Eigen::Matrix4d::Zero();
+  Eigen::Matrix3d m3 = Eigen::Matrix3d::Zero();
+};
+
+const Transition& transition(const Drive& d, double dt) {
+  thread_local std::array<Transition, 8> cache;
+  thread_local std::size_t next = 0;
+  for (const Transition& c : cache)
+    if (c.kv == d.kv && c.t == d.velocity_loop_time && c.dt == dt) return c;
+  Transition& c = cache[next];
+  next = (next + 1) % cache.size();
+  c.kv = d.kv;
+  c.t = d.velocity_loop_time;
+  c.dt = dt;
+  const double t = d.velocity_loop_time;
+  if (t > 0) {
+    // State (y, ẏ, w, ẇ): T·ÿ + ẏ = w − Kv·y with the forcing w linear in time.
+    Eigen::Matrix4d m = Eigen::Matrix4d::Zero();
+    m(0, 1) = 1;
+    m(1, 0) = -d.kv / t;
+    m(1, 1) = -1 / t;
+    m(1, 2) = 1 / t;
+    m(2, 3) = 1;
+    c.m4 = (m * dt).exp();
+  } else {
+    // Ideal velocity loop: ẏ = w − Kv·y.
+    Eigen::Matrix3d m = Eigen::Matrix3d::Zero();
+    m(0, 0) = -d.kv;
+    m(0, 1) = 1;
+    m(1, 2) = 1;
+    c.m3 = (m * dt).exp();
+  }
+  return c;
+}
+
+}  // namespace
+
 void step(const Drive& d, DriveState& s, double r0, double r1, double a, double dt) {
   const double rdot = (r1 - r0) / dt;
   const double t = d.velocity_loop_time;
@@ -24,24 +68,13 @@ void step(const Drive& d, DriveState& s, double r0, double r1, double a, double 
   // joins the state as (w, ẇ) and the whole step is one matrix exponential.
   const double w0 = d.kv * r0 + d.feed_forward * rdot + d.acceleration_feed_forward * t * a;
   const double w1 = d.kv * rdot;
+  const Transition& tr = transition(d, dt);
   if (t > 0) {
-    Eigen::Matrix4d m = Eigen::Matrix4d::Zero();
-    m(0, 1) = 1;
-    m(1, 0) = -d.kv / t;
-    m(1, 1) = -1 / t;
-    m(1, 2) = 1 / t;
-    m(2, 3) = 1;
-    const Eigen::Matrix4d e = (m * dt).exp();
-    const Eigen::Vector4d z = e * Eigen::Vector4d(s.y, s.v, w0, w1);
+    const Eigen::Vector4d z = tr.m4 * Eigen::Vector4d(s.y, s.v, w0, w1);
     s.y = z[0];
     s.v = z[1];
   } else {
-    // Ideal velocity loop: ẏ = w − Kv·y.
-    Eigen::Matrix3d m = Eigen::Matrix3d::Zero();
-    m(0, 0) = -d.kv;
-    m(0, 1) = 1;
-    m(1, 2) = 1;
-    const Eigen::Vector3d z = (m * dt).exp() * Eigen::Vector3d(s.y, w0, w1);
+    const Eigen::Vector3d z = tr.m3 * Eigen::Vector3d(s.y, w0, w1);
     s.y = z[0];
     s.v = z[1] - d.kv * s.y;
   }
