@@ -245,12 +245,15 @@ class Builder final : public gcode::BlockVisitor {
     if ((mo.known & need) != need) {
       end_run();
       std::string names;
+      int count = 0;
       for (int a = 0; a < gcode::kAxisCount; ++a)
-        if (((need & ~mo.known) >> a) & 1u) names += gcode::kAxisLetters[static_cast<std::size_t>(a)];
+        if (((need & ~mo.known) >> a) & 1u) {
+          names += (count++ ? ", " : "") + std::string(1, gcode::kAxisLetters[static_cast<std::size_t>(a)]);
+        }
       error(b, mo, kUnknownStart,
-            fmt::format("the position of axis {} is not known at this feed move (no earlier block sets it), so its "
+            fmt::format("the position of {} {} is not known at this feed move (no earlier block sets it), so its "
                         "path cannot be predicted; program {} before it",
-                        names, names));
+                        count > 1 ? "axes" : "axis", names, names));
       note_position(mo);
       return;
     }
