@@ -231,14 +231,22 @@ void setup_compensate(CLI::App& app, int& rc) {
       return;
     }
     out.commit();
-    std::fputs(fmt::format("postproc: {} blocks, {} moves, {} blocks changed ({} words changed, {} inserted), {} moves "
-                           "subdivided, {} arcs kept, {} linearised (+{} lines); largest correction {:.4f} mm / {:.5f} deg; error "
-                           "before {:.4f} mm (line {}), predicted residual after {:.5f} mm\n",
-                           r.blocks, r.motions, r.changed_blocks, r.words_changed, r.words_inserted,
-                           r.subdivided_blocks, r.arcs_kept, r.arcs_linearized, r.segments_added, r.max_correction_mm,
-                           r.max_correction_deg, r.max_error_before_mm, r.worst_line, r.max_residual_mm)
-                   .c_str(),
-               stderr);
+    if (o->mode == "contour")
+      std::fputs(fmt::format("postproc: {} blocks, {} moves, {} blocks changed ({} words changed, {} inserted); largest "
+                             "correction {:.4f} mm / {:.5f} deg\n",
+                             r.blocks, r.motions, r.changed_blocks, r.words_changed, r.words_inserted,
+                             r.max_correction_mm, r.max_correction_deg)
+                     .c_str(),
+                 stderr);
+    else
+      std::fputs(fmt::format("postproc: {} blocks, {} moves, {} blocks changed ({} words changed, {} inserted), {} moves "
+                             "subdivided, {} arcs kept, {} linearised (+{} lines); largest correction {:.4f} mm / {:.5f} "
+                             "deg; error before {:.4f} mm (line {}), predicted residual after {:.5f} mm\n",
+                             r.blocks, r.motions, r.changed_blocks, r.words_changed, r.words_inserted,
+                             r.subdivided_blocks, r.arcs_kept, r.arcs_linearized, r.segments_added, r.max_correction_mm,
+                             r.max_correction_deg, r.max_error_before_mm, r.worst_line, r.max_residual_mm)
+                     .c_str(),
+                 stderr);
     if (servo)
       std::fputs(fmt::format("postproc: contour: predicted tool-tip contour error {:.3f} → {:.3f} µm (worst before: line "
                              "{}), tool-axis {:.2f} → {:.2f} arcsec, {} iterations{}; NURBS fit residual {:.4f} µm\n",

@@ -231,4 +231,23 @@ TEST(ContourCompensate, StraightLinesAreLeftAlone) {
   EXPECT_EQ(out.substr(out.find('\n') + 1), prog);
 }
 
+TEST(ContourCompensate, ArcsAreWrittenAsTheyAreWithAWarning) {
+  const mc::Machine m = load(mill());
+  std::string prog = "G90 G17 G54\nG0 X20. Y0 Z0\n";
+  for (int i = 1; i <= 90; ++i)
+    prog += fmt::format("G1 X{:.4f} Y{:.4f}{}\n", 20 * std::cos(i * kin::kPi / 180), 20 * std::sin(i * kin::kPi / 180),
+                        i == 1 ? " F2000" : "");
+  prog += "G3 X-20. Y0 I0 J-20.\nM30\n";
+  gc::DiagnosticSink sink;
+  comp::CompensateResult r;
+  const std::string out = contour_compensate(prog, m, r, sink);
+  ASSERT_FALSE(sink.has_errors());
+  bool warned = false;
+  for (const auto& d : sink.stored())
+    if (d.code == "PP-W611") warned = d.where.line == 93;
+  EXPECT_TRUE(warned);
+  EXPECT_NE(out.find("\nG3 X-20. Y0 I0 J-20.\n"), std::string::npos);
+  EXPECT_GT(r.changed_blocks, 50u);  // the G1 points are corrected
+}
+
 }  // namespace

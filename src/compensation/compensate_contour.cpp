@@ -48,6 +48,13 @@ class ContourWriter final : public gcode::BlockVisitor {
         } else {
           written_ = mo.end;
           written_known_ = mo.known;
+          if ((mo.type == gcode::MotionType::arc_cw || mo.type == gcode::MotionType::arc_ccw) && !arc_noted_) {
+            arc_noted_ = true;
+            const gcode::Span sp{mo.column > 0 ? mo.column - 1 : 0, mo.column > 0 ? mo.column : 1};
+            gcode::report_at(gcode::LexContext{file_, &sink_}, b, sp, gcode::Severity::warning, "PP-W611",
+                             "arcs are predicted (as chords) but written as they are, without contour correction; "
+                             "linearise them first (postproc convert --linearize TOL) to have them corrected");
+          }
         }
       }
       if (track_.has(gcode::GMeaning::home_return) || track_.has(gcode::GMeaning::work_offset) ||
@@ -127,6 +134,7 @@ class ContourWriter final : public gcode::BlockVisitor {
   gcode::AxisVector written_;
   gcode::AxisMask written_known_ = 0;
   bool header_done_ = false;
+  bool arc_noted_ = false;  ///< PP-W611 given (once per program)
   std::string eol_ = "\n";
   std::string line_, buffer_;
 };

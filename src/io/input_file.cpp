@@ -2,6 +2,7 @@
 #include "postproc/io/input_file.hpp"
 
 #include <fstream>
+#include <iostream>
 #include <sstream>
 
 #include <fmt/format.h>
@@ -11,6 +12,12 @@
 namespace postproc::io {
 
 std::string read_file(const std::string& path, std::string_view what) {
+  if (path == "-") {  // standard input, as every command reads "-"
+    std::ostringstream s;
+    s << std::cin.rdbuf();
+    if (std::cin.bad()) throw Error(ExitCode::no_input, fmt::format("<stdin>: cannot read the {}", what));
+    return s.str();
+  }
   std::ifstream in(path, std::ios::binary);
   if (!in) throw Error(ExitCode::no_input, fmt::format("{}: cannot open the {}", path, what));
   std::ostringstream s;
