@@ -33,7 +33,6 @@ Slide slide_at(const Reference& ref, const Run& run, std::size_t i) {
   return s;
 }
 
-
 /// One piece of a segment's speed profile: its duration and the share of the segment covered.
 struct Piece {
   double seconds = 0;
@@ -45,6 +44,7 @@ struct Piece {
 /// cruise as one. Returns the number of pieces written to `out` (≤ 5).
 std::size_t profile_pieces(const SegmentProfile& s, double dt, std::array<Piece, 5>& out) {
   const double A = s.accel;
+  // No acceleration limit (path.cpp gives such moves 1e12 mm/s²): one piece at the mean speed.
   if (!(s.length > 0) || !(A > 0) || !std::isfinite(A) || A >= 1e11) {
     out[0] = {dt, 1.0};
     return 1;
