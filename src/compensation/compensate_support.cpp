@@ -39,6 +39,34 @@ double program_units(int a, double v, const Motion& m) {
   return v;
 }
 
+std::optional<ProgramMap> map_of(const machine::Machine& m, ToolLengthModels& models, const gcode::Motion& mo) {
+  const auto offset = program_offset(m, mo);
+  if (!offset) return std::nullopt;
+  double length = m.tool_length;
+  if (mo.tool_length_active && mo.tool_length_h != 0) {
+    const auto it = m.tool_lengths.find(mo.tool_length_h);
+    if (it == m.tool_lengths.end()) return std::nullopt;
+    length = it->second;
+  }
+  const Form f = form_of(m, mo);
+  const auto& [nom, act] = models.with_tool_length(length);
+  return ProgramMap(m, nom, act, f, *offset, f == Form::axes && mo.tool_length_active, length);
+}
+
+void MotionCollector::block(const gcode::Block& b, std::span<const gcode::Motion> motions, bool) {
+  track_.update(b);
+  if (motions.size() != 1) return;
+  gcode::Motion m = motions.front();
+  if (m.tool_vector_known) {
+    vector_ = m.tool_vector;
+    known_ = true;
+  } else if (known_) {
+    m.tool_vector = vector_;
+    m.tool_vector_known = true;
+  }
+  by_line[b.line] = CollectedMotion{m, track_.has(gcode::GMeaning::home_return)};
+}
+
 bool header_waits(const gcode::Block& b) {
   bool leading = b.leader || b.raw.empty();
   for (const gcode::Token& t : b.tokens)

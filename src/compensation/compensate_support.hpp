@@ -2,11 +2,14 @@
 // compensate: the models per tool length, and the writer of corrected axis / tool-vector words.
 #include <cstdint>
 #include <map>
+#include <optional>
+#include <span>
 #include <string>
 #include <utility>
 
 #include "postproc/compensation/program_map.hpp"
 #include "postproc/gcode/block_writer.hpp"
+#include "postproc/gcode/program.hpp"
 #include "postproc/machine/machine.hpp"
 #include "src/gcode/convert_support.hpp"
 
@@ -33,6 +36,31 @@ class ToolLengthModels {
  private:
   const machine::Machine& m_;
   std::map<double, std::pair<kin::ModelPtr, kin::ModelPtr>> cache_;
+};
+
+/// The controller map of a motion's context (form, work offset + shifts, tool length); nullopt
+/// when the machine file lacks the work offset or the tool length. For checks and comparisons;
+/// compensate itself reports what is missing.
+[[nodiscard]] std::optional<ProgramMap> map_of(const machine::Machine& m, ToolLengthModels& models,
+                                               const gcode::Motion& mo);
+
+/// One block's single motion as read back (tool vector carried modally).
+struct CollectedMotion {
+  gcode::Motion motion;
+  bool reference = false;  ///< a G28/G30 block
+};
+
+/// The single motion of every line of a program (blocks with several motions are skipped).
+class MotionCollector final : public gcode::BlockVisitor {
+ public:
+  explicit MotionCollector(const gcode::Dialect& d) : track_(d) {}
+  void block(const gcode::Block& b, std::span<const gcode::Motion> motions, bool) override;
+  std::map<std::uint64_t, CollectedMotion> by_line;
+
+ private:
+  gcode::ModalTrack track_;
+  Eigen::Vector3d vector_ = Eigen::Vector3d::UnitZ();
+  bool known_ = false;
 };
 
 /// Writes corrected values into a block's words, in each word's own style, at no fewer decimals

@@ -3,64 +3,16 @@
 #include "postproc/compensation/verify.hpp"
 
 #include <cmath>
-#include <map>
 
 #include "postproc/compensation/program_map.hpp"
 #include "postproc/gcode/program.hpp"
 #include "src/compensation/compensate_support.hpp"
 
 namespace postproc::comp {
-namespace {
-
-struct Collected {
-  gcode::Motion motion;
-  bool reference = false;  ///< a G28/G30 block
-};
-
-/// The last single motion of every line.
-class Collector final : public gcode::BlockVisitor {
- public:
-  explicit Collector(const gcode::Dialect& d) : track_(d) {}
-  void block(const gcode::Block& b, std::span<const gcode::Motion> motions, bool) override {
-    track_.update(b);
-    if (motions.size() != 1) return;
-    gcode::Motion m = motions.front();
-    if (m.tool_vector_known) {
-      vector_ = m.tool_vector;
-      known_ = true;
-    } else if (known_) {
-      m.tool_vector = vector_;
-      m.tool_vector_known = true;
-    }
-    by_line[b.line] = Collected{m, track_.has(gcode::GMeaning::home_return)};
-  }
-  std::map<std::uint64_t, Collected> by_line;
-
- private:
-  gcode::ModalTrack track_;
-  Eigen::Vector3d vector_ = Eigen::Vector3d::UnitZ();
-  bool known_ = false;
-};
-
-std::optional<ProgramMap> map_of(const machine::Machine& m, ToolLengthModels& models, const gcode::Motion& mo) {
-  const auto offset = program_offset(m, mo);
-  if (!offset) return std::nullopt;
-  double length = m.tool_length;
-  if (mo.tool_length_active && mo.tool_length_h != 0) {
-    const auto it = m.tool_lengths.find(mo.tool_length_h);
-    if (it == m.tool_lengths.end()) return std::nullopt;
-    length = it->second;
-  }
-  const Form f = form_of(m, mo);
-  const auto& [nom, act] = models.with_tool_length(length);
-  return ProgramMap(m, nom, act, f, *offset, f == Form::axes && mo.tool_length_active, length);
-}
-
-}  // namespace
 
 VerifyResult verify(std::string_view original, std::string_view corrected, const std::vector<std::uint64_t>& line_map,
                     const gcode::Dialect& d, const machine::Machine& m) {
-  Collector orig(d), corr(d);
+  MotionCollector orig(d), corr(d);
   gcode::DiagnosticSink quiet(0);
   {
     gcode::LineReader r{original};
@@ -71,7 +23,7 @@ VerifyResult verify(std::string_view original, std::string_view corrected, const
     gcode::run_program(r, d, "corrected", quiet, corr);
   }
   // Original line → the last corrected motion among the lines that came from it.
-  std::map<std::uint64_t, const Collected*> last;
+  std::map<std::uint64_t, const CollectedMotion*> last;
   for (const auto& [line, c] : corr.by_line)
     if (line >= 1 && line <= line_map.size() && line_map[line - 1] != 0) last[line_map[line - 1]] = &c;
 
