@@ -79,6 +79,22 @@ else
   fail "compensate --mode all failed"
 fi
 
+# diff (issue 7): the compensated cone against the original, paired by block; --fail-above decides
+# the exit code.
+if "$P" diff "$S/cone_frustum_nas979.nc" "$T/cone.c" -m "$M/trunnion_ac_fanuc.toml" --json "$T/diff.json" \
+     --csv "$T/diff.csv" 2> "$T/diff.err"; then
+  grep -q '"aligned": "by block"' "$T/diff.json" || fail "diff: not aligned by block"
+  dmax=$(json_in "$T/diff.json" deviation max_um)
+  awk -v a="$dmax" 'BEGIN {exit !(a > 1 && a < 20)}' || fail "diff: max tool-tip change $dmax µm outside 1 … 20 µm"
+  [[ $(wc -l < "$T/diff.csv") -gt 1600 ]] || fail "diff: CSV too short"
+else
+  fail "diff failed: $(cat "$T/diff.err")"
+fi
+"$P" diff "$S/cone_frustum_nas979.nc" "$T/cone.c" -m "$M/trunnion_ac_fanuc.toml" --fail-above 0.5 2> /dev/null
+[[ $? -eq 1 ]] || fail "diff --fail-above 0.5: exit code is not 1"
+"$P" diff "$S/cone_frustum_nas979.nc" "$T/cone.c" -m "$M/trunnion_ac_fanuc.toml" --fail-above 1000 2> /dev/null ||
+  fail "diff --fail-above 1000: exit code is not 0"
+
 # Refusals: a feed move without F, a machine without servo data; nothing written.
 printf 'G90 G54\nG0 X0 Y0 Z0 A0 C0\nG1 X10.\nM30\n' > "$T/nofeed.nc"
 "$P" predict "$T/nofeed.nc" -m "$M/trunnion_ac_fanuc.toml" 2> "$T/nofeed.err"

@@ -1,0 +1,113 @@
+// postproc diff: the motions of two programs paired by block or by path, their axis deltas and
+// (with a machine) the distance between their intended tool poses.
+#include "postproc/compensation/diff.hpp"
+
+#include <cmath>
+
+#include "postproc/gcode/program.hpp"
+#include "src/compensation/compensate_support.hpp"
+
+namespace postproc::comp {
+namespace {
+
+std::vector<const CollectedMotion*> motions_of(std::string_view text, std::string_view file, const gcode::Dialect& d,
+                                               gcode::DiagnosticSink& sink, MotionCollector& c) {
+  gcode::LineReader in{text};
+  gcode::run_program(in, d, file, sink, c);
+  std::vector<const CollectedMotion*> out;
+  out.reserve(c.by_line.size());
+  for (const auto& [line, m] : c.by_line) out.push_back(&m);
+  return out;
+}
+
+double end_distance(const gcode::Motion& a, const gcode::Motion& b) {
+  const gcode::AxisMask both = a.known & b.known;
+  double s = 0;
+  for (int k = 0; k < gcode::kAxisCount; ++k)
+    if ((both >> k) & 1u) s += (a.end[k] - b.end[k]) * (a.end[k] - b.end[k]);
+  return std::sqrt(s);
+}
+
+/// How far past the best candidate the by-path search looks before it stops, in motions (a
+/// subdivided move or a linearised arc adds at most 4096 lines).
+constexpr std::size_t kLookAhead = 4200;
+
+}  // namespace
+
+DiffResult diff(std::string_view original, std::string_view corrected, std::string_view file_original,
+                std::string_view file_corrected, const gcode::Dialect& d, const machine::Machine* m,
+                gcode::DiagnosticSink& sink) {
+  MotionCollector ca(d), cb(d);
+  const auto a = motions_of(original, file_original, d, sink, ca);
+  const auto b = motions_of(corrected, file_corrected, d, sink, cb);
+  DiffResult r;
+  r.motions_original = a.size();
+  r.motions_corrected = b.size();
+  r.by_block = a.size() == b.size();
+  std::optional<ToolLengthModels> models;
+  if (m != nullptr) models.emplace(*m);
+  kin::JointVector start;
+  if (m != nullptr) start = kin::JointVector::Zero(m->nominal->joint_count());
+  std::vector<double> dev, ang;
+  std::size_t next = 0;  // first corrected motion not yet paired
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    const gcode::Motion& ma = a[i]->motion;
+    std::size_t j = i;
+    if (!r.by_block) {
+      // By path: the nearest end point among the following corrected motions.
+      if (next >= b.size()) {
+        ++r.unmatched;
+        continue;
+      }
+      j = next;
+      double best = end_distance(ma, b[next]->motion);
+      for (std::size_t k = next + 1; k < b.size() && k < j + kLookAhead; ++k) {
+        const double dk = end_distance(ma, b[k]->motion);
+        if (dk < best) {
+          best = dk;
+          j = k;
+        }
+      }
+    }
+    next = j + 1;
+    const gcode::Motion& mb = b[j]->motion;
+    BlockDiff bd;
+    bd.line_original = ma.line;
+    bd.line_corrected = mb.line;
+    bd.axes = static_cast<gcode::AxisMask>(ma.known & mb.known);
+    double lin = 0;
+    for (int k = 0; k < gcode::kAxisCount; ++k) {
+      if (!((bd.axes >> k) & 1u)) continue;
+      bd.delta[k] = mb.end[k] - ma.end[k];
+      if (gcode::is_rotary(k)) bd.rotary_deg = std::max(bd.rotary_deg, std::abs(bd.delta[k]));
+      else lin += bd.delta[k] * bd.delta[k];
+    }
+    bd.linear_mm = std::sqrt(lin);
+    bd.deviation_mm = bd.linear_mm;
+    if (bd.linear_mm > 1e-9 || bd.rotary_deg > 1e-9) ++r.changed;
+    if (m != nullptr && !a[i]->reference && !b[j]->reference) {
+      const auto map_a = map_of(*m, *models, ma);
+      const auto map_b = map_of(*m, *models, mb);
+      const gcode::AxisMask need_a = map_a ? written_axes(*m, map_a->form()) : 0;
+      const gcode::AxisMask need_b = map_b ? written_axes(*m, map_b->form()) : 0;
+      kin::Pose pa, pb;
+      kin::JointVector qa, qb;
+      if (map_a && map_b && (ma.known & need_a) == need_a && (mb.known & need_b) == need_b &&
+          map_a->intended(Command{ma.end, ma.tool_vector}, start, pa, qa).ok() &&
+          map_b->intended(Command{mb.end, mb.tool_vector}, start, pb, qb).ok()) {
+        bd.tip_mm = (pb.p - pa.p).norm();
+        bd.axis_rad = std::atan2(pa.axis().cross(pb.axis()).norm(), pa.axis().dot(pb.axis()));
+        bd.deviation_mm = bd.tip_mm;
+        start = qa;
+      }
+    }
+    if (m != nullptr) ang.push_back(std::isnan(bd.axis_rad) ? 0.0 : bd.axis_rad);
+    dev.push_back(bd.deviation_mm);
+    r.blocks.push_back(bd);
+  }
+  r.deviation = contour::summarise(dev);
+  r.angle = contour::summarise(ang);
+  return r;
+}
+
+}  // namespace postproc::comp
