@@ -33,14 +33,6 @@ KindArg parse_kind(const std::string& s) {
   throw Error(ExitCode::usage, fmt::format("--kind {}: use poses (6-DoF), poses5, positions, directions or struts", s));
 }
 
-machine::Machine load_or_refuse(const std::string& path) {
-  gcode::DiagnosticSink sink;
-  DiagnosticPrinter printer(sink, 20);
-  auto m = machine::load_machine(path, sink);
-  printer.finish();
-  if (!m) throw Error(ExitCode::refused, fmt::format("{}: machine file refused", path));
-  return *m;
-}
 
 /// The plan file: `# kind: plan`, id and one column per joint (mm / deg).
 std::string plan_csv(const kin::Model& model, std::span<const kin::JointVector> joints, const std::string& comment) {

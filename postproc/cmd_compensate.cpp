@@ -205,9 +205,7 @@ void setup_compensate(CLI::App& app, int& rc) {
     const bool ok = !sink.has_errors();
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     if (!o->report.empty()) {
-      io::OutputFile rep(o->report, o->input, false);
-      rep.write(report_json(*o, *machine, r, contour, seconds, ok, sink).dump(2) + "\n");
-      rep.commit();
+      write_text(o->report, o->input, report_json(*o, *machine, r, contour, seconds, ok, sink).dump(2) + "\n");
     }
     if (!o->html.empty() && ok) {
       contour::ContourReport cr;
@@ -221,9 +219,7 @@ void setup_compensate(CLI::App& app, int& rc) {
       cr.after = &contour.result.after;
       cr.compensation = &contour.result;
       cr.fit_residual_mm = r.fit_residual_mm;
-      io::OutputFile rep(o->html, o->input, false);
-      rep.write(contour::report_html(cr));
-      rep.commit();
+      write_text(o->html, o->input, contour::report_html(cr));
     }
     if (!ok) {
       std::fputs(fmt::format("postproc: {}: refused; nothing was written\n", o->input).c_str(), stderr);

@@ -11,7 +11,6 @@
 #include "common.hpp"
 #include "postproc/compensation/diff.hpp"
 #include "postproc/io/input_file.hpp"
-#include "postproc/io/output_file.hpp"
 #include "postproc/machine/machine.hpp"
 
 namespace postproc::cli {
@@ -76,14 +75,7 @@ void setup_diff(CLI::App& app, int& rc) {
     gcode::DiagnosticSink sink;
     DiagnosticPrinter printer(sink, o->max_per_code);
     std::optional<machine::Machine> m;
-    if (!o->machine.empty()) {
-      m = machine::load_machine(o->machine, sink);
-      if (!m) {
-        printer.finish();
-        rc = static_cast<int>(ExitCode::refused);
-        return;
-      }
-    }
+    if (!o->machine.empty()) m = load_or_refuse(o->machine, o->max_per_code);
     if (!m && o->dialect.dialect.empty())
       throw Error(ExitCode::usage, "diff needs the dialect: give -m MACHINE.toml or --dialect");
     const gcode::Dialect d = m && o->dialect.dialect.empty() ? *gcode::make_dialect(m->dialect_name, m->dialect_options)
@@ -100,9 +92,7 @@ void setup_diff(CLI::App& app, int& rc) {
     const bool with_machine = m.has_value();
     const auto worst = worst_of(r, o->worst);
     if (!o->csv.empty()) {
-      io::OutputFile out(o->csv, o->original, false);
-      out.write(csv_of(r, with_machine));
-      out.commit();
+      write_text(o->csv, o->original, csv_of(r, with_machine));
     }
     const char* what = with_machine ? "tool-tip distance" : "linear-axis change";
     if (!o->json.empty()) {
@@ -134,9 +124,7 @@ void setup_diff(CLI::App& app, int& rc) {
       }
       j["largest"] = w;
       if (o->fail_above_um >= 0) j["fail_above_um"] = o->fail_above_um;
-      io::OutputFile out(o->json, o->original, false);
-      out.write(j.dump(2) + "\n");
-      out.commit();
+      write_text(o->json, o->original, j.dump(2) + "\n");
     }
     std::string s = fmt::format(
         "postproc: diff {} → {}: {} / {} motions, aligned {}, {} pairs ({} changed, {} unmatched)\n"

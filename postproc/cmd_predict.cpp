@@ -10,7 +10,6 @@
 #include "common.hpp"
 #include "postproc/contour/report.hpp"
 #include "postproc/io/input_file.hpp"
-#include "postproc/io/output_file.hpp"
 #include "postproc/machine/machine.hpp"
 
 namespace postproc::cli {
@@ -29,17 +28,11 @@ struct Loaded {
 
 std::optional<Loaded> load(const std::string& program, const std::string& machine_file, std::size_t max_per_code,
                            int& rc) {
+  machine::Machine m = load_or_refuse(machine_file, max_per_code);
   gcode::DiagnosticSink sink;
   DiagnosticPrinter printer(sink, max_per_code);
-  auto m = machine::load_machine(machine_file, sink);
-  if (!m) {
-    printer.finish();
-    std::fputs(fmt::format("postproc: {}: machine file refused\n", machine_file).c_str(), stderr);
-    rc = static_cast<int>(ExitCode::refused);
-    return std::nullopt;
-  }
-  gcode::Dialect d = *gcode::make_dialect(m->dialect_name, m->dialect_options);
-  Loaded l{std::move(*m), d, io::read_file(program, "NC program"), {}};
+  gcode::Dialect d = *gcode::make_dialect(m.dialect_name, m.dialect_options);
+  Loaded l{std::move(m), d, io::read_file(program, "NC program"), {}};
   gcode::LineReader in{std::string_view(l.text)};
   l.path = contour::build_path(in, program, l.dialect, l.machine, contour::PathOptions{}, sink);
   printer.finish();
@@ -49,12 +42,6 @@ std::optional<Loaded> load(const std::string& program, const std::string& machin
     return std::nullopt;
   }
   return l;
-}
-
-void write_text(const std::string& path, const std::string& input, const std::string& text) {
-  io::OutputFile out(path, input, false);
-  out.write(text);
-  out.commit();
 }
 
 std::string joint_unit(const kin::Model& model, std::size_t j) {

@@ -2,6 +2,8 @@
 
 #include <fmt/format.h>
 
+#include "postproc/io/output_file.hpp"
+
 namespace postproc::cli {
 
 void add_dialect_options(CLI::App& cmd, DialectArgs& a, bool required) {
@@ -63,6 +65,21 @@ ExitCode exit_code_for(const gcode::DiagnosticSink& sink) {
   if (sink.has_errors()) return ExitCode::refused;
   if (sink.count(gcode::Severity::warning) > 0) return ExitCode::unresolved;
   return ExitCode::ok;
+}
+
+machine::Machine load_or_refuse(const std::string& path, std::size_t per_code_limit) {
+  gcode::DiagnosticSink sink;
+  DiagnosticPrinter printer(sink, per_code_limit);
+  auto m = machine::load_machine(path, sink);
+  printer.finish();
+  if (!m) throw Error(ExitCode::refused, fmt::format("{}: machine file refused", path));
+  return std::move(*m);
+}
+
+void write_text(const std::string& path, const std::string& input, const std::string& text) {
+  io::OutputFile out(path, input, false);
+  out.write(text);
+  out.commit();
 }
 
 }  // namespace postproc::cli

@@ -9,6 +9,7 @@
 #include "postproc/error.hpp"
 #include "postproc/gcode/dialect.hpp"
 #include "postproc/gcode/diagnostic.hpp"
+#include "postproc/machine/machine.hpp"
 
 namespace postproc::cli {
 
@@ -34,6 +35,13 @@ struct DiagnosticPrinter {
   std::vector<std::pair<std::string, std::size_t>> shown;
   gcode::DiagnosticSink& sink;
 };
+
+/// Loads a machine file, printing its diagnostics; throws Error(refused) "PATH: machine file
+/// refused" when it has errors.
+machine::Machine load_or_refuse(const std::string& path, std::size_t per_code_limit = 20);
+
+/// Writes a report (`text`) to `path` through a temporary file; never over `input`.
+void write_text(const std::string& path, const std::string& input, const std::string& text);
 
 /// Exit code for a program given its diagnostics.
 ExitCode exit_code_for(const gcode::DiagnosticSink& sink);

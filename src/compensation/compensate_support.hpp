@@ -44,6 +44,32 @@ class ToolLengthModels {
 [[nodiscard]] std::optional<ProgramMap> map_of(const machine::Machine& m, ToolLengthModels& models,
                                                const gcode::Motion& mo);
 
+/// The tool vector is modal under TCP (G43.5 / TRAORI blocks without I J K / A3 B3 C3 keep it;
+/// tool-tip machines always): fills it into motions that do not program it, forgets it when TCP
+/// ends.
+class ModalToolVector {
+ public:
+  explicit ModalToolVector(const machine::Machine& m) : m_(m) {}
+  [[nodiscard]] gcode::Motion apply(const gcode::Motion& m) {
+    gcode::Motion c = m;
+    const bool tip = m.tcp != gcode::TcpMode::off || m_.coordinates == machine::ProgramCoordinates::tool_tip;
+    if (m.tool_vector_known) {
+      vector_ = m.tool_vector;
+      known_ = true;
+    } else if (known_ && tip) {
+      c.tool_vector = vector_;
+      c.tool_vector_known = true;
+    }
+    if (!tip) known_ = false;
+    return c;
+  }
+
+ private:
+  const machine::Machine& m_;
+  Eigen::Vector3d vector_ = Eigen::Vector3d::UnitZ();
+  bool known_ = false;
+};
+
 /// One block's single motion as read back (tool vector carried modally).
 struct CollectedMotion {
   gcode::Motion motion;

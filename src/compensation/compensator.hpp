@@ -68,9 +68,9 @@ class Compensator final : public gcode::BlockVisitor {
       ++r_.reference_moves;
     } else if (lexed_ok && !block_error_) {
       if (motions.size() > 1) {
-        for (const Motion& m : motions) check_unchanged(b, with_vector(m));
+        for (const Motion& m : motions) check_unchanged(b, vector_.apply(m));
       } else if (motions.size() == 1) {
-        motion(b, with_vector(motions.front()), ed);
+        motion(b, vector_.apply(motions.front()), ed);
       }
     }
     block_error_ = false;
@@ -101,20 +101,6 @@ class Compensator final : public gcode::BlockVisitor {
   }
 
  private:
-  /// The tool vector is modal (G43.5 / TRAORI blocks without I J K / A3 B3 C3 keep it).
-  Motion with_vector(const Motion& m) {
-    Motion c = m;
-    if (m.tool_vector_known) {
-      vector_ = m.tool_vector;
-      vector_known_ = true;
-    } else if (vector_known_ && (m.tcp != gcode::TcpMode::off || m_.coordinates == machine::ProgramCoordinates::tool_tip)) {
-      c.tool_vector = vector_;
-      c.tool_vector_known = true;
-    }
-    if (m.tcp == gcode::TcpMode::off && m_.coordinates != machine::ProgramCoordinates::tool_tip) vector_known_ = false;
-    return c;
-  }
-
   /// False for blocks that change what the program's coordinates mean (G28/G30, a work offset,
   /// G10 offset writes).
   bool keeps_coordinates() const {
@@ -552,8 +538,7 @@ class Compensator final : public gcode::BlockVisitor {
   AxisVector written_;            ///< corrected end of the previous motion, work coordinates
   AxisMask written_known_ = 0;
   Eigen::Vector3d prev_vector_ = Eigen::Vector3d::UnitZ();
-  Eigen::Vector3d vector_ = Eigen::Vector3d::UnitZ();  ///< modal tool vector
-  bool vector_known_ = false;
+  ModalToolVector vector_{m_};
   Eigen::Vector3d prev_written_vector_ = Eigen::Vector3d::UnitZ();
   std::vector<std::string> after_;
   std::string line_, buffer_;

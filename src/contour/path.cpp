@@ -43,24 +43,35 @@ const machine::AxisSettings* settings_of(const machine::Machine& m, const std::s
   return nullptr;
 }
 
-/// Points a machine-file diagnostic at the table it names ("[axes.X]" in `why`), when the file
-/// can be read and has it; otherwise it stays about the file as a whole.
+/// Points a machine-file diagnostic at the table it names ("[axes.X]" in `why`); when the file has
+/// no such table, at the first servo table ([axes.…] / [drives.…]), else at [machine]. Stays about
+/// the file as a whole only when the file cannot be read again.
 void locate_table(const machine::Machine& m, const std::string& why, gcode::Diagnostic& diag) {
   const auto open = why.find('['), close = why.find(']', open);
   if (open == std::string::npos || close == std::string::npos) return;
   const std::string header = why.substr(open, close - open + 1);
   std::ifstream in(m.file);
   std::string line;
+  struct Hit {
+    std::uint64_t line = 0;
+    std::uint32_t column = 1;
+    std::string text;
+  } exact, servo, machine;
   for (std::uint64_t n = 1; std::getline(in, line); ++n) {
     const auto b = line.find_first_not_of(" \t");
-    if (b != std::string::npos && line.compare(b, header.size(), header) == 0) {
-      diag.where.line = n;
-      diag.where.column = static_cast<std::uint32_t>(b + 1);
-      diag.length = static_cast<std::uint32_t>(header.size());
-      diag.source_line = line;
-      return;
-    }
+    if (b == std::string::npos) continue;
+    const auto starts = [&](std::string_view h) { return line.compare(b, h.size(), h) == 0; };
+    const Hit here{n, static_cast<std::uint32_t>(b + 1), line};
+    if (exact.line == 0 && starts(header)) exact = here;
+    if (servo.line == 0 && (starts("[axes.") || starts("[drives."))) servo = here;
+    if (machine.line == 0 && starts("[machine]")) machine = here;
   }
+  const Hit& at = exact.line ? exact : servo.line ? servo : machine;
+  if (at.line == 0) return;
+  diag.where.line = at.line;
+  diag.where.column = at.column;
+  diag.length = static_cast<std::uint32_t>(at.text.size() - (at.column - 1));
+  diag.source_line = at.text;
 }
 
 bool is_stop(const gcode::Block& b) {
@@ -132,8 +143,7 @@ class Builder final : public gcode::BlockVisitor {
     const bool stop = !lexed_ok || home || track_.has(gcode::GMeaning::dwell) || is_stop(b) || motions.size() > 1 ||
                       exact_here || exact_mode_;
     if (lexed_ok && !home && motions.size() == 1) {
-      Motion mo = motions.front();
-      with_vector(mo);
+      const Motion mo = vector_.apply(motions.front());
       const bool feed = mo.type == MotionType::linear || mo.type == MotionType::arc_cw || mo.type == MotionType::arc_ccw;
       if (feed && !mo.tilted_plane) {
         feed_move(b, mo);
@@ -150,17 +160,6 @@ class Builder final : public gcode::BlockVisitor {
   void finish() { end_run(); }
 
  private:
-  void with_vector(Motion& m) {
-    if (m.tool_vector_known) {
-      vector_ = m.tool_vector;
-      vector_known_ = true;
-    } else if (vector_known_ && (m.tcp != gcode::TcpMode::off || m_.coordinates == machine::ProgramCoordinates::tool_tip)) {
-      m.tool_vector = vector_;
-      m.tool_vector_known = true;
-    }
-    if (m.tcp == gcode::TcpMode::off && m_.coordinates != machine::ProgramCoordinates::tool_tip) vector_known_ = false;
-  }
-
   void note_position(const Motion& m) {
     last_vector_ = m.tool_vector;
   }
@@ -428,8 +427,7 @@ class Builder final : public gcode::BlockVisitor {
   kin::JointVector q_;
   comp::Command prev_cmd_;
   Eigen::Vector3d last_vector_ = Eigen::Vector3d::UnitZ();
-  Eigen::Vector3d vector_ = Eigen::Vector3d::UnitZ();
-  bool vector_known_ = false;
+  comp::ModalToolVector vector_{m_};
   int map_index_ = -1;
   comp::Form key_form_ = comp::Form::axes;
   gcode::AxisVector key_offset_ = gcode::AxisVector::Zero();
