@@ -8,6 +8,7 @@
 
 #include "common.hpp"
 #include "postproc/compensation/compensate.hpp"
+#include "postproc/compensation/result_json.hpp"
 #include "postproc/contour/report.hpp"
 #include "postproc/io/input_file.hpp"
 #include "postproc/machine/machine.hpp"
@@ -31,24 +32,6 @@ struct CompensateArgs {
   int iterations = 12;
 };
 
-/// --mode all: the figures of the geometric stage next to the contour stage's.
-void merge_geometric(comp::CompensateResult& r, const comp::CompensateResult& g) {
-  r.subdivided_blocks = g.subdivided_blocks;
-  r.segments_added = g.segments_added;
-  r.arcs_kept = g.arcs_kept;
-  r.arcs_linearized = g.arcs_linearized;
-  r.reference_moves = g.reference_moves;
-  r.rapids_as_written = g.rapids_as_written;
-  r.singular_fallbacks = g.singular_fallbacks;
-  r.max_error_before_mm = g.max_error_before_mm;
-  r.max_error_before_rad = g.max_error_before_rad;
-  r.max_residual_mm = g.max_residual_mm;
-  r.max_residual_rad = g.max_residual_rad;
-  r.worst_line = g.worst_line;
-  r.max_correction_mm = std::max(r.max_correction_mm, g.max_correction_mm);
-  r.max_correction_deg = std::max(r.max_correction_deg, g.max_correction_deg);
-}
-
 nlohmann::json report_json(const CompensateArgs& a, const machine::Machine& m, const comp::CompensateResult& r,
                            const comp::ContourDetails& contour, double seconds, bool ok, const gcode::DiagnosticSink& sink) {
   nlohmann::json j;
@@ -59,51 +42,9 @@ nlohmann::json report_json(const CompensateArgs& a, const machine::Machine& m, c
   j["mode"] = a.mode;
   j["status"] = ok ? "written" : "refused";
   j["limits"] = {{"max_deviation_mm", a.max_deviation_um / 1000.0}, {"max_angle_deviation_deg", a.max_angle_arcsec / 3600.0}};
-  j["counts"] = {{"blocks", r.blocks},
-                 {"motions", r.motions},
-                 {"changed_blocks", r.changed_blocks},
-                 {"words_changed", r.words_changed},
-                 {"words_inserted", r.words_inserted},
-                 {"subdivided_blocks", r.subdivided_blocks},
-                 {"segments_added", r.segments_added},
-                 {"arcs_kept", r.arcs_kept},
-                 {"arcs_linearized", r.arcs_linearized},
-                 {"reference_moves", r.reference_moves},
-                 {"rapids_as_written", r.rapids_as_written},
-                 {"singular_points_tip_only", r.singular_fallbacks}};
-  j["figures"] = {{"max_correction_mm", r.max_correction_mm},
-                  {"max_correction_deg", r.max_correction_deg},
-                  {"max_error_before_mm", r.max_error_before_mm},
-                  {"max_error_before_deg", r.max_error_before_rad * 180.0 / 3.14159265358979323846},
-                  {"worst_line_before", r.worst_line},
-                  {"max_residual_after_mm", r.max_residual_mm},
-                  {"max_residual_after_deg", r.max_residual_rad * 180.0 / 3.14159265358979323846}};
-  if (a.mode != "geometric") {
-    constexpr double kArcsec = 180.0 / 3.14159265358979323846 * 3600.0;
-    j["contour"] = {{"before_tip_um", r.contour_before_mm * 1000},
-                    {"before_axis_arcsec", r.contour_before_rad * kArcsec},
-                    {"after_tip_um", r.contour_after_mm * 1000},
-                    {"after_axis_arcsec", r.contour_after_rad * kArcsec},
-                    {"worst_line_before", r.contour_worst_line},
-                    {"iterations", r.contour_iterations},
-                    {"converged", r.contour_converged},
-                    {"fit_residual_um", r.fit_residual_mm * 1000}};
-    nlohmann::json hu = nlohmann::json::array(), ha = nlohmann::json::array();
-    for (double v : contour.result.history_mm) hu.push_back(v * 1000);
-    for (double v : contour.result.history_rad) ha.push_back(v * kArcsec);
-    j["contour"]["history_tip_um"] = hu;
-    j["contour"]["history_axis_arcsec"] = ha;
-  }
+  j.update(comp::result_json(r, a.mode, &contour));
   j["seconds"] = seconds;
-  nlohmann::json diags = nlohmann::json::array();
-  for (const auto& d : sink.stored())
-    diags.push_back({{"severity", std::string(gcode::to_string(d.severity))},
-                     {"code", d.code},
-                     {"file", d.file},
-                     {"line", d.where.line},
-                     {"column", d.where.column},
-                     {"message", d.message}});
-  j["diagnostics"] = diags;
+  j["diagnostics"] = comp::diagnostics_json(sink);
   return j;
 }
 
@@ -178,28 +119,10 @@ void setup_compensate(CLI::App& app, int& rc) {
       r = comp::compensate(reader, o->input, d, *machine, opt, out, sink);
     } else {
       // The contour stage reads the program twice (path, then writing): it is held in memory.
-      std::string text = io::read_file(o->input, "NC program");
-      comp::CompensateResult geo;
-      std::vector<std::uint64_t> geo_lines;  // intermediate line → input line
-      if (o->mode == "all") {
-        comp::CompensateOptions gopt = opt;
-        gopt.header = false;
-        gopt.line_map = &geo_lines;
-        auto mem = io::OutputFile::memory();
-        gcode::LineReader reader{std::string_view(text)};
-        geo = comp::compensate(reader, o->input, d, *machine, gopt, mem, sink);
-        text = mem.take();
-      }
-      if (!sink.has_errors()) {
-        contour::PrecompensateOptions popt;
-        popt.max_iterations = o->iterations;
-        r = comp::compensate_contour(text, o->input, d, *machine, opt, popt, out, sink, &contour);
-      }
-      if (o->mode == "all") {
-        merge_geometric(r, geo);
-        if (r.contour_worst_line >= 1 && r.contour_worst_line <= geo_lines.size())
-          r.contour_worst_line = geo_lines[r.contour_worst_line - 1];
-      }
+      const std::string text = io::read_file(o->input, "NC program");
+      contour::PrecompensateOptions popt;
+      popt.max_iterations = o->iterations;
+      r = comp::compensate_program(text, o->input, d, *machine, opt, popt, out, sink, &contour);
     }
     printer.finish();
     const bool ok = !sink.has_errors();

@@ -54,5 +54,6 @@ void setup_calibrate(CLI::App& app, int& rc);
 void setup_predict(CLI::App& app, int& rc);
 void setup_simulate(CLI::App& app, int& rc);
 void setup_diff(CLI::App& app, int& rc);
+void setup_batch(CLI::App& app, int& rc);
 
 }  // namespace postproc::cli

@@ -20,6 +20,7 @@ int main(int argc, char** argv) {
   postproc::cli::setup_predict(app, rc);
   postproc::cli::setup_simulate(app, rc);
   postproc::cli::setup_diff(app, rc);
+  postproc::cli::setup_batch(app, rc);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

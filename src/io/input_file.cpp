@@ -1,6 +1,8 @@
 // Reading whole input files (see input_file.hpp).
 #include "postproc/io/input_file.hpp"
 
+#include <cerrno>
+#include <cstring>
 #include <fstream>
 #include <iostream>
 #include <sstream>
@@ -18,8 +20,11 @@ std::string read_file(const std::string& path, std::string_view what) {
     if (std::cin.bad()) throw Error(ExitCode::no_input, fmt::format("<stdin>: cannot read the {}", what));
     return s.str();
   }
+  errno = 0;
   std::ifstream in(path, std::ios::binary);
-  if (!in) throw Error(ExitCode::no_input, fmt::format("{}: cannot open the {}", path, what));
+  if (!in)
+    throw Error(ExitCode::no_input, fmt::format("{}: cannot open the {}{}", path, what,
+                                                errno != 0 ? fmt::format(": {}", std::strerror(errno)) : std::string()));
   std::ostringstream s;
   s << in.rdbuf();
   if (in.bad()) throw Error(ExitCode::no_input, fmt::format("{}: cannot read the {}", path, what));

@@ -92,6 +92,17 @@ CompensateResult compensate_contour(std::string_view text, std::string_view file
                                     const contour::PrecompensateOptions& popt, io::OutputFile& out,
                                     gcode::DiagnosticSink& sink, ContourDetails* details = nullptr);
 
+/// `postproc compensate --mode geometric|contour|all` on a program held in memory, as the CLI and
+/// `postproc batch` run it: geometric streams the text through compensate(); contour runs
+/// compensate_contour(); all runs the geometric stage into memory (no header), then the contour
+/// stage on its output, and reports the geometric figures next to the contour ones (the contour
+/// worst line mapped back to the input). `opt.mode` selects; anything else throws
+/// postproc::Error (usage). Errors go to `sink`; `out` is not committed.
+CompensateResult compensate_program(std::string_view text, std::string_view file, const gcode::Dialect& dialect,
+                                    const machine::Machine& m, const CompensateOptions& opt,
+                                    const contour::PrecompensateOptions& popt, io::OutputFile& out,
+                                    gcode::DiagnosticSink& sink, ContourDetails* details = nullptr);
+
 /// The header comment line in the dialect's comment syntax (no end of line).
 [[nodiscard]] std::string header_comment(const gcode::Dialect& d, const machine::Machine& m,
                                          const CompensateOptions& opt);

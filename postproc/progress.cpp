@@ -1,0 +1,81 @@
+// Progress bar on a terminal's stderr.
+#include "progress.hpp"
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+
+#include <fmt/format.h>
+
+namespace postproc::cli {
+
+std::string clock_text(double seconds) {
+  const auto s = static_cast<long long>(std::max(0.0, std::round(seconds)));
+  return s >= 3600 ? fmt::format("{}:{:02}:{:02}", s / 3600, s / 60 % 60, s % 60) : fmt::format("{}:{:02}", s / 60, s % 60);
+}
+
+ProgressBar::ProgressBar(std::string label) : label_(std::move(label)) {
+  const char* env = std::getenv("POSTPROC_PROGRESS");
+  if (env != nullptr && std::strcmp(env, "0") == 0)
+    enabled_ = false;
+  else if (env != nullptr && std::strcmp(env, "1") == 0)
+    enabled_ = true;
+  else
+    enabled_ = ::isatty(STDERR_FILENO) == 1;
+  start_ = std::chrono::steady_clock::now();
+  last_ = start_ - std::chrono::seconds(1);
+}
+
+ProgressBar::~ProgressBar() { finish(); }
+
+void ProgressBar::clear() {
+  if (drawn_) std::fputs("\r\033[K", stderr);
+  drawn_ = false;
+}
+
+void ProgressBar::update(std::string_view stage, double done, double total, std::string_view detail) {
+  if (!enabled_) return;
+  std::lock_guard<std::mutex> g(mutex_);
+  const auto now = std::chrono::steady_clock::now();
+  const bool last = total > 0 && done >= total;
+  if (!last && now - last_ < std::chrono::milliseconds(100)) return;
+  last_ = now;
+  const double elapsed = std::chrono::duration<double>(now - start_).count();
+  std::string s = fmt::format("\r\033[K{}", label_);
+  if (!stage.empty()) s += fmt::format(" {}", stage);
+  if (total > 0) {
+    const double f = std::clamp(done / total, 0.0, 1.0);
+    constexpr int kWidth = 28;
+    const int filled = static_cast<int>(f * kWidth);
+    s += " [" + std::string(static_cast<std::size_t>(filled), '=') + (filled < kWidth ? ">" : "") +
+         std::string(static_cast<std::size_t>(std::max(0, kWidth - filled - 1)), ' ') + "]";
+    s += fmt::format(" {:3.0f} %", 100 * f);
+    if (f > 0.02 && f < 1) s += fmt::format("  ETA {}", clock_text(elapsed * (1 - f) / f));
+  }
+  s += fmt::format("  {} elapsed", clock_text(elapsed));
+  if (!detail.empty()) s += fmt::format("  {}", detail);
+  std::fputs(s.c_str(), stderr);
+  std::fflush(stderr);
+  drawn_ = true;
+}
+
+void ProgressBar::line(std::string_view text) {
+  std::lock_guard<std::mutex> g(mutex_);
+  clear();
+  std::fwrite(text.data(), 1, text.size(), stderr);
+  if (text.empty() || text.back() != '\n') std::fputc('\n', stderr);
+  last_ = std::chrono::steady_clock::now() - std::chrono::seconds(1);  // redraw at the next update
+}
+
+void ProgressBar::finish() {
+  if (!enabled_) return;
+  std::lock_guard<std::mutex> g(mutex_);
+  clear();
+  std::fflush(stderr);
+}
+
+}  // namespace postproc::cli

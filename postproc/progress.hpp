@@ -1,0 +1,39 @@
+#pragma once
+// A progress bar on stderr, drawn only when stderr is a terminal (POSTPROC_PROGRESS=0 turns it off,
+// =1 forces it on); silent otherwise. Redraws at most ten times a second.
+#include <chrono>
+#include <cstdint>
+#include <mutex>
+#include <string>
+#include <string_view>
+
+namespace postproc::cli {
+
+class ProgressBar {
+ public:
+  explicit ProgressBar(std::string label);
+  ~ProgressBar();
+  ProgressBar(const ProgressBar&) = delete;
+  ProgressBar& operator=(const ProgressBar&) = delete;
+
+  [[nodiscard]] bool enabled() const { return enabled_; }
+  /// `done` of `total` (0 = unknown), in `unit` ("files", "MB" …); `detail` follows the figures.
+  void update(std::string_view stage, double done, double total, std::string_view detail = {});
+  /// Prints a whole line above the bar (the bar is redrawn by the next update).
+  void line(std::string_view text);
+  /// Clears the bar.
+  void finish();
+
+ private:
+  void clear();
+  std::string label_;
+  bool enabled_ = false;
+  bool drawn_ = false;
+  std::chrono::steady_clock::time_point start_, last_;
+  std::mutex mutex_;
+};
+
+/// "0:42", "1:02:03"
+[[nodiscard]] std::string clock_text(double seconds);
+
+}  // namespace postproc::cli

@@ -1,0 +1,67 @@
+// JSON of a compensation run's figures (compensate --report, the batch manifest).
+#include "postproc/compensation/result_json.hpp"
+
+#include <string>
+
+namespace postproc::comp {
+namespace {
+constexpr double kDeg = 180.0 / 3.14159265358979323846;
+constexpr double kArcsec = kDeg * 3600.0;
+}  // namespace
+
+nlohmann::json result_json(const CompensateResult& r, std::string_view mode, const ContourDetails* contour) {
+  nlohmann::json j;
+  j["counts"] = {{"blocks", r.blocks},
+                 {"motions", r.motions},
+                 {"changed_blocks", r.changed_blocks},
+                 {"words_changed", r.words_changed},
+                 {"words_inserted", r.words_inserted},
+                 {"subdivided_blocks", r.subdivided_blocks},
+                 {"segments_added", r.segments_added},
+                 {"arcs_kept", r.arcs_kept},
+                 {"arcs_linearized", r.arcs_linearized},
+                 {"reference_moves", r.reference_moves},
+                 {"rapids_as_written", r.rapids_as_written},
+                 {"singular_points_tip_only", r.singular_fallbacks}};
+  j["figures"] = {{"max_correction_mm", r.max_correction_mm},
+                  {"max_correction_deg", r.max_correction_deg},
+                  {"max_error_before_mm", r.max_error_before_mm},
+                  {"max_error_before_deg", r.max_error_before_rad * kDeg},
+                  {"worst_line_before", r.worst_line},
+                  {"max_residual_after_mm", r.max_residual_mm},
+                  {"max_residual_after_deg", r.max_residual_rad * kDeg}};
+  if (mode != "geometric") {
+    j["contour"] = {{"before_tip_um", r.contour_before_mm * 1000},
+                    {"before_axis_arcsec", r.contour_before_rad * kArcsec},
+                    {"after_tip_um", r.contour_after_mm * 1000},
+                    {"after_axis_arcsec", r.contour_after_rad * kArcsec},
+                    {"worst_line_before", r.contour_worst_line},
+                    {"iterations", r.contour_iterations},
+                    {"converged", r.contour_converged},
+                    {"fit_residual_um", r.fit_residual_mm * 1000}};
+    if (contour != nullptr) {
+      nlohmann::json hu = nlohmann::json::array(), ha = nlohmann::json::array();
+      for (double v : contour->result.history_mm) hu.push_back(v * 1000);
+      for (double v : contour->result.history_rad) ha.push_back(v * kArcsec);
+      j["contour"]["history_tip_um"] = hu;
+      j["contour"]["history_axis_arcsec"] = ha;
+    }
+  }
+  return j;
+}
+
+nlohmann::json diagnostics_json(const gcode::DiagnosticSink& sink, std::size_t limit) {
+  nlohmann::json diags = nlohmann::json::array();
+  for (const auto& d : sink.stored()) {
+    if (diags.size() >= limit) break;
+    diags.push_back({{"severity", std::string(gcode::to_string(d.severity))},
+                     {"code", d.code},
+                     {"file", d.file},
+                     {"line", d.where.line},
+                     {"column", d.where.column},
+                     {"message", d.message}});
+  }
+  return diags;
+}
+
+}  // namespace postproc::comp
