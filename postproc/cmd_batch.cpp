@@ -12,7 +12,7 @@
 #include "common.hpp"
 #include "postproc/batch/batch.hpp"
 #include "postproc/io/input_file.hpp"
-#include "progress.hpp"
+#include "progress_bar.hpp"
 
 namespace postproc::cli {
 namespace {

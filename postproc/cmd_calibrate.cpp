@@ -9,6 +9,7 @@
 
 #include "calibrate_support.hpp"
 #include "common.hpp"
+#include "progress_bar.hpp"
 #include "postproc/calibration/identify.hpp"
 #include "postproc/calibration/machine_update.hpp"
 #include "postproc/calibration/report.hpp"
@@ -232,7 +233,13 @@ void run_calibrate(const CalibrateArgs& a, int& rc) {
   run.notes = notes;
   kin::ModelPtr solved = machine->actual;
   if (!data.empty()) {
-    run.result = cal::identify(start, data, opt);
+    {
+      ProgressBar bar("postproc: calibrate:");
+      if (bar.enabled())
+        opt.progress = [&bar](std::string_view, double done, double total) { bar.update("solving", done, total); };
+      run.result = cal::identify(start, data, opt);
+      opt.progress = nullptr;
+    }
     solved = start.with_values(run.result.values);
     run.start = &start;
     run.solved = solved.get();

@@ -1,12 +1,14 @@
 // postproc compensate IN -m MACHINE -o OUT: geometric remap through the calibrated machine model.
 #include <chrono>
 #include <cmath>
+#include <filesystem>
 #include <memory>
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
 #include "common.hpp"
+#include "progress_bar.hpp"
 #include "postproc/compensation/compensate.hpp"
 #include "postproc/compensation/result_json.hpp"
 #include "postproc/contour/report.hpp"
@@ -111,6 +113,12 @@ void setup_compensate(CLI::App& app, int& rc) {
     opt.tool_version = POSTPROC_VERSION;
     opt.mode = o->mode;
     io::OutputFile out(o->output, o->input, o->in_place);
+    ProgressBar bar("postproc:");
+    if (bar.enabled()) {
+      opt.progress = [&bar](std::string_view stage, double done, double total) { bar.update(stage, done, total); };
+      std::error_code ec;
+      if (o->input != "-") opt.input_bytes = std::filesystem::file_size(o->input, ec);
+    }
     comp::CompensateResult r;
     comp::ContourDetails contour;
     const bool servo = o->mode != "geometric";
@@ -124,6 +132,7 @@ void setup_compensate(CLI::App& app, int& rc) {
       popt.max_iterations = o->iterations;
       r = comp::compensate_program(text, o->input, d, *machine, opt, popt, out, sink, &contour);
     }
+    bar.finish();
     printer.finish();
     const bool ok = !sink.has_errors();
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

@@ -8,6 +8,7 @@
 #include <nlohmann/json.hpp>
 
 #include "common.hpp"
+#include "progress_bar.hpp"
 #include "postproc/contour/report.hpp"
 #include "postproc/io/input_file.hpp"
 #include "postproc/machine/machine.hpp"
@@ -88,12 +89,17 @@ void setup_predict(CLI::App& app, int& rc) {
   cmd->add_option("--max-per-code", o->max_per_code, "show at most this many diagnostics per code")->capture_default_str();
   cmd->callback([o, &rc] {
     if (!(o->marker_length_mm > 0)) throw Error(ExitCode::usage, "--marker-length must be a positive length in mm");
+    ProgressBar bar("postproc: predict:");
+    bar.update("reading the path", 0, 0);
     auto l = load(o->input, o->machine, o->max_per_code, rc);
     if (!l) return;
     contour::ReferenceOptions ropt;
     ropt.marker_length_mm = o->marker_length_mm;
+    bar.update("fitting the NURBS reference", 0, 0);
     const contour::Reference ref(l->path, *l->machine.actual, ropt);
+    bar.update("predicting", 0, 0);
     const contour::Prediction p = contour::predict(l->path, *l->machine.actual, ref);
+    bar.finish();
     contour::ContourReport r;
     r.title = "predict " + o->input;
     r.program = o->input;
@@ -149,6 +155,8 @@ void setup_simulate(CLI::App& app, int& rc) {
   cmd->callback([o, &rc] {
     if (o->every == 0) throw Error(ExitCode::usage, "--every must be at least 1");
     if (!(o->settle_s >= 0)) throw Error(ExitCode::usage, "--settle must be a time ≥ 0 in s");
+    ProgressBar bar("postproc: simulate:");
+    bar.update("reading the path", 0, 0);
     auto l = load(o->input, o->machine, o->max_per_code, rc);
     if (!l) return;
     std::optional<Loaded> ref_prog;
@@ -164,11 +172,14 @@ void setup_simulate(CLI::App& app, int& rc) {
     const contour::Path& intended = ref_prog ? ref_prog->path : l->path;
     contour::ReferenceOptions ropt;
     ropt.nominal = o->nominal;
+    bar.update("fitting the NURBS reference", 0, 0);
     const contour::Reference ref(intended, *l->machine.actual, ropt);
     contour::SimulateOptions so;
     so.settle_s = o->settle_s;
     so.keep_every = o->csv.empty() ? 0 : o->every;
+    bar.update("simulating", 0, 0);
     const contour::Simulation s = contour::simulate(l->path, ref, *l->machine.actual, so);
+    bar.finish();
     const kin::Model& model = *l->machine.actual;
     if (!o->csv.empty()) {
       std::string csv = "t_s,run,line";

@@ -1,4 +1,5 @@
 #include "common.hpp"
+#include "progress_bar.hpp"
 
 #include <fmt/format.h>
 
@@ -50,7 +51,7 @@ DiagnosticPrinter::DiagnosticPrinter(gcode::DiagnosticSink& s, std::size_t per_c
       shown.emplace_back(d.code, 1);
       seen = 1;
     }
-    if (seen <= limit) std::fputs(gcode::format(d).c_str(), stderr);
+    if (seen <= limit) print_stderr(gcode::format(d));
   };
 }
 

@@ -51,7 +51,7 @@ TEST(Batch, ShardsCoverEveryFileExactlyOnce) {
   std::mt19937 rng(7);
   for (int trial = 0; trial < 200; ++trial) {
     const std::size_t n = rng() % 50;
-    const unsigned count = 1 + rng() % 9;
+    const auto count = static_cast<unsigned>(1 + rng() % 9);
     std::vector<std::string> files;
     for (std::size_t i = 0; i < n; ++i) files.push_back("f" + std::to_string(1000 + i) + ".nc");
     std::multiset<std::string> seen;

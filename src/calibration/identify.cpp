@@ -248,6 +248,20 @@ class MeasurementCost final : public ceres::CostFunction {
   std::vector<int> where_;
 };
 
+/// Tells IdentifyOptions::progress about each solver iteration.
+class ProgressCallback final : public ceres::IterationCallback {
+ public:
+  ProgressCallback(Progress p, int max_iterations) : p_(std::move(p)), max_(max_iterations) {}
+  ceres::CallbackReturnType operator()(const ceres::IterationSummary& s) override {
+    if (p_) p_("calibrate", s.iteration, max_);
+    return ceres::SOLVER_CONTINUE;
+  }
+
+ private:
+  Progress p_;
+  int max_;
+};
+
 /// The ridge penalty √λ·(x_c − x0_c) over the identified parameters.
 class RidgeCost final : public ceres::CostFunction {
  public:
@@ -531,6 +545,8 @@ IdentifyResult identify(const kin::Model& start_model, std::span<const Measureme
     opt.gradient_tolerance = 1e-14;
     opt.num_threads = 1;
     opt.logging_type = ceres::SILENT;
+    ProgressCallback progress_callback(options.progress, opt.max_num_iterations);
+    if (options.progress) opt.callbacks.push_back(&progress_callback);
     ceres::Solver::Summary summary;
     ceres::Solve(opt, &problem, &summary);
     // Ceres counts the evaluation at the start as iteration 0.

@@ -65,6 +65,7 @@ CompensateResult compensate(gcode::LineReader& in, std::string_view file, const 
                             gcode::DiagnosticSink& sink) {
   CompensateResult r;
   detail::Compensator c(file, dialect, m, opt, out, sink, r);
+  c.set_reader(&in);
   const gcode::ProgramStats st = gcode::run_program(in, dialect, file, c.collector(), c);
   c.finish();
   r.bytes_in = st.bytes;

@@ -150,13 +150,21 @@ CompensateResult compensate_contour(std::string_view text, std::string_view file
   CompensateResult r;
   r.bytes_in = text.size();
   const std::size_t errors = sink.count(gcode::Severity::error);
+  const auto stage = [&](std::string_view what, double done) {
+    if (opt.progress) opt.progress(what, done, 0);
+  };
   {
+    stage("contour: reading the path", 0);
     gcode::LineReader in{text};
     d.path = contour::build_path(in, file, dialect, m, contour::PathOptions{}, sink);
   }
   if (sink.count(gcode::Severity::error) > errors) return r;
+  stage("contour: fitting the NURBS reference", 0);
   d.reference.emplace(d.path, *m.actual);
-  d.result = contour::precompensate(d.path, *m.actual, *d.reference, popt);
+  contour::PrecompensateOptions po = popt;
+  if (!po.progress) po.progress = opt.progress;
+  d.result = contour::precompensate(d.path, *m.actual, *d.reference, po);
+  stage("contour: writing", 0);
   r.contour_before_mm = d.result.before.tip.max;
   r.contour_before_rad = d.result.before.axis.max;
   r.contour_after_mm = d.result.after.tip.max;

@@ -28,9 +28,11 @@ void merge_geometric(CompensateResult& r, const CompensateResult& g) {
 }  // namespace
 
 CompensateResult compensate_program(std::string_view text, std::string_view file, const gcode::Dialect& dialect,
-                                    const machine::Machine& m, const CompensateOptions& opt,
+                                    const machine::Machine& m, const CompensateOptions& options,
                                     const contour::PrecompensateOptions& popt, io::OutputFile& out,
                                     gcode::DiagnosticSink& sink, ContourDetails* details) {
+  CompensateOptions opt = options;
+  if (opt.input_bytes == 0) opt.input_bytes = text.size();
   if (opt.mode == "geometric") {
     gcode::LineReader reader{text};
     return compensate(reader, file, dialect, m, opt, out, sink);
@@ -51,6 +53,7 @@ CompensateResult compensate_program(std::string_view text, std::string_view file
   CompensateResult r;
   if (!sink.has_errors()) {
     const std::string intermediate = mem.take();
+    opt.input_bytes = intermediate.size();
     r = compensate_contour(intermediate, file, dialect, m, opt, popt, out, sink, &cd);
   }
   merge_geometric(r, geo);

@@ -53,9 +53,13 @@ class Compensator final : public gcode::BlockVisitor {
     written_.setZero();
   }
   gcode::DiagnosticSink& collector() { return collect_; }
+  /// For progress reports (bytes read).
+  void set_reader(const gcode::LineReader* in) { reader_ = in; }
 
   void block(const Block& b, std::span<const Motion> motions, bool lexed_ok) override {
     ++r_.blocks;
+    if (opt_.progress && reader_ != nullptr && (r_.blocks & 8191) == 0)
+      opt_.progress("compensate", static_cast<double>(reader_->bytes_read()), static_cast<double>(opt_.input_bytes));
     if (!b.eol.empty()) eol_ = std::string(b.eol);
     maybe_header(b);
     track_.update(b);
@@ -511,6 +515,7 @@ class Compensator final : public gcode::BlockVisitor {
   io::OutputFile& out_;
   gcode::DiagnosticSink& sink_;
   CompensateResult& r_;
+  const gcode::LineReader* reader_ = nullptr;
   gcode::ModalTrack track_;
   ToolLengthModels models_;
   gcode::DiagnosticSink collect_{0};

@@ -162,6 +162,7 @@ Precompensation precompensate(const Path& path, const kin::Model& actual, const 
   std::vector<bool> solved(path.points.size(), false);
   using Matrix6n = Eigen::Matrix<double, 6, Eigen::Dynamic, Eigen::ColMajor, 6, kin::kMaxJoints + 1>;
   for (int it = 1; it <= opt.max_iterations; ++it) {
+    if (opt.progress) opt.progress("contour: correcting", it - 1, opt.max_iterations);
     trial = r.commands;
     for (auto& d : shift) d.setZero(n);
     std::fill(solved.begin(), solved.end(), false);

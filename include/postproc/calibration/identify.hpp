@@ -27,6 +27,7 @@
 #include "postproc/calibration/measurement.hpp"
 #include "postproc/kinematics/model.hpp"
 #include "postproc/kinematics/prs_hybrid.hpp"
+#include "postproc/progress.hpp"
 
 namespace postproc::cal {
 
@@ -76,6 +77,8 @@ struct IdentifyOptions {
   /// not identifiable: one parameter per such direction (the rank-revealing QR's choice) is held
   /// at its start value and the combination is reported.
   double rank_tolerance = 1e-6;
+  /// Told "calibrate" with the solver's iteration of max_iterations (optional).
+  Progress progress;
 };
 
 /// SVD of the column-scaled identification Jacobian (each column divided by its norm, so the

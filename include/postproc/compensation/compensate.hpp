@@ -17,6 +17,7 @@
 #include "postproc/gcode/line_reader.hpp"
 #include "postproc/io/output_file.hpp"
 #include "postproc/machine/machine.hpp"
+#include "postproc/progress.hpp"
 
 namespace postproc::comp {
 
@@ -31,6 +32,10 @@ struct CompensateOptions {
   std::string mode = "geometric";
   /// If set, receives for every output line the input line it came from (0 for the header).
   std::vector<std::uint64_t>* line_map = nullptr;
+  /// Told how far the run is (optional): "compensate" in bytes read of `input_bytes` (0 =
+  /// unknown), the contour stages by name (the iterations through PrecompensateOptions::progress).
+  Progress progress;
+  std::uint64_t input_bytes = 0;
 };
 
 /// Figures of one run (the --report JSON carries them).

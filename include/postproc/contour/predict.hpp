@@ -25,6 +25,7 @@
 #include <vector>
 
 #include "postproc/contour/path.hpp"
+#include "postproc/progress.hpp"
 #include "postproc/contour/reference.hpp"
 
 namespace postproc::contour {
@@ -67,6 +68,8 @@ struct PrecompensateOptions {
   /// Add the drives' lag of the correction itself to the commands (δ = d + e₁·ḋ), so that the
   /// actual joints move by d: fewer iterations.
   bool invert_lag = true;
+  /// Told "contour: correcting" with the iteration number of max_iterations (optional).
+  Progress progress;
 };
 
 struct Precompensation {

@@ -1,5 +1,5 @@
 // Progress bar on a terminal's stderr.
-#include "progress.hpp"
+#include "progress_bar.hpp"
 
 #include <unistd.h>
 
@@ -12,6 +12,20 @@
 #include <fmt/format.h>
 
 namespace postproc::cli {
+
+namespace {
+std::mutex g_active_mutex;
+ProgressBar* g_active = nullptr;  // the bar on screen, if any
+}  // namespace
+
+void print_stderr(std::string_view text) {
+  std::lock_guard<std::mutex> g(g_active_mutex);
+  if (g_active != nullptr) {
+    g_active->line(text);
+    return;
+  }
+  std::fwrite(text.data(), 1, text.size(), stderr);
+}
 
 std::string clock_text(double seconds) {
   const auto s = static_cast<long long>(std::max(0.0, std::round(seconds)));
@@ -28,9 +42,17 @@ ProgressBar::ProgressBar(std::string label) : label_(std::move(label)) {
     enabled_ = ::isatty(STDERR_FILENO) == 1;
   start_ = std::chrono::steady_clock::now();
   last_ = start_ - std::chrono::seconds(1);
+  if (enabled_) {
+    std::lock_guard<std::mutex> g(g_active_mutex);
+    g_active = this;
+  }
 }
 
-ProgressBar::~ProgressBar() { finish(); }
+ProgressBar::~ProgressBar() {
+  finish();
+  std::lock_guard<std::mutex> g(g_active_mutex);
+  if (g_active == this) g_active = nullptr;
+}
 
 void ProgressBar::clear() {
   if (drawn_) std::fputs("\r\033[K", stderr);
@@ -68,6 +90,7 @@ void ProgressBar::line(std::string_view text) {
   clear();
   std::fwrite(text.data(), 1, text.size(), stderr);
   if (text.empty() || text.back() != '\n') std::fputc('\n', stderr);
+  std::fflush(stderr);
   last_ = std::chrono::steady_clock::now() - std::chrono::seconds(1);  // redraw at the next update
 }
 

@@ -33,6 +33,10 @@ class ProgressBar {
   std::mutex mutex_;
 };
 
+/// Writes `text` to stderr; when a bar is on screen it is cleared first (and redrawn by its next
+/// update), so diagnostics printed during a run do not run into the bar.
+void print_stderr(std::string_view text);
+
 /// "0:42", "1:02:03"
 [[nodiscard]] std::string clock_text(double seconds);
 
