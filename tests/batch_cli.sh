@@ -161,6 +161,17 @@ if command -v script > /dev/null; then  # a real terminal
   grep -q '%' "$T/tty.out" || fail "no progress bar on a terminal"
 fi
 
+# 8. Progress bars of single-file work: compensate, calibrate (forced on; silent otherwise).
+{ echo "G90 G54 G94 F1000"; echo "G0 X0 Y0 Z50 B0 C0"; for ((i = 0; i < 20000; ++i)); do echo "G1 X$((i % 97)).5 Y$((i % 89)).25 Z10."; done; echo "M30"; } > "$T/long.nc"
+POSTPROC_PROGRESS=1 "$P" compensate "$T/long.nc" -m "$M" -o "$T/long.c.nc" 2> "$T/cbar.err"
+grep -q $'\r.*compensate \[' "$T/cbar.err" || fail "compensate: no progress bar: $(head -c 300 "$T/cbar.err")"
+"$P" compensate "$T/long.nc" -m "$M" -o "$T/long.d.nc" 2> "$T/cnobar.err"
+grep -q $'\r' "$T/cnobar.err" && fail "compensate: progress drawn when stderr is not a terminal"
+cmp -s "$T/long.c.nc" "$T/long.d.nc" || fail "the progress bar changed the output"
+POSTPROC_PROGRESS=1 "$P" calibrate -m "$ROOT/samples/machines/hexapod_doc003_nominal.toml" \
+  "$ROOT/samples/measurements/hexapod_struts.csv" -o "$T/hex.toml" > /dev/null 2> "$T/calbar.err"
+grep -q 'calibrate: solving' "$T/calbar.err" || fail "calibrate: no progress bar: $(head -c 300 "$T/calbar.err")"
+
 if [[ $fails -gt 0 ]]; then
   echo "$fails failure(s)"
   exit 1
