@@ -3,13 +3,17 @@
 #include <algorithm>
 #include <cmath>
 #include <memory>
-#include <numeric>
+#include <optional>
+#include <utility>
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
 #include "common.hpp"
 #include "postproc/compensation/diff.hpp"
+#include "postproc/compensation/diff_report.hpp"
+#include "postproc/contour/reference.hpp"
+#include "postproc/gcode/line_reader.hpp"
 #include "postproc/io/input_file.hpp"
 #include "postproc/machine/machine.hpp"
 
@@ -19,8 +23,9 @@ namespace {
 constexpr double kArcsec = 180.0 / 3.14159265358979323846 * 3600.0;
 
 struct DiffArgs {
-  std::string original, corrected, machine, csv, json;
+  std::string original, corrected, machine, csv, json, html;
   DialectArgs dialect;
+  bool predict = false;
   double fail_above_um = -1;
   std::size_t worst = 10;
   std::size_t max_per_code = 20;
@@ -42,17 +47,53 @@ std::string csv_of(const comp::DiffResult& r, bool machine) {
   return s;
 }
 
-/// Indices of the `n` largest deviations, largest first (ties: earlier block first).
-std::vector<std::size_t> worst_of(const comp::DiffResult& r, std::size_t n) {
-  std::vector<std::size_t> idx(r.blocks.size());
-  std::iota(idx.begin(), idx.end(), 0);
-  n = std::min(n, idx.size());
-  std::partial_sort(idx.begin(), idx.begin() + static_cast<std::ptrdiff_t>(n), idx.end(), [&](std::size_t x, std::size_t y) {
-    return r.blocks[x].deviation_mm > r.blocks[y].deviation_mm ||
-           (r.blocks[x].deviation_mm == r.blocks[y].deviation_mm && x < y);
-  });
-  idx.resize(n);
-  return idx;
+/// The servo contour errors of both programs against the original's intended contour
+/// (`--predict`): the corrected program's path must have the original's structure (points and
+/// runs), since its points are measured against the original's at the same index.
+struct Predictions {
+  contour::Path original, corrected;
+  contour::Prediction before, after;
+  double fit_residual_mm = 0;
+};
+
+/// nullopt (diagnostics printed, rc set) when a path cannot be built.
+std::optional<Predictions> predict_both(const DiffArgs& o, const machine::Machine& m, const gcode::Dialect& d,
+                                        std::string_view a, std::string_view b, int& rc) {
+  gcode::DiagnosticSink sink;
+  DiagnosticPrinter printer(sink, o.max_per_code);
+  Predictions p;
+  gcode::LineReader in_a{a}, in_b{b};
+  p.original = contour::build_path(in_a, o.original, d, m, contour::PathOptions{}, sink);
+  p.corrected = contour::build_path(in_b, o.corrected, d, m, contour::PathOptions{}, sink);
+  printer.finish();
+  if (sink.has_errors()) {
+    std::fputs("postproc: diff: --predict refused (see the errors above)\n", stderr);
+    rc = static_cast<int>(ExitCode::refused);
+    return std::nullopt;
+  }
+  const auto same_runs = [&] {
+    if (p.original.runs.size() != p.corrected.runs.size()) return false;
+    for (std::size_t k = 0; k < p.original.runs.size(); ++k)
+      if (p.original.runs[k].begin != p.corrected.runs[k].begin || p.original.runs[k].end != p.corrected.runs[k].end)
+        return false;
+    return true;
+  };
+  if (p.original.points.size() != p.corrected.points.size() || !same_runs())
+    throw Error(ExitCode::usage,
+                fmt::format("--predict: {} has {} path points in {} runs but {} has {} in {}; predict needs a corrected "
+                            "program with the original's structure (e.g. from compensate --mode contour)",
+                            o.corrected, p.corrected.points.size(), p.corrected.runs.size(), o.original,
+                            p.original.points.size(), p.original.runs.size()));
+  const contour::Reference ref(p.original, *m.actual);
+  p.fit_residual_mm = ref.max_fit_residual_mm();
+  p.before = contour::predict(p.original, *m.actual, ref);
+  p.after = contour::predict(p.corrected, *m.actual, ref);
+  return p;
+}
+
+nlohmann::json prediction_json(const contour::Prediction& p) {
+  return {{"tip_um", {{"max", p.tip.max * 1000}, {"rms", p.tip.rms * 1000}, {"p95", p.tip.p95 * 1000}}},
+          {"axis_arcsec", {{"max", p.axis.max * kArcsec}, {"rms", p.axis.rms * kArcsec}, {"p95", p.axis.p95 * kArcsec}}}};
 }
 
 }  // namespace
@@ -66,6 +107,10 @@ void setup_diff(CLI::App& app, int& rc) {
   cmd->add_option("-m,--machine", o->machine, "machine file: tool-tip distance and tool-axis angle in the workpiece frame");
   cmd->add_option("--csv", o->csv, "write the per-block deltas here (CSV)");
   cmd->add_option("--json", o->json, "write the summary and the largest changes here (JSON)");
+  cmd->add_option("--html", o->html, "write a self-contained HTML report here (no network resources)");
+  cmd->add_flag("--predict", o->predict,
+                "also predict the servo contour errors of both programs against the original's intended contour "
+                "(needs -m with servo data, as predict)");
   cmd->add_option("--fail-above", o->fail_above_um,
                   "exit with code 1 when any deviation (tool tip with -m, else linear axes) exceeds this, µm");
   cmd->add_option("--worst", o->worst, "how many of the largest changes to list")->capture_default_str();
@@ -76,6 +121,7 @@ void setup_diff(CLI::App& app, int& rc) {
     DiagnosticPrinter printer(sink, o->max_per_code);
     std::optional<machine::Machine> m;
     if (!o->machine.empty()) m = load_or_refuse(o->machine, o->max_per_code);
+    if (o->predict && !m) throw Error(ExitCode::usage, "diff --predict needs -m MACHINE.toml with the servo data");
     if (!m && o->dialect.dialect.empty())
       throw Error(ExitCode::usage, "diff needs the dialect: give -m MACHINE.toml or --dialect");
     const gcode::Dialect d = m && o->dialect.dialect.empty() ? *gcode::make_dialect(m->dialect_name, m->dialect_options)
@@ -89,8 +135,13 @@ void setup_diff(CLI::App& app, int& rc) {
       rc = static_cast<int>(ExitCode::refused);
       return;
     }
+    std::optional<Predictions> pred;
+    if (o->predict) {
+      pred = predict_both(*o, *m, d, a, b, rc);
+      if (!pred) return;
+    }
     const bool with_machine = m.has_value();
-    const auto worst = worst_of(r, o->worst);
+    const auto worst = comp::worst_blocks(r, o->worst);
     if (!o->csv.empty()) {
       write_text(o->csv, o->original, csv_of(r, with_machine));
     }
@@ -124,7 +175,31 @@ void setup_diff(CLI::App& app, int& rc) {
       }
       j["largest"] = w;
       if (o->fail_above_um >= 0) j["fail_above_um"] = o->fail_above_um;
+      if (pred)
+        j["predicted"] = {{"original", prediction_json(pred->before)},
+                          {"corrected", prediction_json(pred->after)},
+                          {"fit_residual_um", pred->fit_residual_mm * 1000}};
       write_text(o->json, o->original, j.dump(2) + "\n");
+    }
+    if (!o->html.empty()) {
+      comp::DiffReport rep;
+      rep.result = &r;
+      rep.original_file = o->original;
+      rep.corrected_file = o->corrected;
+      if (with_machine) {
+        rep.machine_file = m->file;
+        rep.machine_sha256 = m->sha256;
+      }
+      rep.tool_version = POSTPROC_VERSION;
+      rep.original_text = a;
+      rep.corrected_text = b;
+      rep.worst = o->worst;
+      if (pred) {
+        rep.path = &pred->original;
+        rep.predicted_before = &pred->before;
+        rep.predicted_after = &pred->after;
+      }
+      write_text(o->html, o->original, comp::diff_report_html(rep));
     }
     std::string s = fmt::format(
         "postproc: diff {} → {}: {} / {} motions, aligned {}, {} pairs ({} changed, {} unmatched)\n"
@@ -135,6 +210,11 @@ void setup_diff(CLI::App& app, int& rc) {
     if (with_machine)
       s += fmt::format("  tool-axis angle: max {:.2f} arcsec, RMS {:.2f} arcsec\n", r.angle.max * kArcsec,
                        r.angle.rms * kArcsec);
+    if (pred)
+      for (const auto& [name, p] : {std::pair{"original", &pred->before}, std::pair{"corrected", &pred->after}})
+        s += fmt::format("  predicted contour error, {}: tool tip max {:.3f} µm, RMS {:.3f} µm; tool axis max {:.2f} "
+                         "arcsec, RMS {:.2f} arcsec\n",
+                         name, p->tip.max * 1000, p->tip.rms * 1000, p->axis.max * kArcsec, p->axis.rms * kArcsec);
     for (std::size_t k : worst) {
       const comp::BlockDiff& bd = r.blocks[k];
       if (bd.deviation_mm <= 0 && bd.rotary_deg <= 0) break;

@@ -8,6 +8,7 @@ packages=(
   libgtest-dev libgmock-dev libbenchmark-dev
   libtomlplusplus-dev nlohmann-json3-dev libssl-dev
   time
+  chromium chromium-driver python3-selenium python3-pil  # tests/html_render.sh: reports in headless Chromium
 )
 # Optional extras: clang for the libFuzzer target, linuxcnc-uspace for the rs274 bench baseline.
 if [[ "${POSTPROC_DEPS_EXTRA:-0}" == 1 ]]; then

@@ -1,6 +1,7 @@
 // postproc diff (issue 7): pairing by block and by path, axis deltas, tool-tip distances.
 #include <cmath>
 #include <string>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -60,6 +61,26 @@ TEST(Diff, AddedPointsPairByPath) {
   EXPECT_EQ(r.unmatched, 0u);
   EXPECT_TRUE(std::isnan(r.blocks[2].tip_mm));  // no machine: no tool-tip figures
   EXPECT_NEAR(r.deviation.max, 0.002, 1e-12);
+  // Without a machine the plotted point is the original's X, Y, Z.
+  ASSERT_TRUE(r.blocks[2].point_known);
+  EXPECT_EQ(r.blocks[2].point_mm, Eigen::Vector3d(20, 10, 0));
+  EXPECT_EQ(comp::worst_blocks(r, 2), (std::vector<std::size_t>{2, 0}));
+}
+
+TEST(Diff, PointsUnknownUntilEveryWrittenAxisIsKnown) {
+  const std::string a = "G90 G54\nG0 Z10.\nX1. Y2.\nG1 Z0 F500\n";
+  gc::DiagnosticSink sink;
+  const comp::DiffResult r = comp::diff(a, a, "a.nc", "a.nc", fanuc(), nullptr, sink);
+  ASSERT_EQ(r.blocks.size(), 3u);
+  EXPECT_FALSE(r.blocks[0].point_known);  // X and Y not yet known
+  ASSERT_TRUE(r.blocks[1].point_known);
+  EXPECT_EQ(r.blocks[1].point_mm, Eigen::Vector3d(1, 2, 10));
+  // With the mill: the intended tool tip, the axis values less the 100 mm tool (no G43 active).
+  const comp::DiffResult m = comp::diff(a, a, "a.nc", "a.nc", fanuc(), &pptest::mill(), sink);
+  ASSERT_TRUE(m.with_machine);
+  EXPECT_FALSE(m.blocks[0].point_known);  // X, Y unknown: no tool tip
+  ASSERT_TRUE(m.blocks[2].point_known);
+  EXPECT_NEAR((m.blocks[2].point_mm - Eigen::Vector3d(1, 2, -100)).norm(), 0, 1e-9);
 }
 
 TEST(Diff, IdenticalProgramsShowNoChange) {

@@ -2,7 +2,9 @@
 // (with a machine) the distance between their intended tool poses.
 #include "postproc/compensation/diff.hpp"
 
+#include <algorithm>
 #include <cmath>
+#include <numeric>
 
 #include "postproc/gcode/program.hpp"
 #include "src/compensation/compensate_support.hpp"
@@ -44,6 +46,11 @@ DiffResult diff(std::string_view original, std::string_view corrected, std::stri
   r.motions_original = a.size();
   r.motions_corrected = b.size();
   r.by_block = a.size() == b.size();
+  r.with_machine = m != nullptr;
+  // The linear axes the original writes somewhere: a point is known once all of them are.
+  constexpr gcode::AxisMask kXyz = 0b111;
+  gcode::AxisMask used = 0;
+  for (const CollectedMotion* c : a) used = static_cast<gcode::AxisMask>(used | (c->motion.known & kXyz));
   std::optional<ToolLengthModels> models;
   if (m != nullptr) models.emplace(*m);
   kin::JointVector start;
@@ -84,6 +91,10 @@ DiffResult diff(std::string_view original, std::string_view corrected, std::stri
     }
     bd.linear_mm = std::sqrt(lin);
     bd.deviation_mm = bd.linear_mm;
+    if (m == nullptr && used != 0 && (ma.known & used) == used) {
+      for (int k = 0; k < 3; ++k) bd.point_mm[k] = ((used >> k) & 1u) ? ma.end[k] : 0.0;
+      bd.point_known = true;
+    }
     if (bd.linear_mm > 1e-9 || bd.rotary_deg > 1e-9) ++r.changed;
     if (m != nullptr && !a[i]->reference && !b[j]->reference) {
       const auto map_a = map_of(*m, *models, ma);
@@ -98,6 +109,8 @@ DiffResult diff(std::string_view original, std::string_view corrected, std::stri
         bd.tip_mm = (pb.p - pa.p).norm();
         bd.axis_rad = std::atan2(pa.axis().cross(pb.axis()).norm(), pa.axis().dot(pb.axis()));
         bd.deviation_mm = bd.tip_mm;
+        bd.point_mm = pa.p;
+        bd.point_known = true;
         start = qa;
       }
     }
@@ -108,6 +121,18 @@ DiffResult diff(std::string_view original, std::string_view corrected, std::stri
   r.deviation = contour::summarise(dev);
   r.angle = contour::summarise(ang);
   return r;
+}
+
+std::vector<std::size_t> worst_blocks(const DiffResult& r, std::size_t n) {
+  std::vector<std::size_t> idx(r.blocks.size());
+  std::iota(idx.begin(), idx.end(), 0);
+  n = std::min(n, idx.size());
+  std::partial_sort(idx.begin(), idx.begin() + static_cast<std::ptrdiff_t>(n), idx.end(), [&](std::size_t x, std::size_t y) {
+    return r.blocks[x].deviation_mm > r.blocks[y].deviation_mm ||
+           (r.blocks[x].deviation_mm == r.blocks[y].deviation_mm && x < y);
+  });
+  idx.resize(n);
+  return idx;
 }
 
 }  // namespace postproc::comp

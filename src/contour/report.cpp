@@ -3,7 +3,6 @@
 #include "postproc/contour/report.hpp"
 
 #include <algorithm>
-#include <array>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -15,6 +14,7 @@
 
 #include "postproc/error.hpp"
 #include "src/io/html.hpp"
+#include "src/io/html_plot.hpp"
 
 namespace postproc::contour {
 namespace {
@@ -165,205 +165,26 @@ json worst_json(const ContourReport& r, bool axis) {
   return list;
 }
 
-// ---- SVG ----------------------------------------------------------------------------------
+// ---- HTML ---------------------------------------------------------------------------------
 
-struct Range {
-  double lo = std::numeric_limits<double>::infinity();
-  double hi = -std::numeric_limits<double>::infinity();
-  void add(double v) {
-    if (!std::isfinite(v)) return;
-    lo = std::min(lo, v);
-    hi = std::max(hi, v);
-  }
-  [[nodiscard]] bool empty() const { return !(lo <= hi); }
-};
-
-/// A step of 1, 2 or 5 × 10^k giving about `count` ticks over `span`.
-double nice_step(double span, int count) {
-  if (!(span > 0) || !std::isfinite(span)) return 1;
-  const double raw = span / count, mag = std::pow(10.0, std::floor(std::log10(raw)));
-  for (double m : {1.0, 2.0, 5.0})
-    if (raw <= m * mag) return m * mag;
-  return 10 * mag;
-}
-
-struct Series {
-  std::string name;
-  std::string colour;
-  std::vector<std::pair<double, double>> xy;  ///< x ascending, finite
-};
-
-/// Keeps at most `limit` points: the first, the last, and between them the point of largest y in
-/// each of `limit` − 2 consecutive buckets (peaks survive the decimation).
-std::vector<std::pair<double, double>> decimate_max(const std::vector<std::pair<double, double>>& in, std::size_t limit) {
-  if (in.size() <= limit || limit < 3) return in;
-  std::vector<std::pair<double, double>> out;
-  out.reserve(limit);
-  out.push_back(in.front());
-  const std::size_t inner = in.size() - 2, buckets = limit - 2;
-  for (std::size_t b = 0; b < buckets; ++b) {
-    const std::size_t first = 1 + b * inner / buckets, last = 1 + (b + 1) * inner / buckets;
-    if (first >= last) continue;
-    std::size_t best = first;
-    for (std::size_t i = first + 1; i < last; ++i)
-      if (in[i].second > in[best].second) best = i;
-    out.push_back(in[best]);
-  }
-  out.push_back(in.back());
-  return out;
-}
-
-/// Line plot of y (≥ 0) against x, inline SVG, with a legend when there are several series.
-std::string line_plot(const std::vector<Series>& series, const std::string& xlabel, const std::string& ylabel) {
-  Range xr, yr;
-  yr.add(0);
-  for (const Series& s : series)
-    for (const auto& [x, y] : s.xy) {
-      xr.add(x);
-      yr.add(y);
-    }
-  if (xr.empty()) return "<p>No points to plot.</p>";
-  if (!(xr.hi > xr.lo)) xr.hi = xr.lo + 1;
-  if (!(yr.hi > yr.lo)) yr.hi = yr.lo + 1;
-  const double ystep = nice_step(yr.hi - yr.lo, 5), xstep = nice_step(xr.hi - xr.lo, 8);
-  const double y0 = std::floor(yr.lo / ystep) * ystep, y1 = std::ceil(yr.hi / ystep) * ystep;
-  const double w = 860, h = 280, left = 70, right = 15, top = 12, bottom = 42;
-  auto px = [&](double x) { return left + (w - left - right) * (x - xr.lo) / (xr.hi - xr.lo); };
-  auto py = [&](double y) { return top + (h - top - bottom) * (y1 - y) / (y1 - y0); };
-  std::string s = fmt::format(
-      R"(<svg class="plot" xmlns="http://www.w3.org/2000/svg" width="{0}" height="{1}" viewBox="0 0 {0} {1}">)", w, h);
-  for (double t = y0; t <= y1 + 0.5 * ystep; t += ystep) {
-    s += fmt::format(R"(<line x1="{}" x2="{}" y1="{:.1f}" y2="{:.1f}" stroke="#ddd"/>)", left, w - right, py(t), py(t));
-    s += fmt::format(R"(<text x="{}" y="{:.1f}" font-size="11" text-anchor="end">{:g}</text>)", left - 4, py(t) + 4, t);
-  }
-  for (double t = std::ceil(xr.lo / xstep) * xstep; t <= xr.hi + 1e-9 * xstep; t += xstep) {
-    s += fmt::format(R"(<line x1="{0:.1f}" x2="{0:.1f}" y1="{1}" y2="{2}" stroke="#eee"/>)", px(t), top, h - bottom);
-    s += fmt::format(R"(<text x="{:.1f}" y="{}" font-size="11" text-anchor="middle">{:g}</text>)", px(t),
-                     h - bottom + 14, t);
-  }
-  s += fmt::format(R"(<rect x="{}" y="{}" width="{}" height="{}" fill="none" stroke="#999"/>)", left, top,
-                   w - left - right, h - top - bottom);
-  for (const Series& se : series) {
-    if (se.xy.empty()) continue;
-    s += fmt::format(R"(<polyline fill="none" stroke="{}" stroke-width="1" points=")", se.colour);
-    for (std::size_t i = 0; i < se.xy.size(); ++i)
-      s += fmt::format("{}{:.1f},{:.1f}", i == 0 ? "" : " ", px(se.xy[i].first), py(se.xy[i].second));
-    s += "\"/>";
-  }
-  s += fmt::format(R"(<text x="{}" y="{}" font-size="12" text-anchor="middle">{}</text>)", (left + w - right) / 2,
-                   h - 8, html_escape(xlabel));
-  s += fmt::format(R"svg(<text x="14" y="{0:.1f}" font-size="12" text-anchor="middle" transform="rotate(-90 14 {0:.1f})">{1}</text>)svg",
-                   (top + h - bottom) / 2, html_escape(ylabel));
-  if (series.size() > 1) {
-    const double lx = w - right - 190;
-    s += fmt::format(R"(<rect x="{}" y="{}" width="184" height="{}" fill="#fff" fill-opacity="0.85" stroke="#ccc"/>)",
-                     lx - 6, top + 2, 16 * static_cast<double>(series.size()) + 6);
-    for (std::size_t k = 0; k < series.size(); ++k) {
-      const double ly = top + 14 + 16 * static_cast<double>(k);
-      s += fmt::format(R"(<line x1="{0}" x2="{1}" y1="{2}" y2="{2}" stroke="{3}" stroke-width="2"/>)", lx, lx + 20, ly - 4,
-                       series[k].colour);
-      s += fmt::format(R"(<text x="{}" y="{}" font-size="12">{}</text>)", lx + 26, ly, html_escape(series[k].name));
-    }
-  }
-  return s + "</svg>";
-}
-
-/// Blue (0) → red (1).
-std::string colour_of(double f) {
-  f = std::isfinite(f) ? std::clamp(f, 0.0, 1.0) : 1.0;
-  const std::array<double, 3> a{0x2c, 0x7b, 0xb6}, b{0xd7, 0x19, 0x1c};
-  auto c = [&](int k) {
-    const auto ku = static_cast<std::size_t>(k);
-    return static_cast<int>(std::lround(a[ku] + (b[ku] - a[ku]) * f));
-  };
-  return fmt::format("#{:02x}{:02x}{:02x}", c(0), c(1), c(2));
-}
-
-constexpr int kColourLevels = 32;
-
-/// The intended tool-tip path in one projection (axes u, v of x y z), drawn as polylines coloured
-/// by the tip contour error before correction. At most kMaxPlotPoints segments: long paths take
-/// every k-th point, a segment coloured by the largest error along the points it spans.
-std::string projection(const ContourReport& r, int u, int v, double max_um) {
-  static constexpr std::array<const char*, 3> kAxis{"X", "Y", "Z"};
+/// The intended tool-tip path (one stretch per run) coloured by the tip contour error before
+/// correction, µm.
+io::PlotPath plot_path(const ContourReport& r) {
   const Path& path = *r.path;
   const std::size_t n = std::min(path.points.size(), r.before->points.size());
-  Range ur, vr;
+  io::PlotPath p;
+  p.points.reserve(n);
+  p.values.reserve(n);
   for (std::size_t i = 0; i < n; ++i) {
-    const Eigen::Vector3d p = intended_tip(r.before->points[i]);
-    ur.add(p[u]);
-    vr.add(p[v]);
+    p.points.push_back(intended_tip(r.before->points[i]));
+    p.values.push_back(um(r.before->points[i].tip_mm));
   }
-  const double size = 400, margin = 40;
-  std::string s = fmt::format(
-      R"(<svg class="plot" xmlns="http://www.w3.org/2000/svg" width="{0}" height="{0}" viewBox="0 0 {0} {0}">)", size);
-  s += fmt::format(R"(<text x="{}" y="16" font-size="13" text-anchor="middle">{}{} (mm)</text>)", size / 2, kAxis[u],
-                   kAxis[v]);
-  if (ur.empty() || vr.empty()) return s + "</svg>";
-  const double du = ur.hi - ur.lo, dv = vr.hi - vr.lo, span = std::max({du, dv, 1e-9});
-  const double scale = (size - 2 * margin) / span;
-  const double ou = margin + (size - 2 * margin - du * scale) / 2, ov = margin + (size - 2 * margin - dv * scale) / 2;
-  auto pu = [&](double a) { return ou + (a - ur.lo) * scale; };
-  auto pv = [&](double b) { return size - ov - (b - vr.lo) * scale; };
-  s += fmt::format(R"(<rect x="{:.1f}" y="{:.1f}" width="{:.1f}" height="{:.1f}" fill="none" stroke="#ccc"/>)", pu(ur.lo),
-                   pv(vr.hi), du * scale, dv * scale);
-  s += fmt::format(R"(<text x="{:.1f}" y="{:.1f}" font-size="10">{} {:.6g}…{:.6g}</text>)", margin, size - 22, kAxis[u],
-                   ur.lo, ur.hi);
-  s += fmt::format(R"(<text x="{:.1f}" y="{:.1f}" font-size="10">{} {:.6g}…{:.6g}</text>)", margin, size - 8, kAxis[v],
-                   vr.lo, vr.hi);
-  std::size_t total = 0;
-  for (const Run& run : path.runs) total += std::min(run.end, n) > run.begin ? std::min(run.end, n) - run.begin : 0;
-  const std::size_t stride = std::max<std::size_t>(1, (total + kMaxPlotPoints - 1) / kMaxPlotPoints);
-  auto level = [&](double e_um) {
-    const double f = max_um > 0 && std::isfinite(e_um) ? e_um / max_um : 0;
-    return std::clamp(static_cast<int>(f * kColourLevels), 0, kColourLevels - 1);
-  };
-  // Polylines of one colour level each; drawn lowest level first so that the large errors stay
-  // visible where the path passes over itself.
-  std::vector<std::pair<int, std::string>> lines;
-  for (const Run& run : path.runs) {
-    const std::size_t end = std::min(run.end, n);
-    if (end <= run.begin + 1) continue;
-    std::size_t a = run.begin;
-    while (a + 1 < end) {
-      const std::size_t b = std::min(a + stride, end - 1);
-      double e = 0;
-      for (std::size_t i = a; i <= b; ++i) e = std::max(e, um(r.before->points[i].tip_mm));
-      const int lv = level(e);
-      if (lines.empty() || lines.back().first != lv || a == run.begin) {
-        const Eigen::Vector3d pa = intended_tip(r.before->points[a]);
-        lines.emplace_back(lv, fmt::format("{:.1f},{:.1f}", pu(pa[u]), pv(pa[v])));
-      }
-      const Eigen::Vector3d pb = intended_tip(r.before->points[b]);
-      lines.back().second += fmt::format(" {:.1f},{:.1f}", pu(pb[u]), pv(pb[v]));
-      a = b;
-    }
-  }
-  std::stable_sort(lines.begin(), lines.end(), [](const auto& x, const auto& y) { return x.first < y.first; });
-  for (const auto& [lv, points] : lines)
-    s += fmt::format(R"(<polyline fill="none" stroke-width="1.5" stroke="{}" points="{}"/>)",
-                     colour_of((lv + 0.5) / kColourLevels), points);
-  return s + "</svg>";
+  for (const Run& run : path.runs)
+    if (std::min(run.end, n) > run.begin + 1) p.runs.emplace_back(run.begin, std::min(run.end, n));
+  return p;
 }
 
-std::string colour_bar(double max_um) {
-  const double w = 420, h = 46, left = 10, bar = 360;
-  std::string s = fmt::format(
-      R"(<svg class="bar" xmlns="http://www.w3.org/2000/svg" width="{0}" height="{1}" viewBox="0 0 {0} {1}">)", w, h);
-  for (int k = 0; k < kColourLevels; ++k)
-    s += fmt::format(R"(<rect x="{:.2f}" y="4" width="{:.2f}" height="14" fill="{}"/>)",
-                     left + bar * k / kColourLevels, bar / kColourLevels + 0.3, colour_of((k + 0.5) / kColourLevels));
-  for (int k = 0; k <= 4; ++k)
-    s += fmt::format(R"(<text x="{:.1f}" y="32" font-size="11" text-anchor="middle">{:.3g}</text>)", left + bar * k / 4,
-                     max_um * k / 4);
-  s += fmt::format(R"(<text x="{}" y="44" font-size="11" text-anchor="middle">tool-tip contour error before correction (µm)</text>)",
-                   left + bar / 2);
-  return s + "</svg>";
-}
-
-std::string cell(double v, const char* spec = "{:.3f}") {
-  return std::isfinite(v) ? fmt::format(fmt::runtime(spec), v) : std::string("–");
-}
+using io::cell;
 
 }  // namespace
 
@@ -456,15 +277,7 @@ std::string report_html(const ContourReport& r) {
   const Path& path = *r.path;
   const std::vector<JointInfo> joints = joints_of(r);
   const std::string title = r.title.empty() ? "postproc contour report" : r.title;
-  std::string s = fmt::format(R"(<!DOCTYPE html>
-<html lang="en"><head><meta charset="utf-8"><title>{}</title>
-<style>
-body{{font-family:sans-serif;margin:1.5em;color:#222}}table{{border-collapse:collapse;margin:0.5em 0 1.5em}}
-td,th{{border:1px solid #ccc;padding:2px 8px;text-align:right;font-size:13px}}th{{background:#f3f3f3}}
-td.l,th.l{{text-align:left}}.plot{{border:1px solid #ccc;margin:0 8px 8px 0}}.views{{display:flex;flex-wrap:wrap}}
-</style></head><body>
-)",
-                              html_escape(title));
+  std::string s = io::page_head(title);
   s += fmt::format("<h1>{}</h1>\n", html_escape(title));
   s += fmt::format("<p id=\"summary\">Program <code>{}</code>", html_escape(r.program));
   if (!r.machine_file.empty()) s += fmt::format("; machine file <code>{}</code>", html_escape(r.machine_file));
@@ -519,7 +332,7 @@ td.l,th.l{{text-align:left}}.plot{{border:1px solid #ccc;margin:0 8px 8px 0}}.vi
 
   // Error along the path.
   auto series = [&](const Prediction* p, bool axis, const char* name, const char* colour) {
-    Series se{name, colour, {}};
+    io::Series se{name, colour, {}};
     if (p == nullptr) return se;
     const std::size_t n = std::min(p->points.size(), path.points.size());
     se.xy.reserve(n);
@@ -527,14 +340,14 @@ td.l,th.l{{text-align:left}}.plot{{border:1px solid #ccc;margin:0 8px 8px 0}}.vi
       const double v = axis ? arcsec(p->points[i].axis_rad) : um(p->points[i].tip_mm);
       if (std::isfinite(v) && std::isfinite(path.points[i].t)) se.xy.emplace_back(path.points[i].t, v);
     }
-    se.xy = decimate_max(se.xy, kMaxPlotPoints);
+    se.xy = io::decimate_max(se.xy, kMaxPlotPoints);
     return se;
   };
   for (bool axis : {false, true}) {
-    std::vector<Series> plot{series(r.before, axis, "before", "#1f6fb4")};
+    std::vector<io::Series> plot{series(r.before, axis, "before", "#1f6fb4")};
     if (r.after != nullptr) plot.push_back(series(r.after, axis, "after precompensation", "#e67e22"));
     s += axis ? "<h3>Tool-axis contour error along the path</h3>\n" : "<h3>Tool-tip contour error along the path</h3>\n";
-    s += line_plot(plot, "time (s)", axis ? "tool-axis error (arcsec)" : "tool-tip error (µm)") + "\n";
+    s += io::line_plot(plot, "time (s)", axis ? "tool-axis error (arcsec)" : "tool-tip error (µm)") + "\n";
   }
 
   // Projections of the intended tool-tip path.
@@ -543,8 +356,10 @@ td.l,th.l{{text-align:left}}.plot{{border:1px solid #ccc;margin:0 8px 8px 0}}.vi
     if (std::isfinite(p.tip_mm)) max_um = std::max(max_um, um(p.tip_mm));
   s += "<h2>Tool-tip path</h2>\n<p>The intended tool tip (mm, workpiece frame), coloured by the predicted tool-tip "
        "contour error before correction.</p>\n<div class=views>";
-  s += projection(r, 0, 1, max_um) + projection(r, 0, 2, max_um) + projection(r, 1, 2, max_um);
-  s += "</div>\n" + colour_bar(max_um) + "\n";
+  const io::PlotPath tips = plot_path(r);
+  for (const auto& [u, v] : {std::pair{0, 1}, std::pair{0, 2}, std::pair{1, 2}})
+    s += io::projection(tips, u, v, max_um, kMaxPlotPoints);
+  s += "</div>\n" + io::colour_bar(max_um, "tool-tip contour error before correction (µm)") + "\n";
 
   // Worst places.
   for (bool axis : {false, true}) {
@@ -567,8 +382,7 @@ td.l,th.l{{text-align:left}}.plot{{border:1px solid #ccc;margin:0 8px 8px 0}}.vi
     }
     s += "</table>\n";
   }
-  s += "</body></html>\n";
-  return s;
+  return s + io::page_tail();
 }
 
 }  // namespace postproc::contour

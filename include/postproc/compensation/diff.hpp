@@ -14,10 +14,13 @@
 /// compensation/program_map.hpp). The deviation summarised is that tool-tip distance with a
 /// machine, else the length of the linear-axis delta.
 
+#include <cstddef>
 #include <cstdint>
 #include <limits>
 #include <string_view>
 #include <vector>
+
+#include <Eigen/Core>
 
 #include "postproc/contour/reference.hpp"
 #include "postproc/gcode/diagnostic.hpp"
@@ -36,6 +39,11 @@ struct BlockDiff {
   double tip_mm = std::numeric_limits<double>::quiet_NaN();     ///< with a machine: tool-tip distance, mm
   double axis_rad = std::numeric_limits<double>::quiet_NaN();   ///< with a machine: tool-axis angle, rad
   double deviation_mm = 0;           ///< what the summary counts: tip_mm with a machine, else linear_mm
+  /// Where the pair is, for plotting, mm: with a machine the original's intended tool tip in the
+  /// workpiece frame; without, the original's X, Y, Z axis values (work coordinates; an axis the
+  /// program never writes counts as 0).
+  Eigen::Vector3d point_mm = Eigen::Vector3d::Zero();
+  bool point_known = false;          ///< false: point_mm is not known (no tool tip, or an axis not yet known)
 };
 
 struct DiffResult {
@@ -43,6 +51,7 @@ struct DiffResult {
   std::uint64_t motions_original = 0;
   std::uint64_t motions_corrected = 0;
   bool by_block = true;              ///< false: aligned by path
+  bool with_machine = false;         ///< tool-tip figures (a machine was given)
   std::uint64_t changed = 0;         ///< pairs with any axis delta above 1e-9 (mm / deg)
   std::uint64_t unmatched = 0;       ///< original motions without a corrected partner
   contour::Summary deviation;        ///< over `blocks`, mm
@@ -55,5 +64,8 @@ struct DiffResult {
 [[nodiscard]] DiffResult diff(std::string_view original, std::string_view corrected, std::string_view file_original,
                               std::string_view file_corrected, const gcode::Dialect& d, const machine::Machine* m,
                               gcode::DiagnosticSink& sink);
+
+/// Indices into r.blocks of the `n` largest deviations, largest first (ties: earlier pair first).
+[[nodiscard]] std::vector<std::size_t> worst_blocks(const DiffResult& r, std::size_t n);
 
 }  // namespace postproc::comp
