@@ -1,0 +1,303 @@
+// Shared machinery of the dialect resolvers, and the public entry points of resolve.hpp.
+#include "support.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+
+#include <fmt/format.h>
+
+#include "postproc/error.hpp"
+#include "postproc/io/input_file.hpp"
+
+namespace postproc::gcode {
+namespace resolver {
+
+SourceFile::SourceFile(std::string name, std::string text, std::uint32_t index, const Dialect& d, DiagnosticSink& sink)
+    : name_(std::move(name)), text_(std::move(text)), index_(index), d_(d) {
+  ctx_.file = name_;
+  ctx_.sink = &sink;
+  std::string_view t = text_;
+  std::size_t pos = 0;
+  while (pos < t.size()) {
+    std::size_t end = t.find_first_of("\r\n", pos);
+    if (end == std::string_view::npos) end = t.size();
+    lines_.push_back(t.substr(pos, end - pos));
+    if (end < t.size() && t[end] == '\r' && end + 1 < t.size() && t[end + 1] == '\n') ++end;
+    pos = end + 1;
+  }
+  seen_.assign(lines_.size(), 0);
+  ok_.assign(lines_.size(), 1);
+  cache_.resize(lines_.size());
+}
+
+const Block& SourceFile::block(std::size_t i) {
+  if (cache_[i]) return *cache_[i];
+  if (scratch_line_ == i) return scratch_;
+  Block* b = &scratch_;
+  if (seen_[i]) {
+    cache_[i] = std::make_unique<Block>();
+    b = cache_[i].get();
+  }
+  b->clear();
+  b->raw = lines_[i];
+  b->line = i + 1;
+  // Report lexical errors only the first time the line is lexed.
+  DiagnosticSink quiet(0);
+  LexContext ctx = ctx_;
+  if (seen_[i]) ctx.sink = &quiet;
+  ok_[i] = lex_block(d_, *b, ctx) ? 1 : 0;
+  seen_[i] = 1;
+  if (b == &scratch_) scratch_line_ = i;
+  return *b;
+}
+
+std::optional<std::size_t> SourceFile::find_n(double n, std::size_t from, bool forward) {
+  if (!n_built_) {
+    // N numbers: the first word of a line, "N123" after optional blanks and a block delete.
+    for (std::size_t i = 0; i < lines_.size(); ++i) {
+      std::string_view l = lines_[i];
+      std::size_t p = l.find_first_not_of(" \t/");
+      if (p == std::string_view::npos || (l[p] != 'N' && l[p] != 'n')) continue;
+      const Block& b = block(i);
+      if (b.has_n) n_index_.emplace_back(b.n_number, i);
+    }
+    n_built_ = true;
+  }
+  std::optional<std::size_t> best;
+  for (const auto& [num, i] : n_index_) {
+    if (num != n) continue;
+    if (forward && i >= from && (!best || i < *best)) best = i;
+    if (!forward && i <= from && (!best || i > *best)) best = i;
+  }
+  return best;
+}
+
+void SourceFile::report(std::size_t i, Span span, Severity sev, std::string_view code, std::string message) {
+  const Block& b = block(i);
+  report_at(ctx_, b, span, sev, code, std::move(message));
+}
+
+std::uint32_t Emitter::stack_id() {
+  if (current_valid_) return current_;
+  std::vector<std::pair<std::string, std::uint64_t>> key;
+  key.reserve(frames_.size());
+  for (const CallFrame& f : frames_) key.emplace_back(f.file + '\n' + f.callee, f.line);
+  auto [it, fresh] = interned_.emplace(std::move(key), static_cast<std::uint32_t>(out_.stacks.size()));
+  if (fresh) out_.stacks.push_back(frames_);
+  current_ = it->second;
+  current_valid_ = true;
+  return current_;
+}
+
+void Emitter::push_call(CallFrame frame) {
+  frames_.push_back(std::move(frame));
+  current_valid_ = false;
+}
+
+void Emitter::pop_call() {
+  if (!frames_.empty()) frames_.pop_back();
+  current_valid_ = false;
+  if (frames_.empty()) {
+    current_ = 0;
+    current_valid_ = true;
+  }
+}
+
+std::string Emitter::where() const {
+  std::string s;
+  for (auto it = frames_.rbegin(); it != frames_.rend(); ++it)
+    s += fmt::format("{}{} at {}:{}", s.empty() ? "reached through " : " ← ", it->callee, it->file, it->line);
+  return s;
+}
+
+bool Emitter::emit(SourceFile& f, std::size_t line, std::span<const Edit> edits) {
+  ++out_.executed_blocks;
+  std::string_view raw = f.raw(line);
+  bool substituted = !edits.empty();
+  std::string_view text = raw;
+  if (substituted) {
+    line_.clear();
+    std::uint32_t pos = 0;
+    for (const Edit& e : edits) {
+      line_.append(raw.substr(pos, e.span.begin - pos));
+      line_ += e.text;
+      pos = e.span.end;
+    }
+    line_.append(raw.substr(pos));
+    if (line_.find_first_not_of(" \t") == std::string::npos) return out_.executed_blocks <= opt_.max_blocks;
+    text = line_;
+  }
+  if (out_.source_line.size() >= opt_.max_blocks) return false;
+  out_.text.append(text);
+  out_.text += '\n';
+  out_.source_line.push_back(line + 1);
+  out_.source_file.push_back(f.index());
+  out_.stack.push_back(stack_id());
+  out_.substituted.push_back(substituted);
+  return true;
+}
+
+std::string format_value(double v, char letter) {
+  if (v == 0) v = 0;  // no "-0"
+  const bool code = std::string_view("GMTHDNOPLE").find(static_cast<char>(std::toupper(letter))) != std::string_view::npos;
+  const double r = std::round(v);
+  if (std::fabs(v - r) < 1e-10 * std::max(1.0, std::fabs(v))) {
+    const std::string whole = fmt::format("{:.0f}", r == 0 ? 0.0 : r);
+    return code ? whole : whole + ".";
+  }
+  std::string s = fmt::format("{:.10f}", v);
+  while (!s.empty() && s.back() == '0') s.pop_back();
+  if (!s.empty() && s.back() == '.') s.pop_back();
+  return s;
+}
+
+bool block_has_statements(const Block& b) {
+  for (const Token& t : b.tokens)
+    if (t.kind == TokenKind::assignment || t.kind == TokenKind::control_flow || t.kind == TokenKind::declaration ||
+        t.kind == TokenKind::label)
+      return true;
+  for (const Word& w : b.words)
+    if (w.kind == ValueKind::expression || w.kind == ValueKind::parameter) return true;
+  return false;
+}
+
+SourceFile& FileSet::add(std::string name, std::string text) {
+  const auto index = static_cast<std::uint32_t>(files_.size());
+  out_.files.push_back(name);
+  files_.push_back(std::make_unique<SourceFile>(std::move(name), std::move(text), index, d_, sink_));
+  return *files_.back();
+}
+
+SourceFile* FileSet::find(const std::vector<std::string>& candidates) {
+  namespace fs = std::filesystem;
+  for (const std::string& c : candidates) {
+    if (auto it = by_name_.find(c); it != by_name_.end()) return it->second;
+    for (const std::string& dir : opt_.search_dirs) {
+      // Exact name first, then a case-insensitive match (controllers' names are upper case,
+      // files on disk often are not).
+      std::error_code ec;
+      fs::path p = fs::path(dir) / c;
+      std::string found;
+      if (fs::is_regular_file(p, ec)) {
+        found = p.string();
+      } else {
+        for (const auto& e : fs::directory_iterator(dir, ec)) {
+          const std::string n = e.path().filename().string();
+          if (n.size() == c.size() && std::equal(n.begin(), n.end(), c.begin(), [](char a, char b) {
+                return std::toupper(static_cast<unsigned char>(a)) == std::toupper(static_cast<unsigned char>(b));
+              })) {
+            found = e.path().string();
+            break;
+          }
+        }
+      }
+      if (found.empty()) continue;
+      SourceFile& f = add(found, io::read_file(found, "subprogram"));
+      by_name_[c] = &f;
+      return &f;
+    }
+  }
+  return nullptr;
+}
+
+}  // namespace resolver
+
+bool needs_resolution(std::string_view text, const Dialect& d) {
+  DiagnosticSink quiet(0);
+  LexContext ctx{"", &quiet};
+  Block b;
+  std::size_t pos = 0;
+  std::uint64_t line = 0;
+  while (pos < text.size()) {
+    std::size_t end = text.find_first_of("\r\n", pos);
+    if (end == std::string_view::npos) end = text.size();
+    const std::string_view raw = text.substr(pos, end - pos);
+    if (end < text.size() && text[end] == '\r' && end + 1 < text.size() && text[end + 1] == '\n') ++end;
+    pos = end + 1;
+    ++line;
+    // Cheap pre-filter: a statement needs one of these characters or a letter pair.
+    if (raw.find_first_of("#[=<>") == std::string_view::npos && !(d.o_word_control && raw.find_first_of("oO") != std::string_view::npos) &&
+        !d.multi_letter_identifiers && d.id != DialectId::fanuc)
+      continue;
+    b.clear();
+    b.raw = raw;
+    b.line = line;
+    lex_block(d, b, ctx);
+    if (resolver::block_has_statements(b)) return true;
+    if (d.id == DialectId::fanuc)
+      for (const Word& w : b.words)
+        if ((w.letter == 'M' && (w.number == 98 || w.number == 99)) || (w.letter == 'G' && (w.number == 65 || w.number == 66)))
+          return true;
+    if (d.id == DialectId::siemens)
+      for (const Word& w : b.words)
+        if (w.letter == 'L' && w.name_len == 1) return true;
+  }
+  return false;
+}
+
+ResolvedProgram resolve(std::string_view text, std::string_view file, const Dialect& d, const ResolveOptions& opt,
+                        DiagnosticSink& sink) {
+  ResolvedProgram r;
+  r.resolved = true;
+  resolver::FileSet files(r, d, opt, sink);
+  files.add(std::string(file), std::string(text));
+  resolver::Emitter out(r, opt);
+  switch (d.id) {
+    case DialectId::linuxcnc: resolver::resolve_linuxcnc(files, out, opt, sink, r); break;
+    case DialectId::fanuc: resolver::resolve_fanuc(files, out, opt, sink, r); break;
+    case DialectId::siemens: resolver::resolve_siemens(files, out, opt, sink, r); break;
+    default: {
+      Diagnostic diag;
+      diag.severity = Severity::error;
+      diag.code = "PP-E300";
+      diag.file = std::string(file);
+      diag.where = {1, 1};
+      diag.message = fmt::format("the {} dialect has no parameters or control flow to evaluate", d.name);
+      sink.report(std::move(diag));
+    }
+  }
+  return r;
+}
+
+void map_to_source(const ResolvedProgram& r, Diagnostic& d) {
+  if (!r.resolved || d.where.line == 0 || d.where.line > r.source_line.size()) return;
+  const std::size_t i = d.where.line - 1;
+  const std::uint32_t f = r.source_file[i];
+  if (f < r.files.size()) d.file = r.files[f];
+  if (r.substituted[i]) d.message += fmt::format(" (in the block as resolved: {})", d.source_line);
+  d.where.line = r.source_line[i];
+  if (r.substituted[i]) {
+    d.where.column = 1;
+    d.length = 1;
+  }
+  const auto& frames = r.stacks[r.stack[i]];
+  if (!frames.empty()) {
+    std::string s;
+    for (auto it = frames.rbegin(); it != frames.rend(); ++it)
+      s += fmt::format("{}{} at {}:{}", s.empty() ? "; reached through " : " ← ", it->callee, it->file, it->line);
+    d.message += s;
+  }
+}
+
+std::pair<std::string, double> parse_setting(std::string_view text) {
+  const auto eq = text.rfind('=');
+  if (eq == std::string_view::npos || eq == 0 || eq + 1 >= text.size())
+    throw Error(ExitCode::usage, fmt::format("--set '{}': give NAME=VALUE, e.g. --set '#5061=1.25'", text));
+  std::string name(text.substr(0, eq));
+  while (!name.empty() && name.back() == ' ') name.pop_back();
+  const std::string value(text.substr(eq + 1));
+  std::size_t used = 0;
+  double v = 0;
+  try {
+    v = std::stod(value, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  if (used != value.size() || !std::isfinite(v))
+    throw Error(ExitCode::usage, fmt::format("--set '{}': '{}' is not a number", text, value));
+  for (char& c : name) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+  return {name, v};
+}
+
+}  // namespace postproc::gcode

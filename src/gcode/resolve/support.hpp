@@ -1,0 +1,128 @@
+#pragma once
+// Shared machinery of the dialect resolvers (include/postproc/gcode/resolve.hpp): source files
+// lexed on demand, the emitter that writes the resolved program with its line and call-stack
+// maps, and number formatting.
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <optional>
+#include <span>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "postproc/gcode/block.hpp"
+#include "postproc/gcode/dialect.hpp"
+#include "postproc/gcode/lexer.hpp"
+#include "postproc/gcode/resolve.hpp"
+
+namespace postproc::gcode::resolver {
+
+/// One program or subprogram file: its lines, lexed on demand. A line lexed a second time (a loop
+/// body, a subprogram) is kept lexed; others are lexed into a scratch block.
+class SourceFile {
+ public:
+  SourceFile(std::string name, std::string text, std::uint32_t index, const Dialect& d, DiagnosticSink& sink);
+  SourceFile(const SourceFile&) = delete;
+  SourceFile& operator=(const SourceFile&) = delete;
+
+  [[nodiscard]] const std::string& name() const { return name_; }
+  [[nodiscard]] std::uint32_t index() const { return index_; }  ///< into ResolvedProgram::files
+  [[nodiscard]] std::size_t lines() const { return lines_.size(); }
+  [[nodiscard]] std::string_view raw(std::size_t i) const { return lines_[i]; }
+  /// The lexed block of line i (0-based). Valid until the next call of block() on this file
+  /// unless the line is cached (a line asked for twice is cached from then on).
+  const Block& block(std::size_t i);
+  /// False when line i had a lexical error (reported once, on its first lexing).
+  [[nodiscard]] bool lexed_ok(std::size_t i) { (void)block(i); return ok_[i] != 0; }
+  /// First line index at or after `from` (forward) or at or before `from` (backward) whose N
+  /// number equals `n`; nullopt when none.
+  [[nodiscard]] std::optional<std::size_t> find_n(double n, std::size_t from, bool forward);
+  [[nodiscard]] const LexContext& context() const { return ctx_; }
+
+  /// Reports at a span of line i's block.
+  void report(std::size_t i, Span span, Severity sev, std::string_view code, std::string message);
+
+ private:
+  std::string name_, text_;
+  std::uint32_t index_;
+  const Dialect& d_;
+  LexContext ctx_;
+  std::vector<std::string_view> lines_;
+  std::vector<std::uint8_t> seen_, ok_;  // ok_: 1 lexed without error
+  std::vector<std::unique_ptr<Block>> cache_;
+  Block scratch_;
+  std::size_t scratch_line_ = static_cast<std::size_t>(-1);
+  std::vector<std::pair<double, std::size_t>> n_index_;  // built on first find_n
+  bool n_built_ = false;
+};
+
+/// A replacement inside one block's raw text: `span` becomes `text` (empty text deletes).
+struct Edit {
+  Span span;
+  std::string text;
+};
+
+/// Writes the resolved program and its maps.
+class Emitter {
+ public:
+  explicit Emitter(ResolvedProgram& out, const ResolveOptions& opt) : out_(out), opt_(opt) {
+    out_.stacks.emplace_back();  // 0: the main program
+  }
+  /// Emits line `line` (0-based) of `f` with `edits` applied (sorted by span, not overlapping).
+  /// The line is dropped when only blanks (and no comment) are left. Returns false once
+  /// max_blocks is exceeded (the caller reports PP-E305 and stops).
+  bool emit(SourceFile& f, std::size_t line, std::span<const Edit> edits);
+  void push_call(CallFrame frame);
+  void pop_call();
+  [[nodiscard]] std::size_t depth() const { return frames_.size(); }
+  /// "reached through o100 call at line 12 → …" for messages; empty at the top level.
+  [[nodiscard]] std::string where() const;
+  [[nodiscard]] std::uint64_t emitted() const { return out_.source_line.size(); }
+
+ private:
+  std::uint32_t stack_id();
+  ResolvedProgram& out_;
+  const ResolveOptions& opt_;
+  std::vector<CallFrame> frames_;
+  std::map<std::vector<std::pair<std::string, std::uint64_t>>, std::uint32_t> interned_;
+  std::uint32_t current_ = 0;
+  bool current_valid_ = true;
+  std::string line_;
+};
+
+/// A value as the resolved text writes it: no exponent, up to 10 decimals, trailing zeros
+/// removed. Whole values keep a point for length/angle/feed letters (`X100.`: Fanuc would read
+/// `X100` as increments) and none for code letters (G M T H D N O P L E).
+[[nodiscard]] std::string format_value(double v, char letter);
+
+/// True when `b` holds anything a resolver evaluates: an assignment, control flow, declaration
+/// or label token, or a word whose value is an expression or parameter.
+[[nodiscard]] bool block_has_statements(const Block& b);
+
+// Per-dialect resolvers (src/gcode/resolve/<dialect>.cpp). `main` is files[0]; `load` finds a
+// subprogram file by name in opt.search_dirs and adds it to the program's files.
+class FileSet {
+ public:
+  FileSet(ResolvedProgram& out, const Dialect& d, const ResolveOptions& opt, DiagnosticSink& sink)
+      : out_(out), d_(d), opt_(opt), sink_(sink) {}
+  SourceFile& add(std::string name, std::string text);
+  /// The first of `candidates` (file names, e.g. "probe.ngc", "O2000", "O2000.nc") that exists in
+  /// one of the search folders, loaded; nullptr when none. Cached by name.
+  SourceFile* find(const std::vector<std::string>& candidates);
+  [[nodiscard]] SourceFile& main() { return *files_.front(); }
+
+ private:
+  ResolvedProgram& out_;
+  const Dialect& d_;
+  const ResolveOptions& opt_;
+  DiagnosticSink& sink_;
+  std::vector<std::unique_ptr<SourceFile>> files_;
+  std::map<std::string, SourceFile*> by_name_;
+};
+
+void resolve_linuxcnc(FileSet& files, Emitter& out, const ResolveOptions& opt, DiagnosticSink& sink, ResolvedProgram& r);
+void resolve_fanuc(FileSet& files, Emitter& out, const ResolveOptions& opt, DiagnosticSink& sink, ResolvedProgram& r);
+void resolve_siemens(FileSet& files, Emitter& out, const ResolveOptions& opt, DiagnosticSink& sink, ResolvedProgram& r);
+
+}  // namespace postproc::gcode::resolver
