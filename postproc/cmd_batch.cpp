@@ -26,7 +26,8 @@ struct BatchArgs {
   double max_deviation_um = 1.0;
   double max_angle_arcsec = 4.0;
   int iterations = 12;
-  bool no_header = false, force = false, quiet = false;
+  bool no_header = false, force = false, quiet = false, flatten = false;
+  ResolveArgs resolve;
   // merge
   std::vector<std::string> manifests;
   std::string merged;
@@ -158,6 +159,8 @@ void setup_batch(CLI::App& app, int& rc) {
   cmd->add_option("--max-angle-deviation", o->max_angle_arcsec, "as for compensate, arcsec")->capture_default_str();
   cmd->add_option("--iterations", o->iterations, "contour modes: most prediction / correction rounds")->capture_default_str();
   cmd->add_flag("--no-header", o->no_header, "do not write the header comment into the programs");
+  cmd->add_flag("--flatten", o->flatten, "as for compensate: write programs with parameters or loops as literal moves");
+  add_resolve_options(*cmd, o->resolve);
   cmd->add_flag("--force", o->force, "compensate every file again, even when the manifest says it is unchanged");
   cmd->add_flag("-q,--quiet", o->quiet, "no summary table (the manifest still has everything)");
   cmd->require_subcommand(0, 1);
@@ -187,6 +190,8 @@ void setup_batch(CLI::App& app, int& rc) {
     opt.compensate.max_angle_rad = o->max_angle_arcsec / 3600.0 * 3.14159265358979323846 / 180.0;
     opt.compensate.header = !o->no_header;
     opt.compensate.tool_version = POSTPROC_VERSION;
+    opt.compensate.flatten = o->flatten;
+    opt.compensate.resolve = make_resolve_options(o->resolve);
     opt.precompensate.max_iterations = o->iterations;
     opt.jobs = o->jobs > 0 ? o->jobs : std::max(1u, std::thread::hardware_concurrency());
     if (!o->shard.empty()) opt.shard = batch::parse_shard(o->shard);

@@ -17,6 +17,7 @@ namespace {
 struct CheckOptions {
   std::vector<std::string> files;
   DialectArgs dialect;
+  ResolveArgs resolve;
   std::size_t max_per_code = 20;
   bool quiet = false;
 };
@@ -104,9 +105,8 @@ int check_one(const std::string& file, const CheckOptions& o) {
                stderr);
   }
   const gcode::Dialect d = make_dialect(args);
-  gcode::LineReader reader(file);
   Summarise v;
-  gcode::run_program(reader, d, file, sink, v);
+  gcode::run_program_file(file, d, file, sink, v, make_resolve_options(o.resolve));
   printer.finish();
   if (!o.quiet) print_summary(file, d, how, v.summary, sink);
   return static_cast<int>(exit_code_for(sink));
@@ -119,6 +119,7 @@ void setup_check(CLI::App& app, int& rc) {
   auto* cmd = app.add_subcommand("check", "read programs, report located diagnostics and a summary");
   cmd->add_option("files", o->files, "NC programs ('-' = stdin)")->required();
   add_dialect_options(*cmd, o->dialect, false);
+  add_resolve_options(*cmd, o->resolve);
   cmd->add_option("--max-per-code", o->max_per_code, "show at most this many diagnostics per code")
       ->capture_default_str();
   cmd->add_flag("-q,--quiet", o->quiet, "diagnostics only, no summary");

@@ -32,6 +32,8 @@ struct CompensateArgs {
   bool in_place = false;
   std::size_t max_per_code = 20;
   int iterations = 12;
+  bool flatten = false;
+  ResolveArgs resolve;
 };
 
 nlohmann::json report_json(const CompensateArgs& a, const machine::Machine& m, const comp::CompensateResult& r,
@@ -45,6 +47,12 @@ nlohmann::json report_json(const CompensateArgs& a, const machine::Machine& m, c
   j["status"] = ok ? "written" : "refused";
   j["limits"] = {{"max_deviation_mm", a.max_deviation_um / 1000.0}, {"max_angle_deviation_deg", a.max_angle_arcsec / 3600.0}};
   j.update(comp::result_json(r, a.mode, &contour));
+  if (r.resolved_lines > 0) {
+    nlohmann::json given = nlohmann::json::object(), used = nlohmann::json::object();
+    for (const auto& [name, value] : make_resolve_options(a.resolve).set) given[name] = value;
+    for (const auto& [name, value] : r.used_settings) used[name] = value;
+    j["flattened"] = {{"resolved_lines", r.resolved_lines}, {"set_given", given}, {"set_used", used}};
+  }
   j["seconds"] = seconds;
   j["diagnostics"] = comp::diagnostics_json(sink);
   return j;
@@ -81,6 +89,10 @@ void setup_compensate(CLI::App& app, int& rc) {
                   "contour modes: most prediction / correction rounds (stops earlier when the predicted contour error "
                   "stops improving)")
       ->capture_default_str();
+  cmd->add_flag("--flatten", o->flatten,
+                "programs with parameters, expressions, subprograms or loops: write the resolved program as literal "
+                "moves (loops unrolled, calls expanded; comments and other blocks kept); without it they are refused");
+  add_resolve_options(*cmd, o->resolve);
   cmd->add_flag("--no-header", o->no_header, "do not write the header comment naming tool, machine file and hash");
   cmd->add_flag("--in-place", o->in_place, "allow -o to name the input (a .bak backup is kept)");
   cmd->add_option("--max-per-code", o->max_per_code, "show at most this many diagnostics per code")->capture_default_str();
@@ -112,6 +124,8 @@ void setup_compensate(CLI::App& app, int& rc) {
     opt.header = !o->no_header;
     opt.tool_version = POSTPROC_VERSION;
     opt.mode = o->mode;
+    opt.flatten = o->flatten;
+    opt.resolve = make_resolve_options(o->resolve);
     io::OutputFile out(o->output, o->input, o->in_place);
     ProgressBar bar("postproc:");
     if (bar.enabled()) {
@@ -122,11 +136,19 @@ void setup_compensate(CLI::App& app, int& rc) {
     comp::CompensateResult r;
     comp::ContourDetails contour;
     const bool servo = o->mode != "geometric";
-    if (!servo) {
+    // Flat programs stream from the file; programs with parameters or control flow are resolved
+    // in memory (compensate_program).
+    bool streaming = !servo && o->input != "-";
+    if (streaming) {
+      gcode::LineReader scan(o->input);
+      streaming = !gcode::needs_resolution(scan, d);
+    }
+    if (streaming) {
       gcode::LineReader reader(o->input);
       r = comp::compensate(reader, o->input, d, *machine, opt, out, sink);
     } else {
       // The contour stage reads the program twice (path, then writing): it is held in memory.
+      // So is a program to resolve.
       const std::string text = io::read_file(o->input, "NC program");
       contour::PrecompensateOptions popt;
       popt.max_iterations = o->iterations;

@@ -16,6 +16,7 @@ struct DumpOptions {
   std::string output = "-";
   std::string format = "csv";
   DialectArgs dialect;
+  ResolveArgs resolve;
   std::size_t max_per_code = 20;
 };
 
@@ -132,16 +133,16 @@ void setup_dump(CLI::App& app, int& rc) {
   cmd->add_option("-o,--output", o->output, "output file ('-' = stdout)")->capture_default_str();
   cmd->add_option("--format", o->format, "csv or jsonl")->check(CLI::IsMember({"csv", "jsonl"}))->capture_default_str();
   add_dialect_options(*cmd, o->dialect, true);
+  add_resolve_options(*cmd, o->resolve);
   cmd->add_option("--max-per-code", o->max_per_code, "show at most this many diagnostics per code")
       ->capture_default_str();
   cmd->callback([o, &rc] {
     const gcode::Dialect d = make_dialect(o->dialect);
     gcode::DiagnosticSink sink;
     DiagnosticPrinter printer(sink, o->max_per_code);
-    gcode::LineReader reader(o->file);
     io::OutputFile out(o->output, o->file);
     Dumper dumper(out, o->format == "jsonl");
-    gcode::run_program(reader, d, o->file, sink, dumper);
+    gcode::run_program_file(o->file, d, o->file, sink, dumper, make_resolve_options(o->resolve));
     printer.finish();
     dumper.flush();
     // Rows of a refused program would be wrong or incomplete: write nothing.

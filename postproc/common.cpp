@@ -62,6 +62,18 @@ void DiagnosticPrinter::finish() const {
                  stderr);
 }
 
+void add_resolve_options(CLI::App& cmd, ResolveArgs& a) {
+  cmd.add_option("--set", a.set,
+                 "value of a variable the control fills at run time, for programs with parameters (repeatable): "
+                 "'#5061=1.25', '#<_probe_z>=-3', 'R10=2', '$AA_IM[X]=10'; the report records it");
+}
+
+gcode::ResolveOptions make_resolve_options(const ResolveArgs& a) {
+  gcode::ResolveOptions o;
+  for (const std::string& s : a.set) o.set.insert(gcode::parse_setting(s));
+  return o;
+}
+
 ExitCode exit_code_for(const gcode::DiagnosticSink& sink) {
   if (sink.has_errors()) return ExitCode::refused;
   if (sink.count(gcode::Severity::warning) > 0) return ExitCode::unresolved;

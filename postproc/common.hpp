@@ -9,6 +9,7 @@
 #include "postproc/error.hpp"
 #include "postproc/gcode/dialect.hpp"
 #include "postproc/gcode/diagnostic.hpp"
+#include "postproc/gcode/resolve.hpp"
 #include "postproc/machine/machine.hpp"
 
 namespace postproc::cli {
@@ -25,6 +26,14 @@ struct DialectArgs {
 void add_dialect_options(CLI::App& cmd, DialectArgs& a, bool required);
 /// Builds the dialect; throws Error(usage) on a bad combination.
 gcode::Dialect make_dialect(const DialectArgs& a);
+
+/// --set NAME=VALUE… : values of run-time variables for programs with parameters (issue 3).
+struct ResolveArgs {
+  std::vector<std::string> set;
+};
+void add_resolve_options(CLI::App& cmd, ResolveArgs& a);
+/// Parses the --set values; throws Error(usage) on a malformed one.
+gcode::ResolveOptions make_resolve_options(const ResolveArgs& a);
 
 /// Prints diagnostics to stderr as they arrive, at most `per_code_limit` per code.
 struct DiagnosticPrinter {

@@ -9,10 +9,11 @@ packages=(
   libtomlplusplus-dev nlohmann-json3-dev libssl-dev
   time
   chromium chromium-driver python3-selenium python3-pil  # tests/html_render.sh: reports in headless Chromium
+  linuxcnc-uspace  # tests/rs274_compare.sh: LinuxCNC's own interpreter (rs274) as the reference
 )
-# Optional extras: clang for the libFuzzer target, linuxcnc-uspace for the rs274 bench baseline.
+# Optional extras: clang for the libFuzzer target, valgrind for instruction counts.
 if [[ "${POSTPROC_DEPS_EXTRA:-0}" == 1 ]]; then
-  packages+=(clang libclang-rt-14-dev linuxcnc-uspace valgrind)
+  packages+=(clang libclang-rt-14-dev valgrind)
 fi
 missing=()
 for p in "${packages[@]}"; do

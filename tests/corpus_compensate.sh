@@ -17,7 +17,9 @@ if [[ ! -d "$corpus" ]]; then
   exit 77
 fi
 corpus=$(realpath "$corpus")
-readonly min_accepted=22
+# Programs written back byte for byte or flattened (issue 3 moved the ones with parameters from
+# "byte for byte with unresolved words" to "flattened" or "refused with a reason").
+readonly min_accepted=18
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 
@@ -63,7 +65,7 @@ TOML
 }
 
 cd "$corpus" || exit 1
-failures=0 accepted=0 refused=0
+failures=0 accepted=0 refused=0 flattened=0
 while IFS=$'\t' read -r file _repo _path _commit _license dialect _rest; do
   [[ "$file" == file || -z "$file" ]] && continue
   case "$dialect" in
@@ -77,6 +79,21 @@ while IFS=$'\t' read -r file _repo _path _commit _license dialect _rest; do
   rm -f "$out"
   "$bin" compensate "$file" -m "$work/m.toml" -o "$out" --no-header > /dev/null 2> "$work/err" < /dev/null
   rc=$?
+  # A program with parameters, calls or control flow is refused at its first such line (PP-E711,
+  # issue 3); --flatten resolves it and writes the literal program, or refuses with a located reason.
+  if [[ $rc == 2 ]] && grep -q 'error: PP-E711' "$work/err"; then
+    [[ $(grep -c 'error: PP-' "$work/err") == 1 ]] || { echo "FAIL $file: PP-E711 with other errors"; failures=$((failures + 1)); }
+    "$bin" compensate "$file" -m "$work/m.toml" -o "$out" --no-header --flatten > /dev/null 2> "$work/err" < /dev/null
+    rc=$?
+    if [[ $rc == 0 ]]; then
+      if grep -qE '#[0-9<\[]|^[[:space:]]*[oO][0-9<].*(sub|call|while|if|endwhile|endif|endsub)' "$out"; then
+        echo "FAIL $file: flattened output still holds parameters or o-words"; failures=$((failures + 1))
+      else
+        flattened=$((flattened + 1)); echo "flatten  $file ($(wc -l < "$file") → $(wc -l < "$out") lines)"
+      fi
+      continue
+    fi
+  fi
   case $rc in
     0)
       if cmp -s "$file" "$out"; then
@@ -95,5 +112,5 @@ while IFS=$'\t' read -r file _repo _path _commit _license dialect _rest; do
     *) echo "FAIL $file: exit $rc"; tail -3 "$work/err"; failures=$((failures + 1)) ;;
   esac
 done < MANIFEST.tsv
-echo "corpus_compensate: $accepted byte-identical, $refused refused, $failures failures"
-[[ $failures -eq 0 && $accepted -ge $min_accepted ]]
+echo "corpus_compensate: $accepted byte-identical, $flattened flattened, $refused refused, $failures failures"
+[[ $failures -eq 0 && $((accepted + flattened)) -ge $min_accepted ]]

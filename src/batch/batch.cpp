@@ -85,6 +85,8 @@ std::string settings_of(const BatchOptions& o) {
   std::string s = fmt::format("mode={};max_deviation_mm={:.17g};max_angle_rad={:.17g};header={}", c.mode,
                               c.max_deviation_mm, c.max_angle_rad, c.header ? 1 : 0);
   if (c.mode != "geometric") s += fmt::format(";iterations={}", o.precompensate.max_iterations);
+  if (c.flatten) s += ";flatten=1";
+  for (const auto& [name, value] : c.resolve.set) s += fmt::format(";set {}={:.17g}", name, value);
   return s;
 }
 

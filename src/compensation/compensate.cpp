@@ -54,6 +54,8 @@ void Compensator::write_segments(const Block& b, const Motion& m, gcode::BlockEd
 std::string header_comment(const gcode::Dialect& d, const machine::Machine& m, const CompensateOptions& opt) {
   std::string text = fmt::format("postproc {} compensate mode={} machine={} sha256={}", opt.tool_version, opt.mode,
                                  m.file, m.sha256);
+  if (opt.flatten) text += " flattened=parameters, calls and loops resolved into literal moves";
+  for (const auto& [name, value] : opt.resolve.set) text += fmt::format(" set {}={}", name, value);
   for (char& c : text)
     if (c == '(' || c == ')' || c == ';') c = '_';
   if (d.paren_comments) return "(" + text + ")";

@@ -5,6 +5,7 @@
 /// remap per program form). Blocks that need no change are copied byte for byte.
 
 #include <cstdint>
+#include <map>
 #include <optional>
 #include <string>
 #include <vector>
@@ -15,6 +16,7 @@
 #include "postproc/gcode/diagnostic.hpp"
 #include "postproc/gcode/dialect.hpp"
 #include "postproc/gcode/line_reader.hpp"
+#include "postproc/gcode/resolve.hpp"
 #include "postproc/io/output_file.hpp"
 #include "postproc/machine/machine.hpp"
 #include "postproc/progress.hpp"
@@ -36,6 +38,14 @@ struct CompensateOptions {
   /// unknown), the contour stages by name (the iterations through PrecompensateOptions::progress).
   Progress progress;
   std::uint64_t input_bytes = 0;
+  /// Programs with parameters, expressions, calls or control flow (issue 3): resolved with these
+  /// options (--set values; subprogram folders, default: the program's folder) …
+  gcode::ResolveOptions resolve;
+  /// … and written as the resolved literal program (loops unrolled, calls expanded, comments and
+  /// non-motion blocks kept; the header says "flattened"). Without it such a program is refused
+  /// (PP-E711): a corrected value cannot be written back into an expression or into a loop body
+  /// that runs with different values.
+  bool flatten = false;
 };
 
 /// Figures of one run (the --report JSON carries them).
@@ -71,6 +81,8 @@ struct CompensateResult {
   int contour_iterations = 0;
   bool contour_converged = false;
   double fit_residual_mm = 0;            ///< largest NURBS fit residual of the intended contour, mm
+  std::uint64_t resolved_lines = 0;      ///< --flatten: lines of the resolved program (0: not resolved)
+  std::map<std::string, double> used_settings;  ///< --set values the program read
 };
 
 /// Compensates the program read by `in` into `out`. Refusals go to `sink` as errors (the caller
@@ -98,7 +110,9 @@ CompensateResult compensate_contour(std::string_view text, std::string_view file
                                     gcode::DiagnosticSink& sink, ContourDetails* details = nullptr);
 
 /// `postproc compensate --mode geometric|contour|all` on a program held in memory, as the CLI and
-/// `postproc batch` run it: geometric streams the text through compensate(); contour runs
+/// `postproc batch` run it. A program with parameters or control flow is refused (PP-E711) unless
+/// opt.flatten, then resolved (gcode/resolve.hpp) and compensated as its literal program, with
+/// diagnostics mapped to the source lines. Then: geometric streams the text through compensate(); contour runs
 /// compensate_contour(); all runs the geometric stage into memory (no header), then the contour
 /// stage on its output, and reports the geometric figures next to the contour ones (the contour
 /// worst line mapped back to the input). `opt.mode` selects; anything else throws

@@ -9,7 +9,7 @@
 /// Determinism boundary: control flow and values known before the program runs are followed.
 /// Anything that depends on run-time state (probe results, machine positions, system variables the
 /// controller fills while running, inputs, tool-life counters) is refused with a located
-/// diagnostic naming the variable (PP-E301), unless the user supplies its value (`--set`), which
+/// diagnostic naming the variable (PP-E701), unless the user supplies its value (`--set`), which
 /// the result records in `used_settings`.
 ///
 /// Per dialect (src/gcode/resolve/):
@@ -31,6 +31,8 @@
 
 #include "postproc/gcode/diagnostic.hpp"
 #include "postproc/gcode/dialect.hpp"
+#include "postproc/gcode/line_reader.hpp"
+#include "postproc/gcode/program.hpp"
 
 namespace postproc::gcode {
 
@@ -41,9 +43,9 @@ struct ResolveOptions {
   /// Folders searched for subprogram files (LinuxCNC name.ngc, Fanuc O####, Siemens NAME.SPF),
   /// in order; the program's own folder first.
   std::vector<std::string> search_dirs;
-  /// Resolved blocks at most (a loop that never ends is refused, PP-E305).
+  /// Resolved blocks at most (a loop that never ends is refused, PP-E705).
   std::uint64_t max_blocks = 200'000'000;
-  /// Call depth at most (PP-E306).
+  /// Call depth at most (PP-E706).
   int max_call_depth = 64;
 };
 
@@ -79,6 +81,10 @@ struct ResolvedProgram {
 
 /// True when `text` contains anything `resolve` evaluates (cheap scan through the lexer).
 [[nodiscard]] bool needs_resolution(std::string_view text, const Dialect& d);
+/// The first line that needs resolution (1-based), 0 when none.
+[[nodiscard]] std::uint64_t first_resolution_line(std::string_view text, const Dialect& d);
+/// The same over a reader (streaming; the reader is consumed).
+[[nodiscard]] bool needs_resolution(LineReader& in, const Dialect& d);
 
 /// Resolves `text` (file name `file` for diagnostics). Errors go to `sink` with file:line:col
 /// of the source (and the call stack in the message); the result is then incomplete.
@@ -88,6 +94,20 @@ struct ResolvedProgram {
 /// Maps a diagnostic reported on a resolved line back to its source: line (and column when the
 /// line was not substituted), file, and "(reached through …)" appended to the message.
 void map_to_source(const ResolvedProgram& r, Diagnostic& d);
+
+/// run_program (program.hpp) on the file `path` ("-" = stdin): a program without parameters or
+/// control flow streams from the file as before; one with them is read, resolved (subprogram
+/// files are looked for in `opt.search_dirs`, else next to the program) and the interpreter reads
+/// the resolved text. The visitor sees blocks and motions with their *source* line numbers;
+/// diagnostics are mapped to the source (map_to_source). `resolved` (optional) receives the
+/// resolution. Nothing is interpreted when resolving reports an error.
+ProgramStats run_program_file(const std::string& path, const Dialect& d, std::string_view file, DiagnosticSink& sink,
+                              BlockVisitor& visitor, const ResolveOptions& opt, ResolvedProgram* resolved = nullptr);
+
+/// run_program on a resolved program's text, with blocks, motions and diagnostics mapped to the
+/// source lines.
+ProgramStats run_resolved(const ResolvedProgram& r, const Dialect& d, std::string_view file, DiagnosticSink& sink,
+                          BlockVisitor& visitor);
 
 /// Parses a --set argument "NAME=VALUE" (NAME as the dialect writes it: #5061, #<_x>, R10,
 /// $AA_IM[X]); throws postproc::Error (usage) when malformed.

@@ -203,9 +203,74 @@ SourceFile* FileSet::find(const std::vector<std::string>& candidates) {
 
 }  // namespace resolver
 
-bool needs_resolution(std::string_view text, const Dialect& d) {
+namespace {
+
+bool contains_word(std::string_view raw, std::string_view w) {
+  if (raw.size() < w.size()) return false;
+  for (std::size_t i = 0; i + w.size() <= raw.size(); ++i) {
+    std::size_t k = 0;
+    while (k < w.size() && std::toupper(static_cast<unsigned char>(raw[i + k])) == w[k]) ++k;
+    if (k == w.size()) return true;
+  }
+  return false;
+}
+
+/// Cheap pre-filter: can this line hold anything resolve() evaluates?
+bool may_need(std::string_view raw, const Dialect& d) {
+  if (raw.find_first_of("#[=") != std::string_view::npos) return true;
+  switch (d.id) {
+    case DialectId::linuxcnc: {
+      const auto p = raw.find_first_not_of(" \t/");
+      if (p == std::string_view::npos) return false;
+      std::size_t q = p;
+      if (raw[q] == 'N' || raw[q] == 'n')
+        while (++q < raw.size() && (std::isdigit(static_cast<unsigned char>(raw[q])) || raw[q] == ' ')) {}
+      return q < raw.size() && (raw[q] == 'o' || raw[q] == 'O');
+    }
+    case DialectId::fanuc:
+      for (std::string_view w : {"M98", "M99", "G65", "G66", "GOTO", "IF", "WHILE", "END"})
+        if (contains_word(raw, w)) return true;
+      return false;
+    case DialectId::siemens:
+      if (raw.find(':') != std::string_view::npos) return true;
+      for (std::string_view w : {"IF", "ELSE", "WHILE", "FOR", "LOOP", "GOTO", "REPEAT", "UNTIL", "DEF", "CALL", "PROC",
+                                 "RET", "L", "M17", "SETAL"})
+        if (contains_word(raw, w)) return true;
+      return false;
+    default: return false;
+  }
+}
+
+bool line_needs(std::string_view raw, std::uint64_t line, const Dialect& d, Block& b) {
+  if (!may_need(raw, d)) return false;
   DiagnosticSink quiet(0);
   LexContext ctx{"", &quiet};
+  b.clear();
+  b.raw = raw;
+  b.line = line;
+  lex_block(d, b, ctx);
+  if (resolver::block_has_statements(b)) return true;
+  if (d.id == DialectId::fanuc)
+    for (const Word& w : b.words)
+      if ((w.letter == 'M' && (w.number == 98 || w.number == 99)) || (w.letter == 'G' && (w.number == 65 || w.number == 66)))
+        return true;
+  if (d.id == DialectId::siemens) {
+    for (const Word& w : b.words)
+      if (w.letter == 'L' && w.name_len == 1) return true;
+    for (const Token& t : b.tokens)
+      if (t.kind == TokenKind::call || t.kind == TokenKind::keyword) {
+        const std::string_view n = b.text(t.name);
+        if (contains_word(n, "CALL") || contains_word(n, "RET") || contains_word(n, "SETAL")) return true;
+      }
+  }
+  return false;
+}
+
+}  // namespace
+
+bool needs_resolution(std::string_view text, const Dialect& d) { return first_resolution_line(text, d) != 0; }
+
+std::uint64_t first_resolution_line(std::string_view text, const Dialect& d) {
   Block b;
   std::size_t pos = 0;
   std::uint64_t line = 0;
@@ -215,24 +280,17 @@ bool needs_resolution(std::string_view text, const Dialect& d) {
     const std::string_view raw = text.substr(pos, end - pos);
     if (end < text.size() && text[end] == '\r' && end + 1 < text.size() && text[end + 1] == '\n') ++end;
     pos = end + 1;
-    ++line;
-    // Cheap pre-filter: a statement needs one of these characters or a letter pair.
-    if (raw.find_first_of("#[=<>") == std::string_view::npos && !(d.o_word_control && raw.find_first_of("oO") != std::string_view::npos) &&
-        !d.multi_letter_identifiers && d.id != DialectId::fanuc)
-      continue;
-    b.clear();
-    b.raw = raw;
-    b.line = line;
-    lex_block(d, b, ctx);
-    if (resolver::block_has_statements(b)) return true;
-    if (d.id == DialectId::fanuc)
-      for (const Word& w : b.words)
-        if ((w.letter == 'M' && (w.number == 98 || w.number == 99)) || (w.letter == 'G' && (w.number == 65 || w.number == 66)))
-          return true;
-    if (d.id == DialectId::siemens)
-      for (const Word& w : b.words)
-        if (w.letter == 'L' && w.name_len == 1) return true;
+    if (line_needs(raw, ++line, d, b)) return line;
   }
+  return 0;
+}
+
+bool needs_resolution(LineReader& in, const Dialect& d) {
+  Block b;
+  std::string_view raw, eol;
+  std::uint64_t line = 0;
+  while (in.next(raw, eol))
+    if (line_needs(raw, ++line, d, b)) return true;
   return false;
 }
 
@@ -250,7 +308,7 @@ ResolvedProgram resolve(std::string_view text, std::string_view file, const Dial
     default: {
       Diagnostic diag;
       diag.severity = Severity::error;
-      diag.code = "PP-E300";
+      diag.code = "PP-E700";
       diag.file = std::string(file);
       diag.where = {1, 1};
       diag.message = fmt::format("the {} dialect has no parameters or control flow to evaluate", d.name);

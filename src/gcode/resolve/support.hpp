@@ -71,7 +71,7 @@ class Emitter {
   }
   /// Emits line `line` (0-based) of `f` with `edits` applied (sorted by span, not overlapping).
   /// The line is dropped when only blanks (and no comment) are left. Returns false once
-  /// max_blocks is exceeded (the caller reports PP-E305 and stops).
+  /// max_blocks is exceeded (the caller reports PP-E705 and stops).
   bool emit(SourceFile& f, std::size_t line, std::span<const Edit> edits);
   void push_call(CallFrame frame);
   void pop_call();

@@ -1,0 +1,982 @@
+// Resolver for LinuxCNC (rs274ngc) programs: numbered and named parameters, [ ] expressions,
+// O-word subroutines and control flow (include/postproc/gcode/resolve.hpp).
+//
+// Each line is compiled once (expressions to a small stack program) and cached, so loop bodies
+// run without lexing or parsing again.
+#include <algorithm>
+#include <array>
+#include <set>
+#include <cctype>
+#include <cmath>
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+#include <unordered_map>
+#include <vector>
+
+#include <fmt/format.h>
+
+#include "support.hpp"
+
+namespace postproc::gcode::resolver {
+namespace {
+
+constexpr double kDeg = 3.14159265358979323846 / 180.0;
+constexpr int kNumbered = 5603;  // #0 … #5602
+
+std::string lower(std::string_view s) {
+  std::string r(s);
+  for (char& c : r) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return r;
+}
+
+/// Numbered parameters the controller fills at run time (or keeps in its var file).
+const char* runtime_numbered(int n) {
+  if (n >= 5061 && n <= 5070) return "the probe result (G38)";
+  if (n >= 5161 && n <= 5169) return "the G28 home position (var file)";
+  if (n >= 5181 && n <= 5189) return "the G30 position (var file)";
+  if (n >= 5210 && n <= 5219) return "the G92 offset (var file)";
+  if (n >= 5220 && n <= 5390) return "a coordinate-system offset (var file)";
+  if (n == 5399) return "the M66 input result";
+  if (n >= 5400 && n <= 5413) return "tool data";
+  if (n >= 5420 && n <= 5428) return "the current position";
+  if (n >= 5599) return "a controller setting";
+  return nullptr;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Expressions
+enum class Op : std::uint8_t {
+  num, param, param_ind, named, add, sub, mul, div, mod, pow, eq, ne, gt, ge, lt, le, and_, or_, xor_,
+  neg, abs, acos, asin, atan2, cos, exp, fix, fup, round, ln, sin, sqrt, tan, exists
+};
+
+struct Instr {
+  Op op;
+  double value = 0;  // num: the number; param: its index; named: name id
+};
+
+struct Code {
+  std::vector<Instr> ops;
+};
+
+struct ParseError {
+  std::size_t pos;
+  std::string what;
+};
+
+/// Named parameters, interned: id → name (lower case, without #< >).
+class Names {
+ public:
+  int id(const std::string& name) {
+    auto [it, fresh] = ids_.emplace(name, static_cast<int>(names_.size()));
+    if (fresh) names_.push_back(name);
+    return it->second;
+  }
+  [[nodiscard]] const std::string& name(int id) const { return names_[static_cast<std::size_t>(id)]; }
+
+ private:
+  std::unordered_map<std::string, int> ids_;
+  std::vector<std::string> names_;
+};
+
+class Parser {
+ public:
+  Parser(std::string_view s, Names& names) : s_(s), names_(names) {}
+  /// A real value: number, parameter, [expression], function, or a signed real value.
+  void real_value(Code& c) {
+    skip();
+    if (pos_ >= s_.size()) fail("a value is missing");
+    const char ch = s_[pos_];
+    if (ch == '-' || ch == '+') {
+      ++pos_;
+      real_value(c);
+      if (ch == '-') c.ops.push_back({Op::neg});
+      return;
+    }
+    if (ch == '[') {
+      ++pos_;
+      expression(c);
+      expect(']');
+      return;
+    }
+    if (ch == '#') {
+      parameter(c);
+      return;
+    }
+    if (std::isdigit(static_cast<unsigned char>(ch)) || ch == '.') {
+      c.ops.push_back({Op::num, number()});
+      return;
+    }
+    if (std::isalpha(static_cast<unsigned char>(ch))) {
+      function(c);
+      return;
+    }
+    fail(fmt::format("'{}' cannot start a value", ch));
+  }
+  /// The parameter reference at the cursor (#n, ##n, #[expr], #<name>), as an assignment target:
+  /// returns the named id or pushes the index code; `named` tells which.
+  bool target(Code& index, int& named_id) {
+    skip();
+    expect('#');
+    skip();
+    if (pos_ < s_.size() && s_[pos_] == '<') {
+      named_id = name();
+      return true;
+    }
+    real_value(index);
+    return false;
+  }
+  void end() {
+    skip();
+    if (pos_ < s_.size()) fail(fmt::format("unexpected '{}'", s_.substr(pos_)));
+  }
+  [[nodiscard]] bool at_end() {
+    skip();
+    return pos_ >= s_.size();
+  }
+  [[nodiscard]] std::size_t pos() const { return pos_; }
+  void skip() {
+    while (pos_ < s_.size() && (s_[pos_] == ' ' || s_[pos_] == '\t')) ++pos_;
+  }
+  void expect(char c) {
+    skip();
+    if (pos_ >= s_.size() || s_[pos_] != c) fail(fmt::format("'{}' expected", c));
+    ++pos_;
+  }
+  [[noreturn]] void fail(std::string what) const { throw ParseError{pos_, std::move(what)}; }
+
+ private:
+  // Binary operators by precedence (rs274ngc): ** > * / MOD > + - > EQ NE GT GE LT LE > AND OR XOR.
+  int binary(Op& op) {
+    skip();
+    if (pos_ >= s_.size()) return 0;
+    const std::string_view r = s_.substr(pos_);
+    auto word = [&](std::string_view w) {
+      if (r.size() < w.size()) return false;
+      for (std::size_t i = 0; i < w.size(); ++i)
+        if (std::toupper(static_cast<unsigned char>(r[i])) != w[i]) return false;
+      return true;
+    };
+    struct B { std::string_view text; Op op; int prec; };
+    static constexpr B table[] = {{"**", Op::pow, 5}, {"*", Op::mul, 4},  {"/", Op::div, 4},  {"MOD", Op::mod, 4},
+                                  {"+", Op::add, 3},  {"-", Op::sub, 3},  {"EQ", Op::eq, 2},  {"NE", Op::ne, 2},
+                                  {"GT", Op::gt, 2},  {"GE", Op::ge, 2},  {"LT", Op::lt, 2},  {"LE", Op::le, 2},
+                                  {"AND", Op::and_, 1}, {"OR", Op::or_, 1}, {"XOR", Op::xor_, 1}};
+    for (const B& b : table)
+      if (word(b.text)) {
+        op = b.op;
+        len_ = b.text.size();
+        return b.prec;
+      }
+    return 0;
+  }
+  void expression(Code& c, int min_prec = 1) {
+    real_value(c);
+    for (;;) {
+      Op op{};
+      const int prec = binary(op);
+      if (prec < min_prec || prec == 0) return;
+      pos_ += len_;
+      // ** is evaluated left to right in rs274ngc as well.
+      expression(c, prec + 1);
+      c.ops.push_back({op});
+    }
+  }
+  double number() {
+    const std::size_t b = pos_;
+    while (pos_ < s_.size() && (std::isdigit(static_cast<unsigned char>(s_[pos_])) || s_[pos_] == '.')) ++pos_;
+    const std::string t(s_.substr(b, pos_ - b));
+    if (t == "." || std::count(t.begin(), t.end(), '.') > 1) fail(fmt::format("'{}' is not a number", t));
+    return std::stod(t == "" ? "0" : t);
+  }
+  int name() {
+    expect('<');
+    const std::size_t b = pos_;
+    const std::size_t e = s_.find('>', pos_);
+    if (e == std::string_view::npos) fail("'>' expected after the parameter name");
+    std::string n;
+    for (char ch : s_.substr(b, e - b))
+      if (ch != ' ' && ch != '\t') n += static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
+    if (n.empty()) fail("empty parameter name");
+    pos_ = e + 1;
+    return names_.id(n);
+  }
+  void parameter(Code& c) {
+    expect('#');
+    skip();
+    if (pos_ < s_.size() && s_[pos_] == '<') {
+      c.ops.push_back({Op::named, static_cast<double>(name())});
+      return;
+    }
+    if (pos_ < s_.size() && std::isdigit(static_cast<unsigned char>(s_[pos_]))) {
+      const double n = number();
+      c.ops.push_back({Op::param, n});
+      return;
+    }
+    real_value(c);  // ##1, #[expr]
+    c.ops.push_back({Op::param_ind});
+  }
+  void function(Code& c) {
+    const std::size_t b = pos_;
+    while (pos_ < s_.size() && std::isalpha(static_cast<unsigned char>(s_[pos_]))) ++pos_;
+    std::string f(s_.substr(b, pos_ - b));
+    for (char& ch : f) ch = static_cast<char>(std::toupper(static_cast<unsigned char>(ch)));
+    static const std::map<std::string, Op> unary = {
+        {"ABS", Op::abs}, {"ACOS", Op::acos}, {"ASIN", Op::asin}, {"COS", Op::cos}, {"EXP", Op::exp},
+        {"FIX", Op::fix}, {"FUP", Op::fup},   {"ROUND", Op::round}, {"LN", Op::ln}, {"SIN", Op::sin},
+        {"SQRT", Op::sqrt}, {"TAN", Op::tan}};
+    if (f == "ATAN") {
+      expect('[');
+      expression(c);
+      expect(']');
+      expect('/');
+      expect('[');
+      expression(c);
+      expect(']');
+      c.ops.push_back({Op::atan2});
+      return;
+    }
+    if (f == "EXISTS") {
+      expect('[');
+      skip();
+      expect('#');
+      skip();
+      c.ops.push_back({Op::exists, static_cast<double>(name())});
+      expect(']');
+      return;
+    }
+    const auto it = unary.find(f);
+    if (it == unary.end()) {
+      pos_ = b;
+      fail(fmt::format("unknown function or operator '{}'", f));
+    }
+    expect('[');
+    expression(c);
+    expect(']');
+    c.ops.push_back({it->second});
+  }
+
+  std::string_view s_;
+  Names& names_;
+  std::size_t pos_ = 0;
+  std::size_t len_ = 0;
+};
+
+// ---------------------------------------------------------------------------------------------
+// Compiled lines
+
+enum class Kw : std::uint8_t { none, sub, endsub, call, ret, if_, elseif, else_, endif, while_, endwhile, do_, repeat, endrepeat, break_, continue_ };
+
+struct Assign {
+  Span span;  // the assignment token
+  bool named = false;
+  int name_id = 0;
+  Code index;  // numbered: the parameter number
+  Code value;
+};
+
+struct WordValue {
+  Span span;  // the value text
+  char letter;
+  Code code;
+};
+
+struct Line {
+  bool compiled = false;
+  bool ok = true;          // compiled without error (the error was reported)
+  bool plain = true;       // nothing to evaluate: emitted as written
+  // control
+  Kw kw = Kw::none;
+  std::string oname;       // lower case, "o100" or "o<name>"
+  Span control_span;
+  std::vector<Code> args;  // call arguments / condition / return value / repeat count
+  // ordinary block
+  std::vector<WordValue> words;
+  std::vector<Assign> assigns;
+  std::vector<Span> deletions;  // assignment tokens
+  bool ends_program = false;    // M2 / M30
+  bool abort = false;           // (abort, …)
+  bool cycle_profile = false;   // G70–G72: profile in a subroutine
+  Span cycle_span;
+  std::string abort_text;
+  std::size_t match = 0;        // structure: see Structure
+};
+
+struct Sub {
+  SourceFile* file = nullptr;
+  std::size_t begin = 0;  // the sub line
+  std::size_t end = 0;    // the endsub line
+};
+
+struct Frame {
+  std::array<double, 31> saved{};  // #1–#30 of the caller
+  std::unordered_map<int, double> locals;  // named locals
+  std::map<std::size_t, long> repeats;     // remaining passes by repeat line
+};
+
+class Machine {
+ public:
+  Machine(FileSet& files, Emitter& out, const ResolveOptions& opt, DiagnosticSink& sink, ResolvedProgram& r)
+      : files_(files), out_(out), opt_(opt), sink_(sink), r_(r), numbered_(kNumbered, 0.0) {
+    const std::vector<std::pair<std::string, double>> fixed = {{"_vmajor", 2}, {"_vminor", 9}, {"_value", 0},
+                                                               {"_value_returned", 0}, {"_call_level", 0}, {"_task", 1}};
+    for (const auto& [n, v] : fixed) globals_[names_.id(n)] = v;
+  }
+
+  void run() {
+    SourceFile& main = files_.main();
+    prepare(main);
+    frames_.emplace_back();
+    try {
+      execute(main, 0, main.lines(), false);
+    } catch (const Stop&) {
+      if (out_.emitted() > 0 || sink_.has_errors()) throw;
+    }
+    if (out_.emitted() == 0 && !subs_.empty()) {
+      // A file of subroutine definitions only (called from other programs): nothing runs.
+      Diagnostic d;
+      d.severity = Severity::error;
+      d.code = "PP-E709";
+      d.file = main.name();
+      d.where = {1, 1};
+      d.source_line = std::string(main.raw(0));
+      d.message = fmt::format("the file only defines subroutines ({}…) and executes nothing; resolve the program that "
+                              "calls them (this file is found next to it)",
+                              subs_.begin()->first);
+      sink_.report(std::move(d));
+    }
+  }
+
+ private:
+  struct Stop {};  // program end (M2/M30) or a refusal: unwinds everything
+
+  struct FileInfo {
+    std::vector<Line> lines;
+    // structure: for each control line, the line it pairs with (see prepare)
+    std::map<std::size_t, std::size_t> end_of;    // sub → endsub, if → endif, while → endwhile, do → while, repeat → endrepeat
+    std::map<std::size_t, std::size_t> start_of;  // the reverse, for closers
+    std::map<std::size_t, std::vector<std::size_t>> branches;  // if → [elseif…, else…, endif]
+  };
+
+  // -- compile -------------------------------------------------------------------------------
+  Line& line(SourceFile& f, std::size_t i) {
+    Line& l = info(f).lines[i];
+    if (!l.compiled) compile(f, i, l);
+    return l;
+  }
+  FileInfo& info(SourceFile& f) {
+    auto& p = info_[&f];
+    if (!p) {
+      p = std::make_unique<FileInfo>();
+      p->lines.resize(f.lines());
+    }
+    return *p;
+  }
+
+  void parse_error(SourceFile& f, std::size_t i, Span within, const ParseError& e) {
+    const auto at = static_cast<std::uint32_t>(within.begin + std::min<std::size_t>(e.pos, within.size()));
+    f.report(i, Span{at, std::max(at + 1, within.end)}, Severity::error, "PP-E702",
+             fmt::format("{}; the expression cannot be evaluated (rs274ngc syntax: [ ] around expressions, "
+                         "operators ** * / MOD + - EQ NE GT GE LT LE AND OR XOR){}",
+                         e.what, context()));
+  }
+
+  void compile(SourceFile& f, std::size_t i, Line& l) {
+    l.compiled = true;
+    const Block& b = f.block(i);
+    if (!f.lexed_ok(i)) {
+      l.ok = false;
+      return;
+    }
+    for (const Token& t : b.tokens) {
+      if (t.kind == TokenKind::control_flow) {
+        l.plain = false;
+        compile_control(f, i, b, t, l);
+      } else if (t.kind == TokenKind::assignment) {
+        l.plain = false;
+        // One token may hold several assignments: "#1 = 2 #2 = [#1 + 1]".
+        const std::string_view text = b.text(t.span);
+        Parser p(text, names_);
+        try {
+          while (!p.at_end()) {
+            Assign a;
+            a.span = t.span;
+            a.named = p.target(a.index, a.name_id);
+            p.expect('=');
+            p.real_value(a.value);
+            l.assigns.push_back(std::move(a));
+          }
+        } catch (const ParseError& e) {
+          parse_error(f, i, t.span, e);
+          l.ok = false;
+          continue;
+        }
+        l.deletions.push_back(t.span);
+      } else if (t.kind == TokenKind::paren_comment) {
+        std::string c = lower(b.text(t.span));
+        c.erase(std::remove(c.begin(), c.end(), ' '), c.end());
+        if (c.rfind("(abort,", 0) == 0) {
+          l.abort = true;
+          l.plain = false;
+          l.abort_text = std::string(b.text(t.span));
+        }
+      }
+    }
+    for (const Word& w : b.words) {
+      if (w.letter == 'M' && w.kind == ValueKind::number && (w.number == 2 || w.number == 30)) l.ends_program = true;
+      // G70–G72 take their profile from a subroutine (Q): resolving would drop the sub the
+      // cycle needs.
+      if (w.letter == 'G' && w.kind == ValueKind::number && w.number >= 70 && w.number < 73) {
+        l.cycle_profile = true;
+        l.cycle_span = w.span;
+        l.plain = false;
+      }
+      if (w.kind != ValueKind::expression && w.kind != ValueKind::parameter) continue;
+      l.plain = false;
+      WordValue v{w.value, w.letter, {}};
+      Parser p(b.text(w.value), names_);
+      try {
+        p.real_value(v.code);
+        p.end();
+      } catch (const ParseError& e) {
+        parse_error(f, i, w.value, e);
+        l.ok = false;
+        continue;
+      }
+      l.words.push_back(std::move(v));
+    }
+  }
+
+  void compile_control(SourceFile& f, std::size_t i, const Block& b, const Token& t, Line& l) {
+    const std::string_view text = b.text(t.span);
+    l.control_span = t.span;
+    // oNNN or o<name>, then the keyword, then arguments.
+    std::size_t p = 1;
+    if (p < text.size() && text[p] == '<') {
+      const auto e = text.find('>', p);
+      p = e == std::string_view::npos ? text.size() : e + 1;
+    } else {
+      while (p < text.size() && (std::isdigit(static_cast<unsigned char>(text[p])) || text[p] == ' ')) ++p;
+    }
+    std::string on = lower(text.substr(0, p));
+    on.erase(std::remove(on.begin(), on.end(), ' '), on.end());
+    l.oname = on;
+    while (p < text.size() && text[p] == ' ') ++p;
+    std::size_t k = p;
+    while (k < text.size() && std::isalpha(static_cast<unsigned char>(text[k]))) ++k;
+    const std::string kw = lower(text.substr(p, k - p));
+    static const std::map<std::string, Kw> kws = {
+        {"sub", Kw::sub},       {"endsub", Kw::endsub}, {"call", Kw::call},         {"return", Kw::ret},
+        {"if", Kw::if_},        {"elseif", Kw::elseif}, {"else", Kw::else_},        {"endif", Kw::endif},
+        {"while", Kw::while_},  {"endwhile", Kw::endwhile}, {"do", Kw::do_},        {"repeat", Kw::repeat},
+        {"endrepeat", Kw::endrepeat}, {"break", Kw::break_}, {"continue", Kw::continue_}};
+    const auto it = kws.find(kw);
+    if (it == kws.end()) {
+      f.report(i, t.span, Severity::error, "PP-E702",
+               fmt::format("'{}' is not an O-word keyword (sub, endsub, call, return, if, elseif, else, endif, while, "
+                           "endwhile, do, repeat, endrepeat, break, continue){}",
+                           kw, context()));
+      l.ok = false;
+      return;
+    }
+    l.kw = it->second;
+    // Arguments: [expr] [expr] … (call: any number; if/while/repeat/elseif/return/endsub: one).
+    const Span rest{static_cast<std::uint32_t>(t.span.begin + k), t.span.end};
+    Parser ps(text.substr(k), names_);
+    try {
+      while (!ps.at_end()) {
+        Code c;
+        ps.skip();
+        ps.real_value(c);
+        l.args.push_back(std::move(c));
+      }
+    } catch (const ParseError& e) {
+      parse_error(f, i, rest, e);
+      l.ok = false;
+      return;
+    }
+    const bool needs_one = l.kw == Kw::if_ || l.kw == Kw::elseif || l.kw == Kw::while_ || l.kw == Kw::repeat;
+    if ((needs_one && l.args.size() != 1) || ((l.kw == Kw::ret || l.kw == Kw::endsub) && l.args.size() > 1)) {
+      f.report(i, t.span, Severity::error, "PP-E702",
+               fmt::format("'{} {}' takes {} [expression]{}", l.oname, kw, needs_one ? "one" : "at most one", context()));
+      l.ok = false;
+    }
+  }
+
+  /// Finds the block structure of a file: subs, if/elseif/else/endif, while, do/while, repeat.
+  void prepare(SourceFile& f) {
+    FileInfo& fi = info(f);
+    struct Open { std::string oname; Kw kw; std::size_t line; };
+    std::vector<Open> open;
+    for (std::size_t i = 0; i < f.lines(); ++i) {
+      const std::string_view raw = f.raw(i);
+      const std::size_t p = raw.find_first_not_of(" \t/");
+      if (p == std::string_view::npos) continue;
+      // An O-word starts the line, possibly after an N number.
+      std::size_t q = p;
+      if (raw[q] == 'N' || raw[q] == 'n') {
+        ++q;
+        while (q < raw.size() && (std::isdigit(static_cast<unsigned char>(raw[q])) || raw[q] == ' ')) ++q;
+      }
+      if (q >= raw.size() || (raw[q] != 'o' && raw[q] != 'O')) continue;
+      Line& l = line(f, i);
+      if (l.kw == Kw::none || !l.ok) continue;
+      switch (l.kw) {
+        case Kw::sub:
+          if (!open.empty() && open.back().kw == Kw::sub) {
+            f.report(i, l.control_span, Severity::error, "PP-E708",
+                     fmt::format("'{} sub' inside '{} sub' (line {}): subroutines cannot nest", l.oname,
+                                 open.back().oname, open.back().line + 1));
+            throw Stop{};
+          }
+          open.push_back({l.oname, l.kw, i});
+          break;
+        case Kw::if_: case Kw::while_: case Kw::do_: case Kw::repeat:
+          // "oN while" closes an open "oN do".
+          if (l.kw == Kw::while_) {
+            auto d = std::find_if(open.rbegin(), open.rend(), [&](const Open& o) { return o.oname == l.oname && o.kw == Kw::do_; });
+            if (d != open.rend()) {
+              close(f, fi, open, l, i, Kw::do_);
+              break;
+            }
+          }
+          open.push_back({l.oname, l.kw, i});
+          break;
+        case Kw::endsub: close(f, fi, open, l, i, Kw::sub); break;
+        case Kw::endif: close(f, fi, open, l, i, Kw::if_); break;
+        case Kw::endwhile: close(f, fi, open, l, i, Kw::while_); break;
+        case Kw::endrepeat: close(f, fi, open, l, i, Kw::repeat); break;
+        case Kw::elseif: case Kw::else_: {
+          auto o = std::find_if(open.rbegin(), open.rend(), [&](const Open& x) { return x.oname == l.oname && x.kw == Kw::if_; });
+          if (o == open.rend()) mismatch(f, i, l, "if");
+          fi.branches[o->line].push_back(i);
+          fi.start_of[i] = o->line;
+          break;
+        }
+        default: break;
+      }
+      if (l.kw == Kw::sub) {
+        const std::string& name = l.oname;
+        if (!subs_.count(name)) subs_[name] = Sub{&f, i, 0};
+      }
+    }
+    if (!open.empty()) {
+      Line& l = line(f, open.back().line);
+      f.report(open.back().line, l.control_span, Severity::error, "PP-E708",
+               fmt::format("'{}' is never closed (its end line is missing)", f.raw(open.back().line).substr(l.control_span.begin, l.control_span.size())));
+      throw Stop{};
+    }
+    for (auto& [name, s] : subs_)
+      if (s.file == &f) s.end = fi.end_of.at(s.begin);
+  }
+  template <class OpenVec>
+  void close(SourceFile& f, FileInfo& fi, OpenVec& open, Line& l, std::size_t i, Kw opener) {
+    if (open.empty() || open.back().oname != l.oname || open.back().kw != opener)
+      mismatch(f, i, l, opener == Kw::sub ? "sub" : opener == Kw::if_ ? "if" : opener == Kw::while_ ? "while"
+                                                  : opener == Kw::do_ ? "do" : "repeat");
+    fi.end_of[open.back().line] = i;
+    fi.start_of[i] = open.back().line;
+    if (opener == Kw::if_) fi.branches[open.back().line].push_back(i);
+    open.pop_back();
+  }
+  [[noreturn]] void mismatch(SourceFile& f, std::size_t i, const Line& l, const char* opener) {
+    f.report(i, l.control_span, Severity::error, "PP-E708",
+             fmt::format("'{}' has no open '{} {}' to close (O-word blocks must nest and use the same number)",
+                         f.raw(i).substr(l.control_span.begin, l.control_span.size()), l.oname, opener));
+    throw Stop{};
+  }
+
+  // -- evaluate ------------------------------------------------------------------------------
+  std::string context() const {
+    const std::string w = out_.where();
+    return w.empty() ? std::string() : "; " + w;
+  }
+
+  struct EvalError {
+    std::string code, what;
+  };
+
+  double numbered(double index) {
+    const double r = std::round(index);
+    if (std::fabs(index - r) > 1e-4 || r < 0 || r >= kNumbered)
+      throw EvalError{"PP-E703", fmt::format("parameter #{} does not exist (LinuxCNC has #1 … #{})", index, kNumbered - 1)};
+    const int n = static_cast<int>(r);
+    if (const char* what = runtime_numbered(n)) {
+      const std::string key = fmt::format("#{}", n);
+      if (const auto it = opt_.set.find(key); it != opt_.set.end()) {
+        r_.used_settings[key] = it->second;
+        return set_numbered_.count(n) ? numbered_[static_cast<std::size_t>(n)] : it->second;
+      }
+      if (!set_numbered_.count(n))
+        throw EvalError{"PP-E701", fmt::format("#{} is {}, known only when the program runs; give its value with "
+                                               "--set '#{}=…'", n, what, n)};
+    }
+    return numbered_[static_cast<std::size_t>(n)];
+  }
+
+  std::optional<double> named(int id) {
+    const std::string& n = names_.name(id);
+    if (!n.empty() && n[0] == '_') {
+      if (const auto it = globals_.find(id); it != globals_.end()) return it->second;
+      const std::string key = "#<" + std::string(n) + ">";
+      std::string upper = key;
+      for (char& c : upper) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+      if (const auto it = opt_.set.find(upper); it != opt_.set.end()) {
+        r_.used_settings[upper] = it->second;
+        return it->second;
+      }
+      return std::nullopt;
+    }
+    auto& loc = frames_.back().locals;
+    if (const auto it = loc.find(id); it != loc.end()) return it->second;
+    return std::nullopt;
+  }
+
+  double eval(const Code& c) {
+    double st[64];
+    int sp = 0;
+    for (const Instr& in : c.ops) {
+      if (sp >= 62) throw EvalError{"PP-E702", "the expression nests too deeply"};
+      switch (in.op) {
+        case Op::num: st[sp++] = in.value; break;
+        case Op::param: st[sp++] = numbered(in.value); break;
+        case Op::param_ind: st[sp - 1] = numbered(st[sp - 1]); break;
+        case Op::named: {
+          const auto v = named(static_cast<int>(in.value));
+          if (!v) {
+            const std::string& n = names_.name(static_cast<int>(in.value));
+            throw EvalError{n[0] == '_' ? "PP-E701" : "PP-E703",
+                            n[0] == '_' ? fmt::format("#<{}> is not set by the program (a controller value, known only "
+                                                      "when it runs?); set it first or give --set '#<{}>=…'", n, n)
+                                        : fmt::format("#<{}> is read before it is set (LinuxCNC refuses this)", n)};
+          }
+          st[sp++] = *v;
+          break;
+        }
+        case Op::exists: st[sp++] = named(static_cast<int>(in.value)) ? 1.0 : 0.0; break;
+        case Op::neg: st[sp - 1] = -st[sp - 1]; break;
+        default: {
+          if (in.op >= Op::abs) {
+            double& x = st[sp - 1];
+            switch (in.op) {
+              case Op::abs: x = std::fabs(x); break;
+              case Op::acos:
+                if (x < -1 || x > 1) throw EvalError{"PP-E707", fmt::format("ACOS of {} (outside −1 … 1)", x)};
+                x = std::acos(x) / kDeg;
+                break;
+              case Op::asin:
+                if (x < -1 || x > 1) throw EvalError{"PP-E707", fmt::format("ASIN of {} (outside −1 … 1)", x)};
+                x = std::asin(x) / kDeg;
+                break;
+              case Op::atan2: {
+                const double xx = st[--sp];
+                st[sp - 1] = std::atan2(st[sp - 1], xx) / kDeg;
+                break;
+              }
+              case Op::cos: x = std::cos(x * kDeg); break;
+              case Op::exp: x = std::exp(x); break;
+              case Op::fix: x = std::floor(x); break;
+              case Op::fup: x = std::ceil(x); break;
+              case Op::round: x = std::round(x); break;
+              case Op::ln:
+                if (x <= 0) throw EvalError{"PP-E707", fmt::format("LN of {} (not positive)", x)};
+                x = std::log(x);
+                break;
+              case Op::sin: x = std::sin(x * kDeg); break;
+              case Op::sqrt:
+                if (x < 0) throw EvalError{"PP-E707", fmt::format("SQRT of {} (negative)", x)};
+                x = std::sqrt(x);
+                break;
+              case Op::tan: x = std::tan(x * kDeg); break;
+              default: break;
+            }
+            break;
+          }
+          const double b = st[--sp];
+          double& a = st[sp - 1];
+          switch (in.op) {
+            case Op::add: a += b; break;
+            case Op::sub: a -= b; break;
+            case Op::mul: a *= b; break;
+            case Op::div:
+              if (b == 0) throw EvalError{"PP-E707", "division by zero"};
+              a /= b;
+              break;
+            case Op::mod: {
+              if (b == 0) throw EvalError{"PP-E707", "MOD by zero"};
+              a = std::fmod(a, b);
+              if (a < 0) a += std::fabs(b);
+              break;
+            }
+            case Op::pow:
+              if (a < 0 && std::floor(b) != b) throw EvalError{"PP-E707", fmt::format("{} ** {} (negative base, fractional power)", a, b)};
+              a = std::pow(a, b);
+              break;
+            case Op::eq: a = std::fabs(a - b) < 1e-6 ? 1 : 0; break;  // rs274ngc's TOLERANCE_EQUAL
+            case Op::ne: a = std::fabs(a - b) < 1e-6 ? 0 : 1; break;
+            case Op::gt: a = a > b ? 1 : 0; break;
+            case Op::ge: a = a >= b ? 1 : 0; break;
+            case Op::lt: a = a < b ? 1 : 0; break;
+            case Op::le: a = a <= b ? 1 : 0; break;
+            case Op::and_: a = (a != 0 && b != 0) ? 1 : 0; break;
+            case Op::or_: a = (a != 0 || b != 0) ? 1 : 0; break;
+            case Op::xor_: a = ((a != 0) != (b != 0)) ? 1 : 0; break;
+            default: break;
+          }
+        }
+      }
+    }
+    return st[0];
+  }
+
+  /// Evaluates, reporting an error located at `span` of line i and stopping the run.
+  double value(SourceFile& f, std::size_t i, Span span, const Code& c) {
+    try {
+      return eval(c);
+    } catch (const EvalError& e) {
+      f.report(i, span, Severity::error, e.code, e.what + context());
+      throw Stop{};
+    }
+  }
+
+  void assign(const Assign& a, double v, SourceFile& f, std::size_t i, Span span) {
+    if (a.named) {
+      const std::string& n = names_.name(a.name_id);
+      if (n[0] == '_')
+        globals_[a.name_id] = v;
+      else
+        frames_.back().locals[a.name_id] = v;
+      return;
+    }
+    const double idx = value(f, i, span, a.index);
+    const double r = std::round(idx);
+    if (r < 1 || r >= kNumbered || std::fabs(idx - r) > 1e-4) {
+      f.report(i, span, Severity::error, "PP-E703", fmt::format("parameter #{} does not exist{}", idx, context()));
+      throw Stop{};
+    }
+    const int n = static_cast<int>(r);
+    numbered_[static_cast<std::size_t>(n)] = v;
+    if (runtime_numbered(n)) set_numbered_.insert(n);
+  }
+
+  // -- execute -------------------------------------------------------------------------------
+  enum class Flow { next, jump, ret };
+
+  /// Runs lines [from, to) of f; `in_sub`: an endsub/return ends it. Returns on return/endsub.
+  void execute(SourceFile& f, std::size_t from, std::size_t to, bool in_sub) {
+    FileInfo& fi = info(f);
+    std::size_t pc = from;
+    std::vector<Edit> edits;
+    std::vector<double> pending;
+    while (pc < to) {
+      Line& l = line(f, pc);
+      if (!l.ok) throw Stop{};
+      if (l.plain) {
+        if (!out_.emit(f, pc, {})) runaway(f, pc);
+        if (l.ends_program) throw Stop{};
+        ++pc;
+        continue;
+      }
+      if (l.kw != Kw::none) {
+        const std::size_t next = control(f, fi, pc, l, in_sub);
+        if (next == kReturn) return;
+        // The control line's comments stay (the O-word statement is removed).
+        Edit del{l.control_span, ""};
+        if (f.raw(pc).find('(') != std::string_view::npos && !out_.emit(f, pc, std::span<const Edit>(&del, 1)))
+          runaway(f, pc);
+        pc = next;
+        continue;
+      }
+      if (l.cycle_profile) {
+        f.report(pc, l.cycle_span, Severity::error, "PP-E709",
+                 fmt::format("this lathe cycle takes its profile from a subroutine (Q), which the resolved program "
+                             "would no longer contain; such programs cannot be resolved{}", context()));
+        throw Stop{};
+      }
+      if (l.abort) {
+        f.report(pc, Span{0, static_cast<std::uint32_t>(f.raw(pc).size())}, Severity::error, "PP-E710",
+                 fmt::format("the program aborts here: {}{}", l.abort_text, context()));
+        throw Stop{};
+      }
+      // Values on the line use the parameters as they were before it; its assignments take
+      // effect after the line (rs274ngc).
+      edits.clear();
+      pending.clear();
+      for (const Assign& as : l.assigns) pending.push_back(value(f, pc, as.span, as.value));
+      for (const WordValue& v : l.words) edits.push_back({v.span, format_value(value(f, pc, v.span, v.code), v.letter)});
+      for (const Span& d : l.deletions) edits.push_back({d, ""});
+      std::sort(edits.begin(), edits.end(), [](const Edit& x, const Edit& y) { return x.span.begin < y.span.begin; });
+      if (!out_.emit(f, pc, edits)) runaway(f, pc);
+      for (std::size_t k = 0; k < l.assigns.size(); ++k) assign(l.assigns[k], pending[k], f, pc, l.assigns[k].span);
+      if (l.ends_program) throw Stop{};
+      ++pc;
+    }
+  }
+
+  static constexpr std::size_t kReturn = static_cast<std::size_t>(-1);
+
+  [[noreturn]] void runaway(SourceFile& f, std::size_t i) {
+    f.report(i, Span{0, static_cast<std::uint32_t>(f.raw(i).size())}, Severity::error, "PP-E705",
+             fmt::format("the program executes more than {} blocks: a loop that does not end?{}", opt_.max_blocks,
+                         context()));
+    throw Stop{};
+  }
+
+  bool truth(SourceFile& f, std::size_t i, const Line& l) { return value(f, i, l.control_span, l.args[0]) != 0; }
+
+  /// Carries out an O-word line; returns the next line, or kReturn.
+  std::size_t control(SourceFile& f, FileInfo& fi, std::size_t i, Line& l, bool in_sub) {
+    switch (l.kw) {
+      case Kw::sub: return fi.end_of.at(i) + 1;  // a definition: skipped
+      case Kw::endsub:
+      case Kw::ret:
+        if (!in_sub) {
+          f.report(i, l.control_span, Severity::error, "PP-E708",
+                   fmt::format("'{}' outside a subroutine", f.raw(i).substr(l.control_span.begin, l.control_span.size())));
+          throw Stop{};
+        }
+        if (!l.args.empty()) {
+          globals_[names_.id("_value")] = value(f, i, l.control_span, l.args[0]);
+          globals_[names_.id("_value_returned")] = 1;
+        }
+        return kReturn;
+      case Kw::call: call(f, i, l); return i + 1;
+      case Kw::if_: {
+        if (truth(f, i, l)) return i + 1;
+        for (std::size_t b : fi.branches.at(i)) {
+          Line& bl = line(f, b);
+          if (bl.kw == Kw::elseif && truth(f, b, bl)) return b + 1;
+          if (bl.kw == Kw::else_) return b + 1;
+          if (bl.kw == Kw::endif) return b + 1;
+        }
+        return fi.end_of.at(i) + 1;
+      }
+      case Kw::elseif:
+      case Kw::else_:  // reached from the end of a taken branch: leave the if
+        return fi.end_of.at(fi.start_of.at(i)) + 1;
+      case Kw::endif: return i + 1;
+      case Kw::while_:
+        if (auto s = fi.start_of.find(i); s != fi.start_of.end()) {  // the end of a do … while
+          return truth(f, i, l) ? s->second + 1 : i + 1;
+        }
+        return truth(f, i, l) ? i + 1 : fi.end_of.at(i) + 1;
+      case Kw::endwhile: return fi.start_of.at(i);
+      case Kw::do_: return i + 1;
+      case Kw::repeat: {
+        const double n = std::floor(value(f, i, l.control_span, l.args[0]));
+        if (n < 1) return fi.end_of.at(i) + 1;
+        frames_.back().repeats[i] = static_cast<long>(n) - 1;
+        return i + 1;
+      }
+      case Kw::endrepeat: {
+        const std::size_t s = fi.start_of.at(i);
+        long& left = frames_.back().repeats[s];
+        if (left > 0) {
+          --left;
+          return s + 1;
+        }
+        return i + 1;
+      }
+      case Kw::break_:
+      case Kw::continue_: {
+        const std::size_t loop = enclosing_loop(f, fi, i, l);
+        const Line& ll = line(f, loop);
+        const std::size_t end = fi.end_of.at(loop);
+        if (l.kw == Kw::break_) {
+          if (ll.kw == Kw::repeat) frames_.back().repeats.erase(loop);
+          return end + 1;
+        }
+        if (ll.kw == Kw::while_) return loop;  // evaluate the condition again
+        return end;                            // do: its while line; repeat: its endrepeat
+      }
+      default: return i + 1;
+    }
+  }
+
+  std::size_t enclosing_loop(SourceFile& f, FileInfo& fi, std::size_t i, const Line& l) {
+    for (const auto& [start, end] : fi.end_of) {
+      if (start > i || end < i) continue;
+      const Line& s = line(f, start);
+      if (s.oname == l.oname && (s.kw == Kw::while_ || s.kw == Kw::do_ || s.kw == Kw::repeat)) return start;
+    }
+    f.report(i, l.control_span, Severity::error, "PP-E708",
+             fmt::format("'{}' is not inside a loop named {}", f.raw(i).substr(l.control_span.begin, l.control_span.size()),
+                         l.oname));
+    throw Stop{};
+  }
+
+  void call(SourceFile& f, std::size_t i, Line& l) {
+    std::vector<double> args;
+    for (const Code& c : l.args) args.push_back(value(f, i, l.control_span, c));
+    if (args.size() > 30) {
+      f.report(i, l.control_span, Severity::error, "PP-E702", "a call takes at most 30 arguments" + context());
+      throw Stop{};
+    }
+    auto it = subs_.find(l.oname);
+    if (it == subs_.end() && l.oname.size() > 2 && l.oname[1] == '<') {
+      const std::string name = l.oname.substr(2, l.oname.size() - 3);
+      if (SourceFile* sf = files_.find({name + ".ngc", name + ".NGC", name})) {
+        prepare(*sf);
+        it = subs_.find(l.oname);
+      }
+    }
+    if (it == subs_.end()) {
+      f.report(i, l.control_span, Severity::error, "PP-E704",
+               fmt::format("no subroutine '{} sub' in this file{}{}", l.oname,
+                           l.oname[1] == '<' ? fmt::format(" and no file {}.ngc in the search folders",
+                                                           l.oname.substr(2, l.oname.size() - 3))
+                                             : std::string(),
+                           context()));
+      throw Stop{};
+    }
+    if (static_cast<int>(frames_.size()) > opt_.max_call_depth) {
+      f.report(i, l.control_span, Severity::error, "PP-E706",
+               fmt::format("calls nest deeper than {} levels (endless recursion?){}", opt_.max_call_depth, context()));
+      throw Stop{};
+    }
+    const Sub s = it->second;
+    Frame fr;
+    std::copy(numbered_.begin() + 1, numbered_.begin() + 31, fr.saved.begin() + 1);
+    for (int k = 1; k <= 30; ++k) numbered_[static_cast<std::size_t>(k)] = k <= static_cast<int>(args.size()) ? args[static_cast<std::size_t>(k - 1)] : 0;
+    frames_.push_back(std::move(fr));
+    globals_[names_.id("_value_returned")] = 0;
+    globals_[names_.id("_call_level")] = static_cast<double>(frames_.size() - 1);
+    out_.push_call(CallFrame{f.name(), i + 1, l.oname + " call"});
+    execute(*s.file, s.begin + 1, s.end + 1, true);
+    out_.pop_call();
+    std::copy(frames_.back().saved.begin() + 1, frames_.back().saved.end(), numbered_.begin() + 1);
+    frames_.pop_back();
+    globals_[names_.id("_call_level")] = static_cast<double>(frames_.size() - 1);
+  }
+
+  FileSet& files_;
+  Emitter& out_;
+  const ResolveOptions& opt_;
+  DiagnosticSink& sink_;
+  ResolvedProgram& r_;
+  Names names_;
+  std::vector<double> numbered_;
+  std::set<int> set_numbered_;
+  std::unordered_map<int, double> globals_;
+  std::vector<Frame> frames_;
+  std::map<std::string, Sub> subs_;
+  std::map<const SourceFile*, std::unique_ptr<FileInfo>> info_;
+
+ public:
+  using StopT = Stop;
+};
+
+}  // namespace
+
+void resolve_linuxcnc(FileSet& files, Emitter& out, const ResolveOptions& opt, DiagnosticSink& sink, ResolvedProgram& r) {
+  Machine m(files, out, opt, sink, r);
+  try {
+    m.run();
+  } catch (const Machine::StopT&) {
+    // program end, or a refusal already reported
+  }
+}
+
+}  // namespace postproc::gcode::resolver

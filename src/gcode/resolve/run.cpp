@@ -1,0 +1,84 @@
+// Running the interpreter on a program that may need resolution (resolve.hpp).
+#include <filesystem>
+
+#include "postproc/gcode/resolve.hpp"
+#include "postproc/io/input_file.hpp"
+
+namespace postproc::gcode {
+namespace {
+
+/// Hands blocks and motions to `inner` with their source line numbers.
+class SourceLines final : public BlockVisitor {
+ public:
+  SourceLines(const ResolvedProgram& r, BlockVisitor& inner) : r_(r), inner_(inner) {}
+  void block(const Block& b, std::span<const Motion> motions, bool lexed_ok) override {
+    const std::uint64_t line = b.line >= 1 && b.line <= r_.source_line.size() ? r_.source_line[b.line - 1] : b.line;
+    copy_ = b;
+    copy_.line = line;
+    motions_.assign(motions.begin(), motions.end());
+    for (Motion& m : motions_) m.line = line;
+    inner_.block(copy_, motions_, lexed_ok);
+  }
+
+ private:
+  const ResolvedProgram& r_;
+  BlockVisitor& inner_;
+  Block copy_;
+  std::vector<Motion> motions_;
+};
+
+}  // namespace
+
+ProgramStats run_resolved(const ResolvedProgram& r, const Dialect& d, std::string_view file, DiagnosticSink& sink,
+                          BlockVisitor& visitor) {
+  DiagnosticSink mapped(0);
+  mapped.on_report = [&](const Diagnostic& diag) {
+    Diagnostic m = diag;
+    map_to_source(r, m);
+    sink.report(std::move(m));
+  };
+  SourceLines lines(r, visitor);
+  LineReader reader{std::string_view(r.text)};
+  return run_program(reader, d, file, mapped, lines);
+}
+
+ProgramStats run_program_file(const std::string& path, const Dialect& d, std::string_view file, DiagnosticSink& sink,
+                              BlockVisitor& visitor, const ResolveOptions& opt, ResolvedProgram* resolved) {
+  std::string text;
+  bool needed = false;
+  if (path == "-") {
+    text = io::read_file(path, "NC program");
+    needed = needs_resolution(text, d);
+    if (!needed) {
+      LineReader reader{std::string_view(text)};
+      return run_program(reader, d, file, sink, visitor);
+    }
+  } else {
+    {
+      LineReader scan(path);
+      needed = needs_resolution(scan, d);
+    }
+    if (!needed) {
+      LineReader reader(path);
+      return run_program(reader, d, file, sink, visitor);
+    }
+    text = io::read_file(path, "NC program");
+  }
+  ResolveOptions o = opt;
+  if (o.search_dirs.empty()) {
+    const std::filesystem::path dir = path == "-" ? std::filesystem::current_path() : std::filesystem::path(path).parent_path();
+    o.search_dirs.push_back(dir.empty() ? std::string(".") : dir.string());
+  }
+  const std::size_t errors = sink.count(Severity::error);
+  ResolvedProgram local;
+  ResolvedProgram& r = resolved ? *resolved : local;
+  r = resolve(text, file, d, o, sink);
+  ProgramStats st;
+  st.bytes = text.size();
+  if (sink.count(Severity::error) > errors) return st;
+  const ProgramStats rs = run_resolved(r, d, file, sink, visitor);
+  st.blocks = rs.blocks;
+  return st;
+}
+
+}  // namespace postproc::gcode

@@ -1,0 +1,2205 @@
+// Resolver for the siemens dialect (see include/postproc/gcode/resolve.hpp): runs a Sinumerik
+// 840D program — R parameters, DEF variables and arrays, NAME=expr, IF/ELSE/ENDIF, WHILE, FOR,
+// REPEAT/UNTIL, LOOP, GOTOF/GOTOB/GOTO/GOTOC, L/named/PROC subprograms — and emits the literal
+// program through the Emitter.
+//
+// Each source line is parsed once into a `Line` (statements, expressions compiled into a node
+// pool, static deletions) and cached per (file, line); loops re-run the cached form.
+//
+// Lines the block lexer cannot read (array or R[…] assignment targets `B[1]=…`, `R[R1]=…`,
+// system-variable writes `$X=…`, `CALL "NAME"`) are re-lexed with those statements masked by
+// blanks, so the remaining words keep their byte spans.
+//
+// Warnings: PP-W703 R parameter read before it is assigned (taken as 0);
+//           PP-W704 main program runs into a PROC definition (the run ends there).
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <cstdlib>
+#include <limits>
+#include <memory>
+#include <optional>
+#include <string>
+#include <unordered_map>
+#include <unordered_set>
+#include <vector>
+
+#include <fmt/format.h>
+#include <fmt/ranges.h>
+
+#include "src/gcode/text.hpp"
+#include "support.hpp"
+
+namespace postproc::gcode::resolver {
+namespace {
+
+using text::iequals;
+using text::upper;
+
+constexpr std::size_t npos = static_cast<std::size_t>(-1);
+constexpr double kPi = 3.14159265358979323846;
+constexpr int kRCount = 1000;
+
+constexpr bool is_digit(char c) { return c >= '0' && c <= '9'; }
+constexpr bool is_alpha(char c) { return (c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z'); }
+constexpr bool is_ident(char c) { return is_alpha(c) || is_digit(c) || c == '_'; }
+constexpr bool is_blank(char c) { return c == ' ' || c == '\t'; }
+
+/// An evaluation or parse failure: reported at `span` of the current line.
+struct Fail {
+  const char* code;
+  Span span;
+  std::string message;
+};
+
+// ------------------------------------------------------------------------------------------------
+// Expressions
+// ------------------------------------------------------------------------------------------------
+
+enum class Op : std::uint8_t {
+  num, rparam, rindirect, var, sysvar, neg, lnot, bnot,
+  add, sub, mul, div, idiv, mod, eq, ne, gt, lt, ge, le, land, lor, lxor, band, bor, bxor, func
+};
+enum class Fn : std::uint8_t {
+  sin, cos, tan, asin, acos, atan2, sqrt, abs, pot, trunc, round, roundup, ln, exp, minval, maxval, bound
+};
+
+struct Node {
+  Op op = Op::num;
+  Fn fn = Fn::sin;
+  std::uint16_t count = 0;  ///< children (operands, arguments, array indices)
+  std::uint32_t first = 0;  ///< first child in Pool::kids
+  std::uint32_t name = 0;   ///< into Pool::names (var, sysvar, func)
+  int r = 0;                ///< R parameter number
+  double num = 0;
+  Span span;
+};
+
+struct Pool {
+  std::vector<Node> nodes;
+  std::vector<std::uint32_t> kids;
+  std::vector<std::string> names;
+};
+
+struct FnInfo {
+  std::string_view name;
+  Fn fn;
+  int args;
+};
+constexpr FnInfo kFunctions[] = {
+    {"SIN", Fn::sin, 1},     {"COS", Fn::cos, 1},       {"TAN", Fn::tan, 1},         {"ASIN", Fn::asin, 1},
+    {"ACOS", Fn::acos, 1},   {"ATAN2", Fn::atan2, 2},   {"SQRT", Fn::sqrt, 1},       {"ABS", Fn::abs, 1},
+    {"POT", Fn::pot, 1},     {"TRUNC", Fn::trunc, 1},   {"ROUND", Fn::round, 1},     {"ROUNDUP", Fn::roundup, 1},
+    {"LN", Fn::ln, 1},       {"EXP", Fn::exp, 1},       {"MINVAL", Fn::minval, 2},   {"MAXVAL", Fn::maxval, 2},
+    {"BOUND", Fn::bound, 3},
+};
+
+/// Recursive-descent parser over [begin, end) of a line; spans are positions in the line.
+/// Operator priority as the Sinumerik manual lists it (highest first): NOT B_NOT; * / DIV MOD;
+/// + -; B_AND; B_XOR; B_OR; AND; XOR; OR; <<; == <> > < >= <= (comparisons lowest: bracket them).
+class Parser {
+ public:
+  Parser(std::string_view raw, std::uint32_t begin, std::uint32_t end, Pool& p) : s_(raw), i_(begin), end_(end), p_(p) {}
+
+  std::uint32_t expr() { return compare(); }
+
+  void skip() {
+    while (i_ < end_ && is_blank(s_[i_])) ++i_;
+  }
+  std::uint32_t pos() {
+    skip();
+    return i_;
+  }
+  void set_pos(std::uint32_t p) { i_ = p; }
+  [[nodiscard]] std::uint32_t end() const { return end_; }
+  bool at_end() { return pos() >= end_; }
+  char peek() { return pos() < end_ ? s_[i_] : '\0'; }
+  bool accept(char c) {
+    if (peek() != c) return false;
+    ++i_;
+    return true;
+  }
+  bool accept2(char a, char b) {
+    skip();
+    if (i_ + 1 < end_ && s_[i_] == a && s_[i_ + 1] == b) {
+      i_ += 2;
+      return true;
+    }
+    return false;
+  }
+  std::string_view peek_ident() {
+    skip();
+    std::uint32_t j = i_;
+    if (j < end_ && (is_alpha(s_[j]) || s_[j] == '_'))
+      while (j < end_ && is_ident(s_[j])) ++j;
+    return s_.substr(i_, j - i_);
+  }
+  bool accept_kw(std::string_view kw) {
+    const std::string_view id = peek_ident();
+    if (id.empty() || !iequals(id, kw)) return false;
+    i_ += static_cast<std::uint32_t>(id.size());
+    return true;
+  }
+  std::string ident() {
+    const std::string_view id = peek_ident();
+    i_ += static_cast<std::uint32_t>(id.size());
+    return upper(id);
+  }
+  void expect(char c, std::string_view what) {
+    if (!accept(c)) fail_here(fmt::format("expected '{}' {}", c, what));
+  }
+  [[noreturn]] void fail_here(const std::string& what) {
+    const std::uint32_t b = pos();
+    throw Fail{"PP-E702", {b, std::max(b + 1, std::min(end_, b + 1))},
+               fmt::format("syntax error: {} (at '{}'); correct the statement", what,
+                           b < end_ ? s_.substr(b, end_ - b) : std::string_view("end of statement"))};
+  }
+  void expect_end(std::string_view what) {
+    if (!at_end()) fail_here(fmt::format("unexpected text after {}", what));
+  }
+
+ private:
+  std::uint32_t add(Node n) {
+    p_.nodes.push_back(n);
+    return static_cast<std::uint32_t>(p_.nodes.size() - 1);
+  }
+  std::uint32_t binary(Op op, std::uint32_t l, std::uint32_t r) {
+    Node n;
+    n.op = op;
+    n.count = 2;
+    n.first = static_cast<std::uint32_t>(p_.kids.size());
+    n.span = {p_.nodes[l].span.begin, p_.nodes[r].span.end};
+    p_.kids.push_back(l);
+    p_.kids.push_back(r);
+    return add(n);
+  }
+  std::uint32_t with_kids(Node n, const std::vector<std::uint32_t>& kids) {
+    n.count = static_cast<std::uint16_t>(kids.size());
+    n.first = static_cast<std::uint32_t>(p_.kids.size());
+    p_.kids.insert(p_.kids.end(), kids.begin(), kids.end());
+    return add(n);
+  }
+
+  std::uint32_t compare() {
+    std::uint32_t l = level(0);
+    for (;;) {
+      Op op;
+      const std::uint32_t at = pos();
+      if (accept2('=', '=')) op = Op::eq;
+      else if (accept2('<', '>')) op = Op::ne;
+      else if (accept2('<', '<'))
+        throw Fail{"PP-E709", {at, at + 2}, "string concatenation '<<' is not evaluated by the resolver; compute the value outside the program"};
+      else if (accept2('>', '=')) op = Op::ge;
+      else if (accept2('<', '=')) op = Op::le;
+      else if (accept('>')) op = Op::gt;
+      else if (accept('<')) op = Op::lt;
+      else return l;
+      l = binary(op, l, level(0));
+    }
+  }
+
+  // Binary keyword levels, lowest first: OR, XOR, AND, B_OR, B_XOR, B_AND.
+  std::uint32_t level(int k) {
+    static constexpr std::string_view kw[] = {"OR", "XOR", "AND", "B_OR", "B_XOR", "B_AND"};
+    static constexpr Op ops[] = {Op::lor, Op::lxor, Op::land, Op::bor, Op::bxor, Op::band};
+    if (k == 6) return additive();
+    std::uint32_t l = level(k + 1);
+    while (accept_kw(kw[k])) l = binary(ops[k], l, level(k + 1));
+    return l;
+  }
+  std::uint32_t additive() {
+    std::uint32_t l = multiplicative();
+    for (;;) {
+      if (accept('+')) l = binary(Op::add, l, multiplicative());
+      else if (accept('-')) l = binary(Op::sub, l, multiplicative());
+      else return l;
+    }
+  }
+  std::uint32_t multiplicative() {
+    std::uint32_t l = unary();
+    for (;;) {
+      if (accept('*')) l = binary(Op::mul, l, unary());
+      else if (accept('/')) l = binary(Op::div, l, unary());
+      else if (accept_kw("DIV")) l = binary(Op::idiv, l, unary());
+      else if (accept_kw("MOD")) l = binary(Op::mod, l, unary());
+      else return l;
+    }
+  }
+  std::uint32_t unary() {
+    const std::uint32_t at = pos();
+    Op op;
+    if (accept('-')) op = Op::neg;
+    else if (accept('+')) return unary();
+    else if (accept_kw("NOT")) op = Op::lnot;
+    else if (accept_kw("B_NOT")) op = Op::bnot;
+    else return primary();
+    const std::uint32_t a = unary();
+    Node n;
+    n.op = op;
+    n.span = {at, p_.nodes[a].span.end};
+    return with_kids(n, {a});
+  }
+
+  std::uint32_t number() {
+    const std::uint32_t b = i_;
+    std::uint32_t j = i_;
+    while (j < end_ && (is_digit(s_[j]) || s_[j] == '.')) ++j;
+    std::string text(s_.substr(b, j - b));
+    // Sinumerik exponent: 1.5EX3, 2EX-4.
+    if (j + 2 < end_ + 1 && j + 1 < end_ && upper(s_[j]) == 'E' && upper(s_[j + 1]) == 'X') {
+      std::uint32_t k = j + 2;
+      std::string ex;
+      if (k < end_ && (s_[k] == '-' || s_[k] == '+')) ex += s_[k++];
+      const std::uint32_t ds = k;
+      while (k < end_ && is_digit(s_[k])) ex += s_[k++];
+      if (k > ds) {
+        text += 'e';
+        text += ex;
+        j = k;
+      }
+    }
+    char* endp = nullptr;
+    const double v = std::strtod(text.c_str(), &endp);
+    if (text.empty() || endp != text.c_str() + text.size() || text == ".") {
+      i_ = b;
+      fail_here("malformed number");
+    }
+    if (j < end_ && (is_alpha(s_[j]) || s_[j] == '_')) {
+      i_ = j;
+      fail_here("a number is directly followed by a name");
+    }
+    i_ = j;
+    Node n;
+    n.op = Op::num;
+    n.num = v;
+    n.span = {b, j};
+    return add(n);
+  }
+
+  /// `[e, e, …]` at i_ (after a name): the index expressions.
+  std::vector<std::uint32_t> indices() {
+    std::vector<std::uint32_t> idx;
+    expect('[', "");
+    do idx.push_back(expr());
+    while (accept(','));
+    expect(']', "closing the index");
+    return idx;
+  }
+
+  std::uint32_t primary() {
+    skip();
+    if (i_ >= end_) fail_here("a value is missing");
+    const std::uint32_t b = i_;
+    const char c = s_[i_];
+    if (is_digit(c) || c == '.') return number();
+    if (c == '(') {
+      ++i_;
+      const std::uint32_t e = expr();
+      expect(')', "closing the bracket");
+      p_.nodes[e].span = {b, i_};
+      return e;
+    }
+    if (c == '"')
+      throw Fail{"PP-E709", {b, b + 1}, "string values are not evaluated by the resolver; use a numeric value"};
+    if (c == '\'') {
+      // 'H1F' hexadecimal, 'B101' binary constants.
+      const auto close = s_.find('\'', b + 1);
+      if (close == std::string_view::npos || close >= end_ || close < b + 3) fail_here("malformed constant");
+      const char kind = upper(s_[b + 1]);
+      const std::string digits(s_.substr(b + 2, close - b - 2));
+      char* endp = nullptr;
+      const long long v = std::strtoll(digits.c_str(), &endp, kind == 'H' ? 16 : 2);
+      if ((kind != 'H' && kind != 'B') || endp != digits.c_str() + digits.size()) fail_here("malformed constant");
+      i_ = static_cast<std::uint32_t>(close + 1);
+      Node n;
+      n.op = Op::num;
+      n.num = static_cast<double>(v);
+      n.span = {b, i_};
+      return add(n);
+    }
+    if (c == '$') {
+      std::uint32_t j = b + 1;
+      while (j < end_ && is_ident(s_[j])) ++j;
+      if (j < end_ && s_[j] == '[') {
+        int depth = 0;
+        for (; j < end_; ++j) {
+          if (s_[j] == '[') ++depth;
+          if (s_[j] == ']' && --depth == 0) break;
+        }
+        if (j >= end_) fail_here("'[' of a system variable is not closed");
+        ++j;
+      }
+      std::string key;
+      for (std::uint32_t k = b; k < j; ++k)
+        if (!is_blank(s_[k])) key += upper(s_[k]);
+      i_ = j;
+      Node n;
+      n.op = Op::sysvar;
+      n.name = static_cast<std::uint32_t>(p_.names.size());
+      p_.names.push_back(std::move(key));
+      n.span = {b, j};
+      return add(n);
+    }
+    if (!is_alpha(c) && c != '_') fail_here("a value is expected");
+    const std::string name = ident();
+    const std::uint32_t after = i_;
+    if (peek() == '(') {
+      ++i_;
+      std::vector<std::uint32_t> args;
+      if (!accept(')')) {
+        do args.push_back(expr());
+        while (accept(','));
+        expect(')', "closing the argument list");
+      }
+      for (const FnInfo& f : kFunctions)
+        if (f.name == name) {
+          if (static_cast<int>(args.size()) != f.args)
+            throw Fail{"PP-E702", {b, i_}, fmt::format("syntax error: {} takes {} argument(s), not {}; correct the call", name, f.args, args.size())};
+          Node n;
+          n.op = Op::func;
+          n.fn = f.fn;
+          n.span = {b, i_};
+          return with_kids(n, args);
+        }
+      throw Fail{"PP-E709", {b, i_}, fmt::format("function {}(…) is not evaluated by the resolver; replace it by its value", name)};
+    }
+    i_ = after;
+    if (name == "R" && peek() == '[') {
+      const std::vector<std::uint32_t> idx = indices();
+      if (idx.size() != 1) throw Fail{"PP-E702", {b, i_}, "syntax error: R[…] takes one index; write R[n]"};
+      Node n;
+      n.op = Op::rindirect;
+      n.span = {b, i_};
+      return with_kids(n, idx);
+    }
+    if (name.size() >= 2 && name[0] == 'R' && std::all_of(name.begin() + 1, name.end(), is_digit)) {
+      const int r = std::atoi(name.c_str() + 1);
+      if (r >= kRCount) throw Fail{"PP-E703", {b, after}, fmt::format("{} does not exist (R0 to R{}); use a lower number", name, kRCount - 1)};
+      Node n;
+      n.op = Op::rparam;
+      n.r = r;
+      n.span = {b, after};
+      return add(n);
+    }
+    if (name == "TRUE" || name == "FALSE") {
+      Node n;
+      n.op = Op::num;
+      n.num = name == "TRUE" ? 1 : 0;
+      n.span = {b, after};
+      return add(n);
+    }
+    std::vector<std::uint32_t> idx;
+    if (peek() == '[') idx = indices();
+    Node n;
+    n.op = Op::var;
+    n.name = static_cast<std::uint32_t>(p_.names.size());
+    p_.names.push_back(name);
+    n.span = {b, idx.empty() ? after : i_};
+    return with_kids(n, idx);
+  }
+
+  std::string_view s_;
+  std::uint32_t i_, end_;
+  Pool& p_;
+};
+
+// ------------------------------------------------------------------------------------------------
+// Parsed lines
+// ------------------------------------------------------------------------------------------------
+
+enum class VType : std::uint8_t { real, integer, boolean, chr, string, axis, frame };
+
+std::optional<VType> type_of(std::string_view t) {
+  if (t == "REAL") return VType::real;
+  if (t == "INT") return VType::integer;
+  if (t == "BOOL") return VType::boolean;
+  if (t == "CHAR") return VType::chr;
+  if (t == "STRING") return VType::string;
+  if (t == "AXIS") return VType::axis;
+  if (t == "FRAME") return VType::frame;
+  return std::nullopt;
+}
+bool numeric(VType t) { return t == VType::real || t == VType::integer || t == VType::boolean; }
+std::string_view type_name(VType t) {
+  switch (t) {
+    case VType::real: return "REAL";
+    case VType::integer: return "INT";
+    case VType::boolean: return "BOOL";
+    case VType::chr: return "CHAR";
+    case VType::string: return "STRING";
+    case VType::axis: return "AXIS";
+    case VType::frame: return "FRAME";
+  }
+  return "?";
+}
+
+/// The left side of an assignment (or a FOR variable).
+struct Target {
+  enum Kind : std::uint8_t { rconst, rindirect, var, sysvar } kind = rconst;
+  int r = 0;
+  std::string name;                 ///< upper case
+  std::vector<std::uint32_t> index; ///< R[…] index or array indices
+  Span span;
+};
+
+struct Assign {
+  Target target;
+  std::uint32_t expr = 0;
+  Span span;
+};
+
+struct WordSub {
+  Span edit;     ///< the bytes replaced by the value
+  char letter = 0;
+  std::uint32_t expr = 0;
+};
+
+struct DeclVar {
+  std::string name;
+  Span span;
+  std::vector<std::uint32_t> dims;
+  std::vector<std::uint32_t> init;  ///< one (scalar or REP) or a list
+  bool rep = false;
+};
+struct Decl {
+  VType type = VType::real;
+  std::vector<DeclVar> vars;
+  Span span;
+};
+
+struct Param {
+  std::string name;
+  VType type = VType::real;
+  bool by_ref = false;
+  std::vector<std::uint32_t> dims;
+};
+struct ProcHeader {
+  std::string name;
+  std::vector<Param> params;
+};
+
+struct Call {
+  enum Kind : std::uint8_t { lword, named, explicit_call } kind = named;
+  std::string name;  ///< upper case: "L100", "PART1"
+  Span span;         ///< deleted when the call is followed
+  std::vector<std::optional<std::uint32_t>> args;  ///< empty argument: nullopt
+  bool has_args = false;
+};
+
+enum class Ctl : std::uint8_t {
+  none, if_block, if_goto, else_, endif, while_, endwhile, for_, endfor, repeat, until, loop, endloop, go, ret
+};
+enum class GoKind : std::uint8_t { forward, backward, both, quiet };
+
+struct Jump {
+  GoKind kind = GoKind::forward;
+  bool is_n = false;
+  double n = 0;
+  std::string label;
+  Span span;
+};
+
+struct Item {
+  enum Kind : std::uint8_t { assign, word, decl, setal, call } kind;
+  std::uint32_t index;
+};
+
+struct Line {
+  bool trivial = true;      ///< nothing to evaluate: emitted as written
+  bool lex_failed = false;  ///< the lexer rejects the line: report through SourceFile::block
+  bool lexed_ok = true;     ///< SourceFile::report may be used (no spurious lexer errors)
+  std::optional<Fail> error;
+  Pool pool;
+  std::vector<Item> items;
+  std::vector<Assign> assigns;
+  std::vector<WordSub> subs;
+  std::vector<Decl> decls;
+  std::vector<Call> calls;
+  std::vector<std::uint32_t> setal;  ///< SETAL argument expressions
+  std::vector<Span> deletes;         ///< statements removed from the emitted line
+  Ctl ctl = Ctl::none;
+  Span ctl_span;
+  std::uint32_t cond = 0;
+  Jump jump;
+  Target for_var;
+  std::uint32_t for_from = 0, for_to = 0;
+  std::string label;
+  bool has_label = false;
+  bool end_program = false;  ///< M30 / M2
+  bool m17 = false;
+  Span m17_span;
+  bool has_proc = false;
+  ProcHeader proc;
+  bool has_p = false;        ///< P word: repeat count of a call on the line
+  Span p_span;
+  std::optional<std::uint32_t> p_expr;
+  double p_value = 1;
+  bool mcall = false;
+  int others = 0;            ///< items left in the emitted line besides call candidates and P
+  bool executable = false;   ///< anything but comments / % / blanks
+};
+
+/// Finds `kw` as a whole identifier at bracket depth 0 in [b, e); npos when absent.
+std::uint32_t find_keyword(std::string_view s, std::uint32_t b, std::uint32_t e, std::initializer_list<std::string_view> kws,
+                           std::string_view* which = nullptr) {
+  int depth = 0;
+  bool str = false;
+  for (std::uint32_t j = b; j < e; ++j) {
+    const char c = s[j];
+    if (c == '"') str = !str;
+    if (str) continue;
+    if (c == '(' || c == '[') ++depth;
+    if (c == ')' || c == ']') --depth;
+    if (depth == 0 && (is_alpha(c) || c == '_') && (j == b || !(is_ident(s[j - 1]) || s[j - 1] == '$'))) {
+      std::uint32_t k = j;
+      while (k < e && is_ident(s[k])) ++k;
+      const std::string_view id = s.substr(j, k - j);
+      for (std::string_view kw : kws)
+        if (iequals(id, kw)) {
+          if (which) *which = kw;
+          return j;
+        }
+      j = k - 1;
+    }
+  }
+  return static_cast<std::uint32_t>(-1);
+}
+
+/// End of a Siemens value after '=' (whitespace or ';' at depth 0).
+std::uint32_t value_end(std::string_view s, std::uint32_t v) {
+  int depth = 0;
+  bool str = false;
+  std::uint32_t e = v;
+  for (; e < s.size(); ++e) {
+    const char c = s[e];
+    if (c == '"') str = !str;
+    if (str) continue;
+    if (c == '(' || c == '[') ++depth;
+    if (c == ')' || c == ']') --depth;
+    if (depth <= 0 && (is_blank(c) || c == ';')) break;
+  }
+  return e;
+}
+
+/// Names the lexer reports as calls or keywords that are controller functions, never subprograms.
+bool builtin_name(std::string_view n) {
+  static const std::unordered_set<std::string_view> kNames = {
+      "MSG", "TRAORI", "TRAFOOF", "TRANSMIT", "TRACYL", "TRAANG", "SUPA", "STOPRE", "MCALL", "SETAL", "WAITM",
+      "WAITE", "WAITMC", "CFC", "CFTCP", "CFIN", "FFWON", "FFWOF", "SOFT", "BRISK", "DRIVE", "DIAMON", "DIAMOF",
+      "DIAM90", "TRANS", "ATRANS", "ROT", "AROT", "SCALE", "ASCALE", "MIRROR", "AMIRROR", "CTRANS", "CROT",
+      "ORIWKS", "ORIMKS", "ORIAXES", "ORIVECT", "ORICONO", "OST", "CUT2D", "CUT2DF", "CUT3DC", "CUT3DF",
+      "CUT3DFF", "CUT3DFS", "COMPOF", "COMPON", "COMPCURV", "COMPCAD", "TOFRAME", "TOROT", "TOROTOF",
+      "PAROT", "PAROTOF", "SPOS", "SPOSA", "FGROUP", "FGREF", "FL", "ACC", "VELOLIM", "JERKLIM", "G_GROUP",
+      "NORM", "KONT", "KONTC", "KONTT", "DISC", "DISR", "DISCL", "G17", "M", "TCARR", "TCOABS", "TCOFR",
+      "PTP", "CP", "STOPFIFO", "STARTFIFO", "FIFOCTRL", "ROTS", "AROTS", "CORROF", "DRFOF", "RESET", "GETT",
+      "WRTPR", "MSG", "ACN", "ACP", "DC", "CIC", "CAC", "CDC", "CACN", "CACP", "CLEARM", "SETM", "G4",
+      "RTLION", "RTLIOF", "FNORM", "FLIN", "FCUB", "SPATH", "UPATH", "CPRECON", "CPRECOF", "OFFN", "TRAFOOF",
+      "DYNNORM", "DYNPOS", "DYNROUGH", "DYNSEMIFIN", "DYNFINISH", "SOFTA", "BRISKA", "EXTCALL", "PCALL",
+      "MCALL", "CALL", "HOLES1", "HOLES2", "LONGHOLE", "SLOT1", "SLOT2", "POCKET1", "POCKET2", "SETMS",
+      "LIMS", "G0", "DEFAULT", "ENDPROC"};
+  if (kNames.count(n)) return true;
+  for (std::string_view p : {"CYCLE", "POCKET", "SLOT", "HOLES", "LONGHOLE", "E_", "F_", "_"})
+    if (n.substr(0, p.size()) == p) return true;
+  return false;
+}
+
+
+
+/// Multi-letter addresses written with '=' that the lexer reports as assignments.
+bool address_name(const std::string& n) {
+  static const std::unordered_set<std::string> kNames = {
+      "TURN", "ADIS", "ADISPOS", "OFFN", "FAD", "CHF", "CHR", "RND", "RNDM", "ANG", "SPOS", "SPOSA", "DISR", "DISRP",
+      "DISCL", "FR", "FRC", "FRCM", "FB", "PL", "SPN", "SPP", "MEAS", "MEAW", "STOPRE", "PM", "PR", "SD", "PO",
+      "PW", "SR", "SRA", "ST", "STA", "CFTCP", "DL", "DISC", "NR", "QU", "LF", "DITE", "DITS", "ALF", "SPI", "GP"};
+  return kNames.count(n) != 0;
+}
+
+/// A statement the block lexer cannot read as written, found by scan_statements.
+struct Masked {
+  enum Kind : std::uint8_t { assign, call, word } kind = assign;
+  Span span;   ///< the whole statement
+  Span name;   ///< target / address
+  Span value;  ///< after '='
+};
+
+bool op_keyword(std::string_view id, bool unary_too) {
+  for (std::string_view k : {"DIV", "MOD", "AND", "OR", "XOR", "B_AND", "B_OR", "B_XOR"})
+    if (iequals(id, k)) return true;
+  return unary_too && (iequals(id, "NOT") || iequals(id, "B_NOT"));
+}
+
+/// End of a value after '=' at `v`, continued across blanks next to an operator
+/// (`R1=R2 + 3`, `R1=7 DIV 2`): the block lexer stops at the first blank.
+std::uint32_t extended_end(std::string_view raw, std::uint32_t v) {
+  const auto n = static_cast<std::uint32_t>(raw.size());
+  std::uint32_t e = value_end(raw, v);
+  for (;;) {
+    std::uint32_t q = e;
+    while (q < n && is_blank(raw[q])) ++q;
+    if (q >= n || raw[q] == ';' || q == e) return e;
+    const char prev = raw[e - 1];
+    bool prev_op = std::string_view("+-*/<>=(,").find(prev) != std::string_view::npos;
+    if (!prev_op && is_ident(prev)) {
+      std::uint32_t k = e;
+      while (k > v && is_ident(raw[k - 1])) --k;
+      prev_op = op_keyword(raw.substr(k, e - k), true);
+    }
+    bool next_op = std::string_view("+-*/<>=").find(raw[q]) != std::string_view::npos;
+    if (!next_op && (is_alpha(raw[q]) || raw[q] == '_')) {
+      std::uint32_t k = q;
+      while (k < n && is_ident(raw[k])) ++k;
+      next_op = op_keyword(raw.substr(q, k - q), false) && k < n && (is_blank(raw[k]) || raw[k] == '(');
+    }
+    if (!prev_op && !next_op) return e;
+    e = std::max(value_end(raw, q), q + 1);
+  }
+}
+
+bool two_letter_address(std::string_view l) {
+  for (std::string_view k : {"CR", "AP", "RP", "AR", "CT", "IP", "TU", "SF", "FA", "OS"})
+    if (iequals(l, k)) return true;
+  return false;
+}
+
+/// Finds `NAME[…]=…`, `R[…]=…`, `$VAR=…`, `CALL "NAME"` and assignments or address values with
+/// blanks inside their expression: the statements to mask before lexing.
+void scan_statements(std::string_view raw, std::vector<Masked>& out) {
+  static constexpr std::string_view kRestOfLine[] = {"IF", "WHILE", "UNTIL", "FOR", "DEF", "PROC", "GOTOF", "GOTOB",
+                                                     "GOTO", "GOTOC", "CASE", "EXTERN", "DEFINE", "ELSE", "ENDIF"};
+  const auto n = static_cast<std::uint32_t>(raw.size());
+  std::uint32_t j = 0;
+  while (j < n) {
+    while (j < n && is_blank(raw[j])) ++j;
+    if (j >= n || raw[j] == ';') return;
+    const std::uint32_t start = j;
+    std::uint32_t k = j;
+    if (raw[k] == '$') ++k;
+    const std::uint32_t letters_begin = k;
+    while (k < n && (is_alpha(raw[k]) || raw[k] == '_')) ++k;
+    const std::uint32_t letters_end = k;
+    while (k < n && is_ident(raw[k])) ++k;
+    const std::string_view id = raw.substr(start, k - start);
+    for (std::string_view kw : kRestOfLine)
+      if (iequals(id, kw)) return;
+    if (iequals(id, "CALL")) {
+      std::uint32_t q = k;
+      while (q < n && is_blank(raw[q])) ++q;
+      if (q < n && raw[q] == '"') {
+        const auto close = raw.find('"', q + 1);
+        if (close != std::string_view::npos) {
+          out.push_back({Masked::call, {start, static_cast<std::uint32_t>(close + 1)}, {start, k}, {}});
+          j = static_cast<std::uint32_t>(close + 1);
+          continue;
+        }
+      }
+    }
+    if (k > letters_begin) {
+      std::uint32_t q = k;
+      const bool bracket = q < n && raw[q] == '[';
+      if (bracket) {
+        int depth = 0;
+        for (; q < n; ++q) {
+          if (raw[q] == '[') ++depth;
+          if (raw[q] == ']' && --depth == 0) break;
+        }
+        if (q < n) ++q;
+      }
+      const std::uint32_t name_end = q;
+      while (q < n && is_blank(raw[q])) ++q;
+      if (q < n && raw[q] == '=' && !(q + 1 < n && raw[q + 1] == '=')) {
+        std::uint32_t v = q + 1;
+        while (v < n && is_blank(raw[v])) ++v;
+        const std::uint32_t e = extended_end(raw, v);
+        const std::string_view letters = raw.substr(letters_begin, letters_end - letters_begin);
+        const bool sys = raw[start] == '$';
+        const bool address = !sys && !bracket &&
+                             ((letters.size() == 1 && upper(letters[0]) != 'R') || two_letter_address(letters));
+        if (sys || bracket || e != value_end(raw, v)) {
+          out.push_back({address ? Masked::word : Masked::assign, {start, e}, {start, name_end}, {v, e}});
+        }
+        j = std::max(e, j + 1);
+        continue;
+      }
+    }
+    j = std::max(value_end(raw, j), j + 1);
+  }
+}
+
+// ------------------------------------------------------------------------------------------------
+// Run-time state
+// ------------------------------------------------------------------------------------------------
+
+struct Var {
+  VType type = VType::real;
+  std::uint8_t ndims = 0;
+  std::array<int, 3> dims{1, 1, 1};
+  double* p = nullptr;
+  std::shared_ptr<std::vector<double>> own;
+};
+
+struct ArgVal {
+  bool given = false;
+  double value = 0;
+  double* ref = nullptr;       ///< a scalar variable, R parameter or array element
+  const Var* whole = nullptr;  ///< a whole array
+};
+
+struct Frame {
+  SourceFile* f = nullptr;
+  std::size_t pc = 0;
+  std::size_t begin = 0;
+  std::size_t header = npos;  ///< PROC line of this frame
+  bool main = false;
+  bool in_file_proc = false;
+  bool bound = false;
+  int repeats_left = 0;
+  std::vector<ArgVal> args;
+  Span call_span;
+  std::size_t call_line = 0;
+  std::unordered_map<std::string, Var> vars;
+  std::unordered_map<std::size_t, double> for_end;
+};
+
+struct FileData {
+  std::vector<std::unique_ptr<Line>> lines;
+  bool all_parsed = false;
+  std::vector<std::int64_t> match;           ///< partner line of a structure keyword
+  std::vector<std::string> match_error;      ///< per line: structure error message
+  std::unordered_map<std::string, std::vector<std::size_t>> labels;
+  std::unordered_map<std::string, std::size_t> procs;
+  std::size_t header = npos;  ///< PROC line heading the file (nothing executable before it)
+};
+
+class Siemens {
+ public:
+  Siemens(FileSet& files, Emitter& out, const ResolveOptions& opt, DiagnosticSink& sink, ResolvedProgram& r)
+      : files_(files), out_(out), opt_(opt), sink_(sink), r_(r), d_(make_dialect(DialectId::siemens)) {
+    rv_.assign(kRCount, 0.0);
+    rstate_.assign(kRCount, 0);
+    for (const auto& [k, v] : opt.set)
+      if (k.size() >= 2 && k[0] == 'R' && std::all_of(k.begin() + 1, k.end(), is_digit) && k.size() <= 4) {
+        const int n = std::atoi(k.c_str() + 1);
+        if (n < kRCount) {
+          rv_[n] = v;
+          rstate_[n] = 2;
+        }
+      }
+  }
+
+  void run();
+
+ private:
+  // ---- parsing ----
+  FileData& data(SourceFile& f) {
+    if (fdata_.size() <= f.index()) fdata_.resize(f.index() + 1);
+    FileData& d = fdata_[f.index()];
+    if (d.lines.size() != f.lines()) d.lines.resize(f.lines());
+    return d;
+  }
+  Line& line(SourceFile& f, std::size_t i) {
+    FileData& d = data(f);
+    if (!d.lines[i]) d.lines[i] = parse(f, i);
+    return *d.lines[i];
+  }
+  void parse_all(SourceFile& f);
+  std::unique_ptr<Line> parse(SourceFile& f, std::size_t i);
+  void parse_items(SourceFile& f, Line& L, const Block& b, std::string_view raw, const std::vector<Masked>& masked);
+  void parse_control(Line& L, std::string_view raw, const Token& t);
+  void parse_decl(Line& L, std::string_view raw, Span rest);
+  void parse_proc(Line& L, std::string_view raw, Span rest);
+  Target parse_target(Line& L, std::string_view raw, Span s);
+  Jump parse_jump(std::string_view raw, std::uint32_t b, std::uint32_t e, std::string_view kw);
+  void parse_args(Line& L, Call& c, std::string_view raw, std::uint32_t open, std::uint32_t close);
+
+  // ---- evaluation ----
+  double eval(const Pool& p, std::uint32_t n);
+  double read_var(const Pool& p, const Node& n);
+  double* var_slot(const Pool& p, const Node& n, Var** whole_out, VType* type_out);
+  double* element(Var& v, const Pool& p, const Node& n, const std::uint32_t* idx, std::size_t count, Span span);
+  double* r_slot(int r, Span span);
+  void assign(const Pool& p, const Target& t, double v);
+  static double convert(VType t, double v) {
+    if (t == VType::integer) return std::round(v);
+    if (t == VType::boolean) return v != 0 ? 1 : 0;
+    return v;
+  }
+  int to_index(double v, Span span) {
+    const double r = std::round(v);
+    if (std::fabs(v - r) > 1e-9 || r < 0 || r > 1e6)
+      throw Fail{"PP-E707", span, fmt::format("index {} is not a whole number ≥ 0; correct the index", format_value(v, 'X'))};
+    return static_cast<int>(r);
+  }
+
+  // ---- execution ----
+  bool step(Frame& fr, Line& L);
+  bool do_return(bool program_end_ok);
+  bool push_call(Frame& caller, Line& L, const Call& c, SourceFile& target, std::size_t start, bool in_file, int repeats);
+  void bind(Frame& fr, Line& L);
+  void declare(Frame& fr, const Pool& p, const Decl& d);
+  void structure(SourceFile& f);
+  std::optional<std::size_t> find_jump(SourceFile& f, std::size_t pc, const Jump& j);
+  SourceFile* find_file(const std::string& name);
+  void report(SourceFile& f, std::size_t i, const Line& L, Span span, Severity sev, std::string_view code, std::string msg);
+  void fail(SourceFile& f, std::size_t i, const Line& L, const Fail& e) {
+    report(f, i, L, e.span, Severity::error, e.code, e.message);
+  }
+
+  FileSet& files_;
+  Emitter& out_;
+  const ResolveOptions& opt_;
+  DiagnosticSink& sink_;
+  ResolvedProgram& r_;
+  Dialect d_;
+  std::vector<FileData> fdata_;
+  std::vector<double> rv_;
+  std::vector<std::uint8_t> rstate_;  ///< 0 never assigned, 1 assigned, 2 from --set (not yet read)
+  std::vector<std::unique_ptr<Frame>> frames_;
+  std::unordered_map<std::string, SourceFile*> file_cache_;
+  std::vector<Edit> edits_;
+  SourceFile* cur_file_ = nullptr;
+  std::size_t cur_line_ = 0;
+  const Line* cur_L_ = nullptr;
+};
+
+// ---- parsing ------------------------------------------------------------------------------------
+
+std::unique_ptr<Line> Siemens::parse(SourceFile& f, std::size_t i) {
+  auto L = std::make_unique<Line>();
+  const std::string_view raw = f.raw(i);
+  DiagnosticSink quiet(0);
+  LexContext ctx{f.name(), &quiet};
+  Block b;
+  b.raw = raw;
+  b.line = i + 1;
+  std::vector<Masked> masked;
+  std::string masked_text;
+  scan_statements(raw, masked);
+  bool ok;
+  if (masked.empty()) {
+    ok = lex_block(d_, b, ctx);
+  } else {
+    // Mask the statements the lexer cannot read (or splits at blanks) and lex the rest: spans
+    // stay the same.
+    masked_text.assign(raw);
+    for (const Masked& m : masked)
+      for (std::uint32_t q = m.span.begin; q < m.span.end; ++q) masked_text[q] = ' ';
+    b.raw = masked_text;
+    ok = lex_block(d_, b, ctx);
+    L->lexed_ok = false;
+  }
+  if (!ok) {
+    // The lexer's complaint is reported by the interpreter when it reads the resolved line; the
+    // statements it could read are still carried out here.
+    L->lexed_ok = false;
+  }
+  try {
+    parse_items(f, *L, b, raw, masked);
+  } catch (const Fail& e) {
+    L->error = e;
+    L->trivial = false;
+  }
+  return L;
+}
+
+Target Siemens::parse_target(Line& L, std::string_view raw, Span s) {
+  Target t;
+  t.span = s;
+  Parser p(raw, s.begin, s.end, L.pool);
+  const std::uint32_t b = p.pos();
+  if (b < s.end && raw[b] == '$') {
+    t.kind = Target::sysvar;
+    for (std::uint32_t k = b; k < s.end; ++k)
+      if (!is_blank(raw[k])) t.name += upper(raw[k]);
+    return t;
+  }
+  const std::string name = p.ident();
+  if (name.empty()) p.fail_here("a variable name is expected");
+  if (name == "R" && p.peek() == '[') {
+    p.expect('[', "");
+    t.kind = Target::rindirect;
+    t.index.push_back(p.expr());
+    p.expect(']', "closing R[…]");
+  } else if (name.size() >= 2 && name[0] == 'R' && std::all_of(name.begin() + 1, name.end(), is_digit)) {
+    t.kind = Target::rconst;
+    t.r = std::atoi(name.c_str() + 1);
+    if (t.r >= kRCount) throw Fail{"PP-E703", s, fmt::format("{} does not exist (R0 to R{}); use a lower number", name, kRCount - 1)};
+  } else {
+    t.kind = Target::var;
+    t.name = name;
+    if (p.accept('[')) {
+      do t.index.push_back(p.expr());
+      while (p.accept(','));
+      p.expect(']', "closing the index");
+    }
+  }
+  p.expect_end("the variable");
+  return t;
+}
+
+Jump Siemens::parse_jump(std::string_view raw, std::uint32_t b, std::uint32_t e, std::string_view kw) {
+  Jump j;
+  const std::string k = upper(kw);
+  j.kind = k == "GOTOF" ? GoKind::forward : k == "GOTOB" ? GoKind::backward : k == "GOTOC" ? GoKind::quiet : GoKind::both;
+  Pool scratch;
+  Parser p(raw, b, e, scratch);
+  const std::uint32_t at = p.pos();
+  if (p.at_end()) p.fail_here(fmt::format("{} needs a label or block number", k));
+  if (raw[at] == '"' || raw[at] == '(')
+    throw Fail{"PP-E709", {at, e}, fmt::format("{} to a computed target is not followed by the resolver; write the label", k)};
+  std::string id;
+  if (is_digit(raw[at])) {
+    std::uint32_t q = at;
+    while (q < e && is_digit(raw[q])) ++q;
+    id = "N" + std::string(raw.substr(at, q - at));
+    p.set_pos(q);
+  } else {
+    id = p.ident();
+  }
+  if (id.empty()) p.fail_here(fmt::format("{} needs a label or block number", k));
+  j.span = {at, p.pos()};
+  if (id.size() >= 2 && id[0] == 'N' && std::all_of(id.begin() + 1, id.end(), is_digit)) {
+    j.is_n = true;
+    j.n = std::atof(id.c_str() + 1);
+  } else {
+    j.label = id;
+  }
+  p.expect_end("the jump target");
+  return j;
+}
+
+void Siemens::parse_control(Line& L, std::string_view raw, const Token& t) {
+  const std::string kw = upper(raw.substr(t.name.begin, t.name.size()));
+  const std::uint32_t b = t.name.end, e = t.span.end;
+  L.ctl_span = t.span;
+  auto blank_rest = [&](Ctl c) {
+    Parser p(raw, b, e, L.pool);
+    p.expect_end(kw);
+    L.ctl = c;
+  };
+  auto condition = [&](std::uint32_t cb, std::uint32_t ce) {
+    Parser p(raw, cb, ce, L.pool);
+    if (p.at_end()) p.fail_here(fmt::format("{} needs a condition", kw));
+    L.cond = p.expr();
+    p.expect_end("the condition");
+  };
+  if (kw == "IF") {
+    std::string_view which;
+    const std::uint32_t g = find_keyword(raw, b, e, {"GOTOF", "GOTOB", "GOTOC", "GOTO"}, &which);
+    if (g != static_cast<std::uint32_t>(-1)) {
+      condition(b, g);
+      L.jump = parse_jump(raw, g + static_cast<std::uint32_t>(which.size()), e, which);
+      L.ctl = Ctl::if_goto;
+    } else {
+      condition(b, e);
+      L.ctl = Ctl::if_block;
+    }
+  } else if (kw == "ELSE") blank_rest(Ctl::else_);
+  else if (kw == "ENDIF") blank_rest(Ctl::endif);
+  else if (kw == "ENDWHILE") blank_rest(Ctl::endwhile);
+  else if (kw == "ENDFOR") blank_rest(Ctl::endfor);
+  else if (kw == "REPEAT") blank_rest(Ctl::repeat);
+  else if (kw == "LOOP") blank_rest(Ctl::loop);
+  else if (kw == "ENDLOOP") blank_rest(Ctl::endloop);
+  else if (kw == "WHILE") {
+    condition(b, e);
+    L.ctl = Ctl::while_;
+  } else if (kw == "UNTIL") {
+    condition(b, e);
+    L.ctl = Ctl::until;
+  } else if (kw == "FOR") {
+    // FOR var = from TO to
+    std::uint32_t eq = static_cast<std::uint32_t>(-1);
+    for (std::uint32_t k = b; k < e; ++k)
+      if (raw[k] == '=' && !(k + 1 < e && raw[k + 1] == '=') && !(k > b && (raw[k - 1] == '<' || raw[k - 1] == '>' || raw[k - 1] == '='))) {
+        eq = k;
+        break;
+      }
+    const std::uint32_t to = eq == static_cast<std::uint32_t>(-1) ? eq : find_keyword(raw, eq + 1, e, {"TO"});
+    if (eq == static_cast<std::uint32_t>(-1) || to == static_cast<std::uint32_t>(-1))
+      throw Fail{"PP-E702", t.span, "syntax error: write FOR variable = start TO end"};
+    L.for_var = parse_target(L, raw, {b, eq});
+    if (L.for_var.kind == Target::sysvar)
+      throw Fail{"PP-E709", L.for_var.span, "a system variable as FOR counter is not supported; use an R parameter or INT variable"};
+    Parser pf(raw, eq + 1, to, L.pool);
+    L.for_from = pf.expr();
+    pf.expect_end("the start value");
+    Parser pt(raw, to + 2, e, L.pool);
+    L.for_to = pt.expr();
+    pt.expect_end("the end value");
+    L.ctl = Ctl::for_;
+  } else if (kw == "GOTO" || kw == "GOTOF" || kw == "GOTOB" || kw == "GOTOC") {
+    L.jump = parse_jump(raw, b, e, kw);
+    L.ctl = Ctl::go;
+  } else if (kw == "RET") {
+    Parser p(raw, b, e, L.pool);
+    if (!p.at_end()) throw Fail{"PP-E709", t.span, "RET with arguments (return to a label) is not supported; use RET alone"};
+    L.ctl = Ctl::ret;
+  } else if (kw == "CASE") {
+    throw Fail{"PP-E709", t.span, "CASE … OF … is not evaluated by the resolver; write it as IF/GOTOF"};
+  } else if (kw == "TO") {
+    throw Fail{"PP-E702", t.span, "syntax error: TO outside FOR"};
+  } else {
+    return;  // STOPRE: left in the line
+  }
+  L.deletes.push_back(t.span);
+}
+
+void Siemens::parse_decl(Line& L, std::string_view raw, Span rest) {
+  Parser p(raw, rest.begin, rest.end, L.pool);
+  std::string tname = p.ident();
+  if (tname == "NCK" || tname == "CHAN" || tname == "LUD" || tname == "GUD" || tname == "PUD")
+    throw Fail{"PP-E709", rest, fmt::format("global user data (DEF {} …) is not evaluated by the resolver; define the variables in the program", tname)};
+  const auto type = type_of(tname);
+  if (!type) p.fail_here("DEF needs a type: REAL, INT, BOOL, CHAR, STRING[n], AXIS or FRAME");
+  Decl d;
+  d.type = *type;
+  d.span = rest;
+  if (*type == VType::string && p.accept('[')) {
+    (void)p.expr();
+    p.expect(']', "closing STRING[n]");
+  }
+  for (std::string_view attr : {"PHU", "LLI", "ULI", "PRD"})
+    if (iequals(p.peek_ident(), attr))
+      throw Fail{"PP-E709", rest, fmt::format("DEF attribute {} is not evaluated by the resolver; remove it", attr)};
+  do {
+    DeclVar v;
+    const std::uint32_t nb = p.pos();
+    v.name = p.ident();
+    if (v.name.empty()) p.fail_here("a variable name is expected");
+    if (p.accept('[')) {
+      do v.dims.push_back(p.expr());
+      while (p.accept(','));
+      p.expect(']', "closing the array size");
+      if (v.dims.size() > 3) throw Fail{"PP-E702", {nb, p.pos()}, "syntax error: arrays have at most 3 dimensions"};
+    }
+    v.span = {nb, p.pos()};
+    if (p.accept('=')) {
+      if (!numeric(d.type)) {
+        // Initial values of STRING/CHAR/AXIS/FRAME variables are not kept; reading them is refused.
+        std::uint32_t q = p.pos();
+        int depth = 0;
+        bool str = false;
+        for (; q < rest.end; ++q) {
+          const char c = raw[q];
+          if (c == '"') str = !str;
+          if (str) continue;
+          if (c == '(' || c == '[') ++depth;
+          if (c == ')' || c == ']') --depth;
+          if (depth == 0 && c == ',') break;
+        }
+        p.set_pos(q);
+      } else if (!v.dims.empty()) {
+        if (p.accept_kw("REP")) {
+          v.rep = true;
+          p.expect('(', "after REP");
+          v.init.push_back(p.expr());
+          p.expect(')', "closing REP(…)");
+        } else {
+          (void)p.accept_kw("SET");
+          p.expect('(', "opening the list of initial values");
+          do v.init.push_back(p.expr());
+          while (p.accept(','));
+          p.expect(')', "closing the list of initial values");
+        }
+      } else {
+        v.init.push_back(p.expr());
+      }
+    }
+    d.vars.push_back(std::move(v));
+  } while (p.accept(','));
+  p.expect_end("the declaration");
+  L.decls.push_back(std::move(d));
+  L.items.push_back({Item::decl, static_cast<std::uint32_t>(L.decls.size() - 1)});
+}
+
+void Siemens::parse_proc(Line& L, std::string_view raw, Span rest) {
+  Parser p(raw, rest.begin, rest.end, L.pool);
+  L.proc.name = p.ident();
+  if (L.proc.name.empty()) p.fail_here("PROC needs a name");
+  if (p.accept('(')) {
+    if (!p.accept(')')) {
+      do {
+        Param prm;
+        prm.by_ref = p.accept_kw("VAR");
+        const std::string t = p.ident();
+        const auto type = type_of(t);
+        if (!type) p.fail_here("a parameter type (REAL, INT, BOOL, …) is expected");
+        prm.type = *type;
+        if (prm.type == VType::string && p.accept('[')) {
+          (void)p.expr();
+          p.expect(']', "closing STRING[n]");
+        }
+        prm.name = p.ident();
+        if (prm.name.empty()) p.fail_here("a parameter name is expected");
+        if (p.accept('[')) {
+          do {
+            if (p.peek() == ',' || p.peek() == ']') prm.dims.push_back(static_cast<std::uint32_t>(-1));
+            else prm.dims.push_back(p.expr());
+          } while (p.accept(','));
+          p.expect(']', "closing the array size");
+        }
+        L.proc.params.push_back(std::move(prm));
+      } while (p.accept(','));
+      p.expect(')', "closing the parameter list");
+    }
+  }
+  // SAVE, DISPLOF, SBLOF, ACTBLOCNO and the like are attributes without effect here.
+  L.has_proc = true;
+}
+
+void Siemens::parse_args(Line& L, Call& c, std::string_view raw, std::uint32_t open, std::uint32_t close) {
+  c.has_args = true;
+  Parser p(raw, open + 1, close, L.pool);
+  if (p.at_end()) return;
+  for (;;) {
+    if (p.peek() == ',' || p.at_end()) c.args.emplace_back(std::nullopt);
+    else c.args.emplace_back(p.expr());
+    if (!p.accept(',')) break;
+  }
+  p.expect_end("the arguments");
+}
+
+void Siemens::parse_items(SourceFile& f, Line& L, const Block& b, std::string_view raw,
+                          const std::vector<Masked>& masked) {
+  // Everything in source order: words, tokens and masked statements.
+  struct Ref {
+    std::uint32_t at;
+    int kind;  // 0 word, 1 token, 2 masked
+    std::size_t i;
+  };
+  std::vector<Ref> order;
+  for (std::size_t k = 0; k < b.words.size(); ++k) order.push_back({b.words[k].span.begin, 0, k});
+  for (std::size_t k = 0; k < b.tokens.size(); ++k) order.push_back({b.tokens[k].span.begin, 1, k});
+  for (std::size_t k = 0; k < masked.size(); ++k) order.push_back({masked[k].span.begin, 2, k});
+  std::sort(order.begin(), order.end(), [](const Ref& a, const Ref& c) { return a.at < c.at; });
+
+  int candidates = 0;
+  std::vector<Call> pending;  // call candidates, order kept
+  for (const Token& t : b.tokens)
+    if (t.kind == TokenKind::keyword && iequals(raw.substr(t.name.begin, t.name.size()), "MCALL")) L.mcall = true;
+
+  for (const Ref& ref : order) {
+    if (ref.kind == 2) {
+      const Masked& m = masked[ref.i];
+      const Span span = m.span;
+      if (m.kind == Masked::call) {
+        const auto q1 = raw.find('"', span.begin);
+        Call c;
+        c.kind = Call::explicit_call;
+        c.name = upper(raw.substr(q1 + 1, span.end - q1 - 2));
+        c.span = span;
+        L.calls.push_back(std::move(c));
+        L.items.push_back({Item::call, static_cast<std::uint32_t>(L.calls.size() - 1)});
+        ++candidates;
+        continue;
+      }
+      if (m.kind == Masked::word) {
+        // An address whose value has blanks inside: X=R1 + 2, X=AC(R1 + 2).
+        ++L.others;
+        WordSub s;
+        s.edit = m.value;
+        s.letter = upper(raw[m.name.begin]);
+        const std::string_view v = m.value.of(raw);
+        if (v.size() > 3 && (text::starts_with_i(v, "AC(") || text::starts_with_i(v, "IC(")) && v.back() == ')')
+          s.edit = {m.value.begin + 3, m.value.end - 1};
+        Parser p(raw, s.edit.begin, s.edit.end, L.pool);
+        s.expr = p.expr();
+        p.expect_end("the value");
+        L.subs.push_back(s);
+        L.items.push_back({Item::word, static_cast<std::uint32_t>(L.subs.size() - 1)});
+        continue;
+      }
+      if (address_name(upper(m.name.of(raw)))) {
+        ++L.others;
+        WordSub s;
+        s.edit = m.value;
+        s.letter = upper(raw[m.name.begin]);
+        Parser p(raw, m.value.begin, m.value.end, L.pool);
+        s.expr = p.expr();
+        p.expect_end("the value");
+        L.subs.push_back(s);
+        L.items.push_back({Item::word, static_cast<std::uint32_t>(L.subs.size() - 1)});
+        continue;
+      }
+      Assign a;
+      a.span = span;
+      a.target = parse_target(L, raw, m.name);
+      Parser p(raw, m.value.begin, m.value.end, L.pool);
+      a.expr = p.expr();
+      p.expect_end("the value");
+      if (a.target.kind == Target::sysvar)
+        throw Fail{"PP-E709", span, fmt::format("writing the system variable {} is not followed by the resolver; set it on the machine", a.target.name)};
+      L.assigns.push_back(std::move(a));
+      L.items.push_back({Item::assign, static_cast<std::uint32_t>(L.assigns.size() - 1)});
+      L.deletes.push_back(span);
+      continue;
+    }
+    if (ref.kind == 0) {
+      const Word& w = b.words[ref.i];
+      if (w.kind == ValueKind::expression || w.kind == ValueKind::parameter) {
+        WordSub s;
+        s.edit = w.value;
+        s.letter = w.letter;
+        Parser p(raw, w.value.begin, w.value.end, L.pool);
+        s.expr = p.expr();
+        p.expect_end("the value");
+        if (w.letter == 'P' && w.name_len == 1) {
+          L.has_p = true;
+          L.p_span = w.span;
+          L.p_expr = s.expr;
+          continue;
+        }
+        L.subs.push_back(s);
+        L.items.push_back({Item::word, static_cast<std::uint32_t>(L.subs.size() - 1)});
+        ++L.others;
+      } else if (w.kind == ValueKind::absolute_fn || w.kind == ValueKind::incremental_fn) {
+        // AC(expr) / IC(expr): the argument is evaluated, the wrapper kept.
+        const auto open = raw.find('(', w.value.begin);
+        std::uint32_t close = static_cast<std::uint32_t>(open);
+        int depth = 0;
+        for (; close < w.value.end; ++close) {
+          if (raw[close] == '(') ++depth;
+          if (raw[close] == ')' && --depth == 0) break;
+        }
+        if (close + 1 != w.value.end)
+          throw Fail{"PP-E709", w.value, fmt::format("'{}' combines AC/IC with more terms; write AC(…) or IC(…) alone", w.value.of(raw))};
+        ++L.others;
+        const Span inner{static_cast<std::uint32_t>(open + 1), close};
+        std::string_view in = inner.of(raw);
+        while (!in.empty() && is_blank(in.front())) in.remove_prefix(1);
+        while (!in.empty() && is_blank(in.back())) in.remove_suffix(1);
+        char* endp = nullptr;
+        const std::string tmp(in);
+        (void)std::strtod(tmp.c_str(), &endp);
+        if (!tmp.empty() && endp == tmp.c_str() + tmp.size()) continue;  // a literal: nothing to do
+        WordSub s;
+        s.edit = inner;
+        s.letter = w.letter;
+        Parser p(raw, inner.begin, inner.end, L.pool);
+        s.expr = p.expr();
+        p.expect_end("the value");
+        L.subs.push_back(s);
+        L.items.push_back({Item::word, static_cast<std::uint32_t>(L.subs.size() - 1)});
+      } else if (w.letter == 'L' && w.name_len == 1 && w.kind == ValueKind::number) {
+        Call c;
+        c.kind = Call::lword;
+        c.name = "L" + std::string(w.value.of(raw));
+        c.span = w.span;
+        L.calls.push_back(std::move(c));
+        L.items.push_back({Item::call, static_cast<std::uint32_t>(L.calls.size() - 1)});
+        ++candidates;
+      } else if (w.letter == 'P' && w.name_len == 1 && w.kind == ValueKind::number) {
+        L.has_p = true;
+        L.p_span = w.span;
+        L.p_value = w.number;
+      } else if (w.letter == 'M' && w.name_len == 1 && w.kind == ValueKind::number && (w.number == 30 || w.number == 2)) {
+        L.end_program = true;
+        ++L.others;
+      } else if (w.letter == 'M' && w.name_len == 1 && w.kind == ValueKind::number && w.number == 17) {
+        L.m17 = true;
+        L.m17_span = w.span;
+        ++L.others;
+      } else {
+        ++L.others;
+      }
+      continue;
+    }
+    const Token& t = b.tokens[ref.i];
+    switch (t.kind) {
+      case TokenKind::paren_comment:
+      case TokenKind::line_comment: ++L.others; break;
+      case TokenKind::percent:
+        if (f.index() != 0) L.deletes.push_back(t.span);
+        else ++L.others;
+        break;
+      case TokenKind::program_number:
+      case TokenKind::block_end: ++L.others; break;
+      case TokenKind::assignment: {
+        std::uint32_t eq = t.name.end;
+        while (eq < t.span.end && raw[eq] != '=') ++eq;
+        if (address_name(upper(t.name.of(raw)))) {
+          // A multi-letter address with '=' (TURN=2, RND=R1): its value is substituted, the word kept.
+          ++L.others;
+          std::uint32_t v = eq + 1;
+          while (v < t.span.end && is_blank(raw[v])) ++v;
+          const std::string tmp(raw.substr(v, t.span.end - v));
+          char* endp = nullptr;
+          (void)std::strtod(tmp.c_str(), &endp);
+          if (!tmp.empty() && endp == tmp.c_str() + tmp.size()) break;
+          WordSub s;
+          s.edit = {v, t.span.end};
+          s.letter = upper(raw[t.name.begin]);
+          Parser p(raw, v, t.span.end, L.pool);
+          s.expr = p.expr();
+          p.expect_end("the value");
+          L.subs.push_back(s);
+          L.items.push_back({Item::word, static_cast<std::uint32_t>(L.subs.size() - 1)});
+          break;
+        }
+        Assign a;
+        a.span = t.span;
+        a.target = parse_target(L, raw, t.name);
+        Parser p(raw, eq + 1, t.span.end, L.pool);
+        a.expr = p.expr();
+        p.expect_end("the value");
+        L.assigns.push_back(std::move(a));
+        L.items.push_back({Item::assign, static_cast<std::uint32_t>(L.assigns.size() - 1)});
+        L.deletes.push_back(t.span);
+        break;
+      }
+      case TokenKind::control_flow: {
+        const std::size_t before = L.deletes.size();
+        parse_control(L, raw, t);
+        if (L.deletes.size() == before) ++L.others;  // STOPRE
+        break;
+      }
+      case TokenKind::declaration: {
+        const std::string kw = upper(raw.substr(t.name.begin, t.name.size()));
+        if (kw == "DEF") parse_decl(L, raw, {t.name.end, t.span.end});
+        else if (kw == "PROC") parse_proc(L, raw, {t.name.end, t.span.end});
+        else if (kw == "DEFINE")
+          throw Fail{"PP-E709", t.span, "DEFINE … AS macros are not evaluated by the resolver; write the text out"};
+        // EXTERN: declaration of a subprogram's parameters, nothing to do.
+        L.deletes.push_back(t.span);
+        break;
+      }
+      case TokenKind::label:
+        L.has_label = true;
+        L.label = upper(raw.substr(t.name.begin, t.name.size()));
+        L.deletes.push_back(t.span);
+        break;
+      case TokenKind::keyword:
+      case TokenKind::call: {
+        const std::string name = upper(raw.substr(t.name.begin, t.name.size()));
+        if (name == "SETAL" && t.kind == TokenKind::call) {
+          const auto open = raw.find('(', t.name.end);
+          Call tmp;
+          parse_args(L, tmp, raw, static_cast<std::uint32_t>(open), t.span.end - 1);
+          if (tmp.args.empty() || !tmp.args[0]) throw Fail{"PP-E702", t.span, "syntax error: SETAL needs an alarm number"};
+          L.setal.push_back(*tmp.args[0]);
+          L.items.push_back({Item::setal, static_cast<std::uint32_t>(L.setal.size() - 1)});
+          L.deletes.push_back(t.span);
+          break;
+        }
+        if (L.mcall || builtin_name(name)) {
+          ++L.others;
+          break;
+        }
+        Call c;
+        c.kind = Call::named;
+        c.name = name;
+        c.span = t.span;
+        if (t.kind == TokenKind::call) {
+          // Arguments are parsed when the call is followed (a vendor cycle's are left as written).
+          c.has_args = true;
+        }
+        L.calls.push_back(std::move(c));
+        L.items.push_back({Item::call, static_cast<std::uint32_t>(L.calls.size() - 1)});
+        ++candidates;
+        break;
+      }
+    }
+  }
+  if (L.has_p && L.calls.empty()) {
+    // A P word without a call is an ordinary word.
+    ++L.others;
+    if (L.p_expr) {
+      WordSub s;
+      s.edit = {L.p_span.begin + 1, L.p_span.end};
+      // keep "P=" : edit the value only
+      const Word* pw = nullptr;
+      for (const Word& w : b.words)
+        if (w.span.begin == L.p_span.begin) pw = &w;
+      if (pw) s.edit = pw->value;
+      s.letter = 'P';
+      s.expr = *L.p_expr;
+      L.subs.push_back(s);
+      L.items.push_back({Item::word, static_cast<std::uint32_t>(L.subs.size() - 1)});
+    }
+    L.has_p = false;
+  }
+  (void)candidates;
+  L.executable = !L.items.empty() || L.ctl != Ctl::none || L.has_proc || L.end_program || L.m17 ||
+                 !b.words.empty() || b.has_n ||
+                 std::any_of(b.tokens.begin(), b.tokens.end(), [](const Token& t) {
+                   return t.kind != TokenKind::line_comment && t.kind != TokenKind::paren_comment && t.kind != TokenKind::percent;
+                 });
+  // Deletions swallow the blanks after them (and before them at the end of the line).
+  std::sort(L.deletes.begin(), L.deletes.end(), [](Span a, Span c) { return a.begin < c.begin; });
+  const auto n = static_cast<std::uint32_t>(raw.size());
+  std::vector<Span> merged;
+  for (Span s : L.deletes) {
+    while (s.end < n && is_blank(raw[s.end])) ++s.end;
+    if (!merged.empty() && s.begin <= merged.back().end) merged.back().end = std::max(merged.back().end, s.end);
+    else merged.push_back(s);
+  }
+  if (!merged.empty() && merged.back().end == n) {
+    Span& s = merged.back();
+    const std::uint32_t floor = merged.size() > 1 ? merged[merged.size() - 2].end : 0;
+    while (s.begin > floor && is_blank(raw[s.begin - 1])) --s.begin;
+    if (merged.size() > 1 && s.begin == floor) {
+      merged[merged.size() - 2].end = s.end;
+      merged.pop_back();
+    }
+  }
+  L.deletes = std::move(merged);
+  L.trivial = L.items.empty() && L.deletes.empty() && L.ctl == Ctl::none && !L.has_label && !L.has_proc &&
+              !L.end_program && !L.m17 && L.calls.empty();
+}
+
+void Siemens::parse_all(SourceFile& f) {
+  FileData& d = data(f);
+  if (d.all_parsed) return;
+  for (std::size_t i = 0; i < f.lines(); ++i) (void)line(f, i);
+  d.all_parsed = true;
+  bool seen_exec = false;
+  for (std::size_t i = 0; i < f.lines(); ++i) {
+    const Line& L = *d.lines[i];
+    if (L.has_label) d.labels[L.label].push_back(i);
+    if (L.has_proc) {
+      d.procs.emplace(L.proc.name, i);
+      if (!seen_exec && d.header == npos) d.header = i;
+    }
+    if (L.executable || L.lex_failed || L.error) seen_exec = true;
+  }
+}
+
+void Siemens::structure(SourceFile& f) {
+  FileData& d = data(f);
+  if (!d.match.empty() || f.lines() == 0) return;
+  parse_all(f);
+  d.match.assign(f.lines(), -1);
+  d.match_error.assign(f.lines(), {});
+  struct Open {
+    Ctl ctl;
+    std::size_t line;
+    std::int64_t else_line;
+  };
+  std::vector<Open> stack;
+  auto opener_name = [](Ctl c) -> std::string_view {
+    switch (c) {
+      case Ctl::if_block: return "IF";
+      case Ctl::while_: return "WHILE";
+      case Ctl::for_: return "FOR";
+      case Ctl::repeat: return "REPEAT";
+      case Ctl::loop: return "LOOP";
+      default: return "?";
+    }
+  };
+  auto closer_for = [](Ctl c) -> std::string_view {
+    switch (c) {
+      case Ctl::if_block: return "ENDIF";
+      case Ctl::while_: return "ENDWHILE";
+      case Ctl::for_: return "ENDFOR";
+      case Ctl::repeat: return "UNTIL";
+      case Ctl::loop: return "ENDLOOP";
+      default: return "?";
+    }
+  };
+  for (std::size_t i = 0; i < f.lines(); ++i) {
+    const Line& L = *d.lines[i];
+    Ctl want = Ctl::none;
+    std::string_view closer;
+    switch (L.ctl) {
+      case Ctl::if_block: case Ctl::while_: case Ctl::for_: case Ctl::repeat: case Ctl::loop:
+        stack.push_back({L.ctl, i, -1});
+        continue;
+      case Ctl::else_:
+        if (stack.empty() || stack.back().ctl != Ctl::if_block || stack.back().else_line >= 0) {
+          d.match_error[i] = "ELSE without an open IF; check the IF/ELSE/ENDIF structure";
+        } else {
+          stack.back().else_line = static_cast<std::int64_t>(i);
+        }
+        continue;
+      case Ctl::endif: want = Ctl::if_block; closer = "ENDIF"; break;
+      case Ctl::endwhile: want = Ctl::while_; closer = "ENDWHILE"; break;
+      case Ctl::endfor: want = Ctl::for_; closer = "ENDFOR"; break;
+      case Ctl::until: want = Ctl::repeat; closer = "UNTIL"; break;
+      case Ctl::endloop: want = Ctl::loop; closer = "ENDLOOP"; break;
+      default: continue;
+    }
+    if (stack.empty() || stack.back().ctl != want) {
+      d.match_error[i] = stack.empty()
+                             ? fmt::format("{} without an open {}; check the structure", closer, opener_name(want))
+                             : fmt::format("{} closes the {} at line {}, which needs {}; check the structure", closer,
+                                           opener_name(stack.back().ctl), stack.back().line + 1, closer_for(stack.back().ctl));
+      continue;
+    }
+    const Open o = stack.back();
+    stack.pop_back();
+    d.match[i] = static_cast<std::int64_t>(o.line);
+    if (o.else_line >= 0) {
+      d.match[o.line] = o.else_line;
+      d.match[static_cast<std::size_t>(o.else_line)] = static_cast<std::int64_t>(i);
+    } else {
+      d.match[o.line] = static_cast<std::int64_t>(i);
+    }
+  }
+  for (const Open& o : stack)
+    d.match_error[o.line] = fmt::format("{} is not closed by {} in this file; add it", opener_name(o.ctl), closer_for(o.ctl));
+}
+
+// ---- evaluation ---------------------------------------------------------------------------------
+
+double* Siemens::r_slot(int r, Span span) {
+  if (r < 0 || r >= kRCount) throw Fail{"PP-E703", span, fmt::format("R{} does not exist (R0 to R{}); correct the index", r, kRCount - 1)};
+  return &rv_[static_cast<std::size_t>(r)];
+}
+
+double* Siemens::element(Var& v, const Pool& p, const Node& n, const std::uint32_t* idx, std::size_t count, Span span) {
+  if (count != v.ndims)
+    throw Fail{"PP-E702", span, fmt::format("syntax error: '{}' has {} index(es), the variable {}; write one index per dimension",
+                                            span.of(cur_file_->raw(cur_line_)), count, v.ndims == 0 ? "is not an array" : fmt::format("has {} dimension(s)", v.ndims))};
+  std::size_t off = 0;
+  for (std::size_t k = 0; k < count; ++k) {
+    const Node& in = p.nodes[idx[k]];
+    const int i = to_index(eval(p, idx[k]), in.span);
+    if (i >= v.dims[k])
+      throw Fail{"PP-E707", in.span, fmt::format("index {} is outside the array (size {}); indices run from 0", i, v.dims[k])};
+    off = off * static_cast<std::size_t>(v.dims[k]) + static_cast<std::size_t>(i);
+  }
+  (void)n;
+  return v.p + off;
+}
+
+double* Siemens::var_slot(const Pool& p, const Node& n, Var** whole_out, VType* type_out) {
+  Frame& fr = *frames_.back();
+  const std::string& name = p.names[n.name];
+  auto it = fr.vars.find(name);
+  if (it == fr.vars.end())
+    throw Fail{"PP-E703", n.span, fmt::format("'{}' is not a known variable; declare it with DEF at the top of the program, or check the spelling", name)};
+  Var& v = it->second;
+  if (!numeric(v.type))
+    throw Fail{"PP-E709", n.span, fmt::format("{} is a {} variable; the resolver evaluates only REAL, INT and BOOL values", name, type_name(v.type))};
+  if (type_out) *type_out = v.type;
+  if (whole_out && n.count == 0 && v.ndims > 0) {
+    *whole_out = &v;
+    return nullptr;
+  }
+  return element(v, p, n, p.kids.data() + n.first, n.count, n.span);
+}
+
+double Siemens::read_var(const Pool& p, const Node& n) { return *var_slot(p, n, nullptr, nullptr); }
+
+double Siemens::eval(const Pool& p, std::uint32_t idx) {
+  const Node& n = p.nodes[idx];
+  auto kid = [&](int k) { return eval(p, p.kids[n.first + static_cast<std::uint32_t>(k)]); };
+  auto domain = [&](bool bad, std::string_view what) {
+    if (bad)
+      throw Fail{"PP-E707", n.span, fmt::format("{} in '{}'; correct the values", what, n.span.of(cur_file_->raw(cur_line_)))};
+  };
+  switch (n.op) {
+    case Op::num: return n.num;
+    case Op::rparam:
+    case Op::rindirect: {
+      const int r = n.op == Op::rparam ? n.r : to_index(kid(0), n.span);
+      double* s = r_slot(r, n.span);
+      std::uint8_t& st = rstate_[static_cast<std::size_t>(r)];
+      if (st == 2) {
+        r_.used_settings[fmt::format("R{}", r)] = *s;
+        st = 1;
+      } else if (st == 0) {
+        st = 1;
+        report(*cur_file_, cur_line_, *cur_L_, n.span, Severity::warning, "PP-W703",
+               fmt::format("R{} is read before the program assigns it; taken as 0 (the controller keeps R parameters "
+                           "between programs: give its value with --set R{}=…)", r, r));
+      }
+      return *s;
+    }
+    case Op::var: return read_var(p, n);
+    case Op::sysvar: {
+      const std::string& key = p.names[n.name];
+      auto it = opt_.set.find(key);
+      if (it == opt_.set.end())
+        throw Fail{"PP-E701", n.span, fmt::format("{} is run-time state of the controller, unknown before the program runs; "
+                                                  "give its value with --set '{}=…' or remove the read", key, key)};
+      r_.used_settings[key] = it->second;
+      return it->second;
+    }
+    case Op::neg: return -kid(0);
+    case Op::lnot: return kid(0) == 0 ? 1 : 0;
+    case Op::bnot: return static_cast<double>(~static_cast<std::int64_t>(std::trunc(kid(0))));
+    case Op::add: return kid(0) + kid(1);
+    case Op::sub: return kid(0) - kid(1);
+    case Op::mul: return kid(0) * kid(1);
+    case Op::div: {
+      const double a = kid(0), b = kid(1);
+      domain(b == 0, "division by zero");
+      return a / b;
+    }
+    case Op::idiv: {
+      const double a = kid(0), b = kid(1);
+      domain(b == 0, "division by zero");
+      return std::trunc(a / b);
+    }
+    case Op::mod: {
+      const double a = kid(0), b = kid(1);
+      domain(b == 0, "MOD by zero");
+      return std::fmod(a, b);
+    }
+    case Op::eq: return kid(0) == kid(1) ? 1 : 0;
+    case Op::ne: return kid(0) != kid(1) ? 1 : 0;
+    case Op::gt: return kid(0) > kid(1) ? 1 : 0;
+    case Op::lt: return kid(0) < kid(1) ? 1 : 0;
+    case Op::ge: return kid(0) >= kid(1) ? 1 : 0;
+    case Op::le: return kid(0) <= kid(1) ? 1 : 0;
+    case Op::land: { const bool a = kid(0) != 0, b = kid(1) != 0; return a && b ? 1 : 0; }
+    case Op::lor: { const bool a = kid(0) != 0, b = kid(1) != 0; return a || b ? 1 : 0; }
+    case Op::lxor: { const bool a = kid(0) != 0, b = kid(1) != 0; return a != b ? 1 : 0; }
+    case Op::band: return static_cast<double>(static_cast<std::int64_t>(std::trunc(kid(0))) & static_cast<std::int64_t>(std::trunc(kid(1))));
+    case Op::bor: return static_cast<double>(static_cast<std::int64_t>(std::trunc(kid(0))) | static_cast<std::int64_t>(std::trunc(kid(1))));
+    case Op::bxor: return static_cast<double>(static_cast<std::int64_t>(std::trunc(kid(0))) ^ static_cast<std::int64_t>(std::trunc(kid(1))));
+    case Op::func: {
+      const double a = kid(0);
+      const double rad = a * kPi / 180.0;
+      double v = 0;
+      switch (n.fn) {
+        case Fn::sin: v = std::sin(rad); break;
+        case Fn::cos: v = std::cos(rad); break;
+        case Fn::tan:
+          domain(std::fabs(std::cos(rad)) < 1e-15, "TAN of 90° (odd multiple) is infinite");
+          v = std::tan(rad);
+          break;
+        case Fn::asin: domain(std::fabs(a) > 1 + 1e-12, "ASIN of a value beyond ±1"); v = std::asin(std::clamp(a, -1.0, 1.0)) * 180.0 / kPi; break;
+        case Fn::acos: domain(std::fabs(a) > 1 + 1e-12, "ACOS of a value beyond ±1"); v = std::acos(std::clamp(a, -1.0, 1.0)) * 180.0 / kPi; break;
+        case Fn::atan2: v = std::atan2(a, kid(1)) * 180.0 / kPi; break;
+        case Fn::sqrt: domain(a < 0, "square root of a negative value"); v = std::sqrt(a); break;
+        case Fn::abs: v = std::fabs(a); break;
+        case Fn::pot: v = a * a; break;
+        case Fn::trunc: v = std::trunc(a); break;
+        case Fn::round: v = std::round(a); break;
+        case Fn::roundup: v = std::ceil(a); break;
+        case Fn::ln: domain(a <= 0, "logarithm of a value ≤ 0"); v = std::log(a); break;
+        case Fn::exp: v = std::exp(a); break;
+        case Fn::minval: v = std::min(a, kid(1)); break;
+        case Fn::maxval: v = std::max(a, kid(1)); break;
+        case Fn::bound: {
+          const double lo = a, hi = kid(1), x = kid(2);
+          v = std::clamp(x, std::min(lo, hi), std::max(lo, hi));
+          break;
+        }
+      }
+      domain(!std::isfinite(v), "the result is not a finite number");
+      if (std::fabs(v) < 1e-15) v = 0;
+      return v;
+    }
+  }
+  return 0;
+}
+
+void Siemens::assign(const Pool& p, const Target& t, double v) {
+  switch (t.kind) {
+    case Target::rconst:
+    case Target::rindirect: {
+      const int r = t.kind == Target::rconst ? t.r : to_index(eval(p, t.index[0]), p.nodes[t.index[0]].span);
+      *r_slot(r, t.span) = v;
+      rstate_[static_cast<std::size_t>(r)] = 1;
+      return;
+    }
+    case Target::var: {
+      Frame& fr = *frames_.back();
+      auto it = fr.vars.find(t.name);
+      if (it == fr.vars.end())
+        throw Fail{"PP-E703", t.span, fmt::format("'{}' is not a known variable; declare it with DEF at the top of the program, or check the spelling", t.name)};
+      Var& var = it->second;
+      if (!numeric(var.type))
+        throw Fail{"PP-E709", t.span, fmt::format("{} is a {} variable; the resolver evaluates only REAL, INT and BOOL values", t.name, type_name(var.type))};
+      Node dummy;
+      *element(var, p, dummy, t.index.data(), t.index.size(), t.span) = convert(var.type, v);
+      return;
+    }
+    case Target::sysvar:
+      throw Fail{"PP-E709", t.span, fmt::format("writing the system variable {} is not followed by the resolver; set it on the machine", t.name)};
+  }
+}
+
+void Siemens::declare(Frame& fr, const Pool& p, const Decl& d) {
+  for (const DeclVar& dv : d.vars) {
+    if (fr.vars.count(dv.name))
+      throw Fail{"PP-E702", dv.span, fmt::format("syntax error: '{}' is declared twice; remove one DEF", dv.name)};
+    Var v;
+    v.type = d.type;
+    v.ndims = static_cast<std::uint8_t>(dv.dims.size());
+    std::size_t size = 1;
+    for (std::size_t k = 0; k < dv.dims.size(); ++k) {
+      const int n = to_index(eval(p, dv.dims[k]), p.nodes[dv.dims[k]].span);
+      if (n < 1) throw Fail{"PP-E702", dv.span, "syntax error: an array needs at least one element"};
+      v.dims[k] = n;
+      size *= static_cast<std::size_t>(n);
+    }
+    v.own = std::make_shared<std::vector<double>>(size, 0.0);
+    v.p = v.own->data();
+    if (dv.rep) {
+      const double x = convert(v.type, eval(p, dv.init[0]));
+      std::fill(v.own->begin(), v.own->end(), x);
+    } else {
+      if (dv.init.size() > size)
+        throw Fail{"PP-E702", dv.span, fmt::format("syntax error: {} initial values for {} element(s)", dv.init.size(), size)};
+      for (std::size_t k = 0; k < dv.init.size(); ++k) (*v.own)[k] = convert(v.type, eval(p, dv.init[k]));
+    }
+    fr.vars.emplace(dv.name, std::move(v));
+  }
+}
+
+// ---- execution ----------------------------------------------------------------------------------
+
+void Siemens::report(SourceFile& f, std::size_t i, const Line& L, Span span, Severity sev, std::string_view code, std::string msg) {
+  const std::string where = out_.where();
+  if (!where.empty()) msg += "; " + where;
+  if (L.lexed_ok) {
+    f.report(i, span, sev, code, std::move(msg));
+    return;
+  }
+  // The block lexer rejects this line as written (a statement it cannot read was masked): report
+  // directly so the lexer's own complaint is not repeated.
+  Block b;
+  b.raw = f.raw(i);
+  b.line = i + 1;
+  report_at(f.context(), b, span, sev, code, std::move(msg));
+}
+
+SourceFile* Siemens::find_file(const std::string& name) {
+  auto it = file_cache_.find(name);
+  if (it != file_cache_.end()) return it->second;
+  SourceFile* f = nullptr;
+  try {
+    f = files_.find({name + ".SPF", "_N_" + name + "_SPF", name + ".MPF"});
+  } catch (const std::exception&) {
+    f = nullptr;
+  }
+  file_cache_.emplace(name, f);
+  return f;
+}
+
+std::optional<std::size_t> Siemens::find_jump(SourceFile& f, std::size_t pc, const Jump& j) {
+  const bool fwd = j.kind != GoKind::backward;
+  const bool back = j.kind == GoKind::backward || j.kind == GoKind::both || j.kind == GoKind::quiet;
+  if (j.is_n) {
+    if (fwd) {
+      if (auto r = f.find_n(j.n, pc + 1, true)) return r;
+    }
+    if (back) return f.find_n(j.n, pc, false);
+    return std::nullopt;
+  }
+  parse_all(f);
+  const FileData& d = data(f);
+  auto it = d.labels.find(j.label);
+  if (it == d.labels.end()) return std::nullopt;
+  if (fwd)
+    for (std::size_t l : it->second)
+      if (l > pc) return l;
+  if (back)
+    for (auto r = it->second.rbegin(); r != it->second.rend(); ++r)
+      if (*r <= pc) return *r;
+  return std::nullopt;
+}
+
+void Siemens::bind(Frame& fr, Line& L) {
+  const auto& params = L.proc.params;
+  if (fr.args.size() > params.size())
+    throw Fail{"PP-E702", L.ctl_span.size() ? L.ctl_span : Span{0, 1},
+               fmt::format("syntax error: {} takes {} parameter(s) but the call gives {}; correct the call", L.proc.name, params.size(), fr.args.size())};
+  for (std::size_t k = 0; k < params.size(); ++k) {
+    const Param& prm = params[k];
+    const ArgVal a = k < fr.args.size() ? fr.args[k] : ArgVal{};
+    if (!numeric(prm.type))
+      throw Fail{"PP-E709", {0, static_cast<std::uint32_t>(cur_file_->raw(cur_line_).size())},
+                 fmt::format("parameter {} is {}; the resolver passes only REAL, INT and BOOL values", prm.name, type_name(prm.type))};
+    Var v;
+    v.type = prm.type;
+    if (prm.by_ref) {
+      if (a.whole) {
+        v = *a.whole;
+        v.type = prm.type;
+      } else if (a.ref) {
+        v.p = a.ref;
+      } else if (a.given) {
+        throw Fail{"PP-E709", {0, static_cast<std::uint32_t>(cur_file_->raw(cur_line_).size())},
+                   fmt::format("VAR parameter {} needs a variable as argument, not a value; pass a variable", prm.name)};
+      } else {
+        v.own = std::make_shared<std::vector<double>>(1, 0.0);
+        v.p = v.own->data();
+      }
+    } else {
+      if (!prm.dims.empty())
+        throw Fail{"PP-E702", {0, static_cast<std::uint32_t>(cur_file_->raw(cur_line_).size())},
+                   fmt::format("syntax error: array parameter {} must be VAR", prm.name)};
+      v.own = std::make_shared<std::vector<double>>(1, convert(prm.type, a.given ? a.value : 0.0));
+      v.p = v.own->data();
+    }
+    fr.vars[prm.name] = std::move(v);
+  }
+}
+
+bool Siemens::push_call(Frame& caller, Line& L, const Call& c, SourceFile& target, std::size_t start, bool in_file, int repeats) {
+  SourceFile& f = *caller.f;
+  const std::size_t i = caller.pc;
+  if (out_.depth() >= static_cast<std::size_t>(opt_.max_call_depth)) {
+    report(f, i, L, c.span, Severity::error, "PP-E706",
+           fmt::format("calling {} exceeds the call depth of {}; check for recursion without an end", c.name, opt_.max_call_depth));
+    return false;
+  }
+  auto fr = std::make_unique<Frame>();
+  fr->f = &target;
+  fr->begin = start;
+  fr->pc = start;
+  fr->in_file_proc = in_file;
+  fr->repeats_left = repeats - 1;
+  fr->call_line = i;
+  fr->call_span = c.span;
+  if (in_file) {
+    fr->header = start;
+  } else {
+    parse_all(target);
+    fr->header = data(target).header;
+  }
+  // Arguments, evaluated in the caller.
+  if (c.has_args) {
+    for (const auto& a : c.args) {
+      ArgVal v;
+      if (a) {
+        v.given = true;
+        const Node& n = L.pool.nodes[*a];
+        if (n.op == Op::var) {
+          Var* whole = nullptr;
+          double* s = var_slot(L.pool, n, &whole, nullptr);
+          if (whole) v.whole = whole;
+          else {
+            v.ref = s;
+            v.value = *s;
+          }
+        } else if (n.op == Op::rparam || n.op == Op::rindirect) {
+          v.value = eval(L.pool, *a);
+          v.ref = r_slot(n.op == Op::rparam ? n.r : to_index(eval(L.pool, L.pool.kids[n.first]), n.span), n.span);
+        } else {
+          v.value = eval(L.pool, *a);
+        }
+      }
+      fr->args.push_back(v);
+    }
+  }
+  if (!fr->args.empty() && fr->header == npos) {
+    report(f, i, L, c.span, Severity::error, "PP-E702",
+           fmt::format("syntax error: {} has no PROC line declaring parameters, but the call passes {}; add PROC {}(…) or remove the arguments",
+                       c.name, fr->args.size(), c.name));
+    return false;
+  }
+  out_.push_call(CallFrame{f.name(), i + 1, c.name});
+  frames_.push_back(std::move(fr));
+  return true;
+}
+
+/// Leaves the current frame (RET, M17, end of file). False: the run ends.
+bool Siemens::do_return(bool) {
+  Frame& fr = *frames_.back();
+  if (fr.main) return false;
+  if (fr.repeats_left > 0) {
+    --fr.repeats_left;
+    fr.pc = fr.begin;
+    fr.bound = false;
+    // Each pass starts with fresh local variables; VAR references stay bound to the caller's.
+    fr.vars.clear();
+    fr.for_end.clear();
+    return true;
+  }
+  frames_.pop_back();
+  out_.pop_call();
+  ++frames_.back()->pc;
+  return true;
+}
+
+bool Siemens::step(Frame& fr, Line& L) {
+  SourceFile& f = *fr.f;
+  const std::size_t i = fr.pc;
+  cur_file_ = &f;
+  cur_line_ = i;
+  cur_L_ = &L;
+  if (L.lex_failed) {
+    (void)f.block(i);  // the lexer reports what it cannot read
+    if (!sink_.has_errors()) {
+      Block b;
+      b.raw = f.raw(i);
+      b.line = i + 1;
+      report_at(f.context(), b, {0, 1}, Severity::error, "PP-E702", "syntax error: the block cannot be read; correct it");
+    }
+    return false;
+  }
+  if (L.error) {
+    fail(f, i, L, *L.error);
+    return false;
+  }
+  try {
+    if (L.has_proc) {
+      if (fr.header == i && !fr.bound) {
+        bind(fr, L);
+        fr.bound = true;
+      } else if (fr.main) {
+        report(f, i, L, {0, static_cast<std::uint32_t>(f.raw(i).size())}, Severity::warning, "PP-W704",
+               fmt::format("the main program runs into the definition of PROC {}; the run ends here (end the main program with M30)", L.proc.name));
+        return false;
+      } else {
+        return do_return(true);  // the next PROC ends this body
+      }
+    }
+    edits_.clear();
+    const Call* call = nullptr;
+    SourceFile* call_target = nullptr;
+    std::size_t call_start = 0;
+    bool call_in_file = false;
+    int dyn_deleted = 0;
+    for (const Item& it : L.items) {
+      switch (it.kind) {
+        case Item::assign: {
+          const Assign& a = L.assigns[it.index];
+          assign(L.pool, a.target, eval(L.pool, a.expr));
+          break;
+        }
+        case Item::word: {
+          const WordSub& s = L.subs[it.index];
+          edits_.push_back({s.edit, format_value(eval(L.pool, s.expr), s.letter)});
+          break;
+        }
+        case Item::decl: declare(fr, L.pool, L.decls[it.index]); break;
+        case Item::setal: {
+          const double v = eval(L.pool, L.setal[it.index]);
+          throw Fail{"PP-E710", L.deletes.empty() ? Span{0, 1} : L.deletes.front(),
+                     fmt::format("the program raises alarm {} (SETAL); on the machine it stops here — check the condition that led to it",
+                                 format_value(v, 'M'))};
+        }
+        case Item::call: {
+          const Call& c = L.calls[it.index];
+          SourceFile* found = nullptr;
+          std::size_t found_start = 0;
+          bool found_in_file = false;
+          // Same-file PROC first, then a file in the search folders.
+          parse_all(f);
+          const FileData& d = data(f);
+          if (auto p = d.procs.find(c.name); p != d.procs.end() && c.kind != Call::lword) {
+            found = &f;
+            found_start = p->second;
+            found_in_file = true;
+          } else if (SourceFile* t = find_file(c.name)) {
+            found = t;
+          }
+          if (!found) {
+            if (c.kind == Call::named) break;  // a controller function or cycle: left for the interpreter
+            throw Fail{"PP-E704", c.span, fmt::format("subprogram {} not found: no PROC {} in this file and no {}.SPF in the search folders ({}); "
+                                                      "put the file next to the program", c.name, c.name, c.name, opt_.search_dirs.empty() ? "none given" : fmt::format("{}", fmt::join(opt_.search_dirs, ", ")))};
+          }
+          if (call)
+            throw Fail{"PP-E709", c.span, fmt::format("two subprogram calls in one block ({} and {}) are not supported; write one per block", call->name, c.name)};
+          if (L.ctl != Ctl::none)
+            throw Fail{"PP-E709", c.span, "a subprogram call and control flow in one block are not supported; split the block"};
+          call = &c;
+          call_target = found;
+          call_start = found_start;
+          call_in_file = found_in_file;
+          ++dyn_deleted;
+          if (c.has_args && c.kind == Call::named && c.args.empty()) {
+            // Arguments are parsed only now that the call is known to be a subprogram.
+            const std::string_view raw = f.raw(i);
+            const auto open = raw.find('(', c.span.begin);
+            Call& mc = const_cast<Call&>(c);
+            parse_args(L, mc, raw, static_cast<std::uint32_t>(open), c.span.end - 1);
+          }
+          edits_.push_back({c.span, {}});
+          break;
+        }
+      }
+    }
+    int repeats = 1;
+    if (call && L.has_p) {
+      const double pv = L.p_expr ? eval(L.pool, *L.p_expr) : L.p_value;
+      if (pv < 1 || pv != std::round(pv))
+        throw Fail{"PP-E702", L.p_span, fmt::format("syntax error: the repeat count P{} must be a whole number ≥ 1", format_value(pv, 'P'))};
+      repeats = static_cast<int>(pv);
+      edits_.push_back({L.p_span, {}});
+      ++dyn_deleted;
+    }
+    // Control flow: where to go after this line.
+    std::size_t next = i + 1;
+    bool stop = false, ret = false;
+    auto structure_of = [&]() -> FileData& {
+      structure(f);
+      FileData& d = data(f);
+      if (!d.match_error[i].empty()) throw Fail{"PP-E708", L.ctl_span, d.match_error[i]};
+      return d;
+    };
+    auto partner = [&](FileData& d) { return static_cast<std::size_t>(d.match[i]); };
+    auto go = [&]() {
+      auto t = find_jump(f, i, L.jump);
+      if (t) {
+        next = *t;
+      } else if (L.jump.kind != GoKind::quiet) {
+        throw Fail{"PP-E704", L.jump.span,
+                   fmt::format("jump target {} not found {}; add the label or block number, or check the spelling",
+                               L.jump.is_n ? fmt::format("N{}", format_value(L.jump.n, 'N')) : L.jump.label + ":",
+                               L.jump.kind == GoKind::forward ? "after this block (GOTOF searches forward)"
+                               : L.jump.kind == GoKind::backward ? "before this block (GOTOB searches backward)"
+                                                                 : "in this program")};
+      }
+    };
+    switch (L.ctl) {
+      case Ctl::none: break;
+      case Ctl::if_goto:
+        if (eval(L.pool, L.cond) != 0) go();
+        break;
+      case Ctl::go: go(); break;
+      case Ctl::if_block: {
+        FileData& d = structure_of();
+        if (eval(L.pool, L.cond) == 0) {
+          const std::size_t t = partner(d);
+          next = data(f).lines[t]->ctl == Ctl::else_ ? t + 1 : t;
+        }
+        break;
+      }
+      case Ctl::else_: {
+        FileData& d = structure_of();
+        if (d.match[i] < 0) throw Fail{"PP-E708", L.ctl_span, "ELSE without an open IF; check the IF/ELSE/ENDIF structure"};
+        next = partner(d);
+        break;
+      }
+      case Ctl::endif: (void)structure_of(); break;
+      case Ctl::while_: {
+        FileData& d = structure_of();
+        if (eval(L.pool, L.cond) == 0) next = partner(d) + 1;
+        break;
+      }
+      case Ctl::endwhile: next = partner(structure_of()); break;
+      case Ctl::for_: {
+        FileData& d = structure_of();
+        const double from = eval(L.pool, L.for_from);
+        const double to = eval(L.pool, L.for_to);
+        assign(L.pool, L.for_var, from);
+        fr.for_end[i] = to;
+        if (from > to) next = partner(d) + 1;
+        break;
+      }
+      case Ctl::endfor: {
+        FileData& d = structure_of();
+        const std::size_t head = partner(d);
+        auto e = fr.for_end.find(head);
+        if (e == fr.for_end.end())
+          throw Fail{"PP-E708", L.ctl_span, fmt::format("ENDFOR reached without running the FOR at line {} (a jump into the loop); check the structure", head + 1)};
+        Line& H = *d.lines[head];
+        cur_L_ = &H;
+        // Read and increment the counter through the FOR line's own target.
+        double v = 0;
+        {
+          const Target& t = H.for_var;
+          if (t.kind == Target::var) {
+            auto it = fr.vars.find(t.name);
+            if (it == fr.vars.end()) throw Fail{"PP-E703", L.ctl_span, fmt::format("FOR variable '{}' is not declared; declare it with DEF INT", t.name)};
+            Var& var = it->second;
+            Node dummy;
+            cur_line_ = head;
+            v = *element(var, H.pool, dummy, t.index.data(), t.index.size(), t.span);
+          } else {
+            cur_line_ = head;
+            const int r = t.kind == Target::rconst ? t.r : to_index(eval(H.pool, t.index[0]), t.span);
+            v = *r_slot(r, t.span);
+          }
+          v += 1;
+          assign(H.pool, t, v);
+          cur_line_ = i;
+          cur_L_ = &L;
+        }
+        if (v <= e->second) next = head + 1;
+        break;
+      }
+      case Ctl::repeat: (void)structure_of(); break;
+      case Ctl::until: {
+        FileData& d = structure_of();
+        if (eval(L.pool, L.cond) == 0) next = partner(d) + 1;
+        break;
+      }
+      case Ctl::loop: (void)structure_of(); break;
+      case Ctl::endloop: next = partner(structure_of()) + 1; break;
+      case Ctl::ret:
+        ret = true;
+        break;
+    }
+    if (L.m17 && !fr.main) {
+      edits_.push_back({L.m17_span, {}});
+      ret = true;
+    } else if (L.m17) {
+      stop = true;
+    }
+    if (L.end_program) stop = true;
+    if (ret && fr.main) stop = true;
+    // Emit.
+    bool emitted;
+    if (L.others == 0 && dyn_deleted == static_cast<int>(L.calls.size() + (L.has_p ? 1 : 0)) && !(L.m17 && fr.main)) {
+      const Edit all{{0, static_cast<std::uint32_t>(f.raw(i).size())}, {}};
+      emitted = out_.emit(f, i, std::span<const Edit>(&all, 1));
+    } else {
+      for (const Span& s : L.deletes) edits_.push_back({s, {}});
+      std::sort(edits_.begin(), edits_.end(), [](const Edit& a, const Edit& b) { return a.span.begin < b.span.begin; });
+      // Deletions swallowed the blanks after them; drop overlaps with a following call/P deletion.
+      for (std::size_t k = 1; k < edits_.size(); ++k)
+        if (edits_[k].span.begin < edits_[k - 1].span.end) edits_[k].span.begin = edits_[k - 1].span.end;
+      emitted = out_.emit(f, i, edits_);
+    }
+    if (!emitted) {
+      report(f, i, L, {0, static_cast<std::uint32_t>(std::max<std::size_t>(1, f.raw(i).size()))}, Severity::error, "PP-E705",
+             fmt::format("more than {} blocks executed: the program does not end (an endless loop?); check the loop condition, "
+                         "or raise the block limit", opt_.max_blocks));
+      return false;
+    }
+    if (stop) return false;
+    if (call) {
+      return push_call(fr, L, *call, *call_target, call_start, call_in_file, repeats);
+    }
+    if (ret) return do_return(true);
+    fr.pc = next;
+    return true;
+  } catch (const Fail& e) {
+    fail(f, i, *cur_L_, e);
+    return false;
+  }
+}
+
+void Siemens::run() {
+  auto main = std::make_unique<Frame>();
+  main->f = &files_.main();
+  main->main = true;
+  frames_.push_back(std::move(main));
+  {
+    // A PROC heading the main program is bound with no arguments.
+    SourceFile& f = files_.main();
+    parse_all(f);
+    frames_.back()->header = data(f).header;
+  }
+  while (!frames_.empty()) {
+    Frame& fr = *frames_.back();
+    SourceFile& f = *fr.f;
+    if (fr.pc >= f.lines()) {
+      if (!do_return(true)) return;
+      continue;
+    }
+    Line& L = line(f, fr.pc);
+    if (L.trivial) {
+      if (!out_.emit(f, fr.pc, {})) {
+        cur_file_ = &f;
+        cur_line_ = fr.pc;
+        report(f, fr.pc, L, {0, static_cast<std::uint32_t>(std::max<std::size_t>(1, f.raw(fr.pc).size()))}, Severity::error, "PP-E705",
+               fmt::format("more than {} blocks executed: the program does not end (an endless loop?); check the loop condition, "
+                           "or raise the block limit", opt_.max_blocks));
+        return;
+      }
+      ++fr.pc;
+      continue;
+    }
+    if (!step(fr, L)) return;
+  }
+}
+
+}  // namespace
+
+void resolve_siemens(FileSet& files, Emitter& out, const ResolveOptions& opt, DiagnosticSink& sink, ResolvedProgram& r) {
+  Siemens s(files, out, opt, sink, r);
+  s.run();
+}
+
+}  // namespace postproc::gcode::resolver

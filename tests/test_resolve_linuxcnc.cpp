@@ -1,0 +1,193 @@
+// LinuxCNC program resolution (issue 3): parameters, expressions, O-word subroutines and control
+// flow resolved into the literal program, with source lines, call stacks and located refusals.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+
+#include "postproc/error.hpp"
+#include "postproc/gcode/resolve.hpp"
+
+using namespace postproc::gcode;
+
+namespace {
+
+struct Run {
+  ResolvedProgram r;
+  DiagnosticSink sink;
+};
+
+Run resolve_text(const std::string& text, ResolveOptions opt = {}) {
+  Run run;
+  run.r = resolve(text, "t.ngc", make_dialect(DialectId::linuxcnc), opt, run.sink);
+  return run;
+}
+
+std::string codes(const DiagnosticSink& s) {
+  std::string c;
+  for (const auto& d : s.stored()) c += d.code + "@" + std::to_string(d.where.line) + ":" + std::to_string(d.where.column) + " ";
+  return c;
+}
+
+}  // namespace
+
+TEST(ResolveLinuxcnc, NeedsResolutionOnlyForStatements) {
+  const Dialect d = make_dialect(DialectId::linuxcnc);
+  EXPECT_FALSE(needs_resolution("G1 X1 Y2 F100\n(comment [x])\nM2\n", d));
+  EXPECT_TRUE(needs_resolution("G1 X#1\n", d));
+  EXPECT_TRUE(needs_resolution("#1=2\n", d));
+  EXPECT_TRUE(needs_resolution("o100 sub\n", d));
+  EXPECT_EQ(first_resolution_line("G0 X0\nG1 X[1+2]\n", d), 2u);
+}
+
+TEST(ResolveLinuxcnc, ExpressionsAndAssignmentsAfterTheLine) {
+  const auto run = resolve_text(
+      "#1 = [2 ** 3 + 7 MOD 4 * 2 - 1]\n"
+      "#2 = 1 #3 = #2 (assignments take effect after the line)\n"
+      "G1 X#1 Y#3 Z[-#1 / 4] F[100 * 2]\n"
+      "#<r> = 10\n"
+      "G1 X[#<r> * COS[60]] Y[ATAN[1]/[1]] Z[SQRT[2] ** 2]\n"
+      "G1 X[FIX[-2.5]] Y[FUP[2.1]] Z[ROUND[2.5]]\n"
+      "M2\n");
+  EXPECT_FALSE(run.sink.has_errors()) << codes(run.sink);
+  EXPECT_EQ(run.r.text,
+            " (assignments take effect after the line)\n"
+            "G1 X13. Y0. Z-3.25 F200.\n"
+            "G1 X5. Y45. Z2.\n"
+            "G1 X-3. Y3. Z3.\n"
+            "M2\n");
+  EXPECT_EQ(run.r.source_line, (std::vector<std::uint64_t>{2, 3, 5, 6, 7}));
+}
+
+TEST(ResolveLinuxcnc, LoopsAndBranches) {
+  const auto run = resolve_text(
+      "#1 = 0\n"
+      "o101 while [#1 LT 3]\n"
+      "  G1 X[#1 * 10] F100\n"
+      "  #1 = [#1 + 1]\n"
+      "o101 endwhile\n"
+      "o102 repeat [2]\n"
+      "  G0 Z[5 + #1]\n"
+      "o102 endrepeat\n"
+      "o103 if [#1 EQ 2]\n"
+      "  G1 Y1\n"
+      "o103 elseif [#1 EQ 3]\n"
+      "  G1 Y2\n"
+      "o103 else\n"
+      "  G1 Y3\n"
+      "o103 endif\n"
+      "#2 = 0\n"
+      "o104 while [1]\n"
+      "  #2 = [#2 + 1]\n"
+      "  o105 if [#2 EQ 2]\n"
+      "    o104 continue\n"
+      "  o105 endif\n"
+      "  G1 Z[#2]\n"
+      "  o106 if [#2 GE 3]\n"
+      "    o104 break\n"
+      "  o106 endif\n"
+      "o104 endwhile\n"
+      "M2\n");
+  EXPECT_FALSE(run.sink.has_errors()) << codes(run.sink);
+  EXPECT_EQ(run.r.text,
+            "  G1 X0. F100\n  G1 X10. F100\n  G1 X20. F100\n"
+            "  G0 Z8.\n  G0 Z8.\n"
+            "  G1 Y2\n"
+            "  G1 Z1.\n  G1 Z3.\n"
+            "M2\n");
+  EXPECT_EQ(run.r.source_line, (std::vector<std::uint64_t>{3, 3, 3, 7, 7, 12, 22, 22, 27}));
+}
+
+TEST(ResolveLinuxcnc, SubroutinesWithArgumentsLocalsRecursionAndReturnValues) {
+  const auto run = resolve_text(
+      "o200 sub\n"
+      "  #<n> = #1\n"
+      "  o201 if [#<n> GT 0]\n"
+      "    G1 X[#<n>] Y[#2] F250\n"
+      "    o200 call [#<n> - 1] [#2 + 1]\n"
+      "  o201 endif\n"
+      "  o200 return [#2 * 2]\n"
+      "o200 endsub\n"
+      "#2 = 7\n"
+      "o200 call [2] [10]\n"
+      "G1 X#<_value> Y#2\n"
+      "M2\n");
+  EXPECT_FALSE(run.sink.has_errors()) << codes(run.sink);
+  EXPECT_EQ(run.r.text, "    G1 X2. Y10. F250\n    G1 X1. Y11. F250\nG1 X20. Y7.\nM2\n");
+  ASSERT_EQ(run.r.stack.size(), 4u);
+  const auto& inner = run.r.stacks[run.r.stack[1]];
+  ASSERT_EQ(inner.size(), 2u);  // main → o200 (line 10) → o200 (line 5)
+  EXPECT_EQ(inner[0].line, 10u);
+  EXPECT_EQ(inner[1].line, 5u);
+  EXPECT_EQ(inner[0].callee, "o200 call");
+  EXPECT_EQ(run.r.stack[2], 0u);
+}
+
+TEST(ResolveLinuxcnc, SubroutineFileNextToTheProgram) {
+  const auto dir = std::filesystem::temp_directory_path() / "postproc_resolve_lcnc";
+  std::filesystem::create_directories(dir);
+  std::ofstream(dir / "square.ngc") << "o<square> sub\n  G1 X#1 F100\n  G1 Y#1\no<square> endsub\n";
+  ResolveOptions opt;
+  opt.search_dirs.push_back(dir.string());
+  const auto run = resolve_text("o<square> call [4]\nM2\n", opt);
+  EXPECT_FALSE(run.sink.has_errors()) << codes(run.sink);
+  EXPECT_EQ(run.r.text, "  G1 X4. F100\n  G1 Y4.\nM2\n");
+  EXPECT_EQ(run.r.files.size(), 2u);
+  EXPECT_EQ(run.r.source_file[0], 1u);
+  const auto missing = resolve_text("o<nothere> call\nM2\n", opt);
+  EXPECT_EQ(codes(missing.sink), "PP-E704@1:1 ");
+  std::filesystem::remove_all(dir);
+}
+
+TEST(ResolveLinuxcnc, RuntimeParametersAreRefusedUnlessSet) {
+  const auto refused = resolve_text("G38.2 Z-10 F100\nG1 Z#5063\nM2\n");
+  ASSERT_TRUE(refused.sink.has_errors());
+  EXPECT_EQ(refused.sink.stored()[0].code, "PP-E701");
+  EXPECT_NE(refused.sink.stored()[0].message.find("#5063"), std::string::npos);
+  EXPECT_EQ(refused.sink.stored()[0].where.line, 2u);
+  ResolveOptions opt;
+  opt.set["#5063"] = -4.5;
+  const auto given = resolve_text("G38.2 Z-10 F100\nG1 Z[#5063 + 1]\nM2\n", opt);
+  EXPECT_FALSE(given.sink.has_errors()) << codes(given.sink);
+  EXPECT_EQ(given.r.text, "G38.2 Z-10 F100\nG1 Z-3.5\nM2\n");
+  EXPECT_EQ(given.r.used_settings.at("#5063"), -4.5);
+  EXPECT_EQ(codes(resolve_text("G1 X#<_x>\n").sink), "PP-E701@1:5 ");
+}
+
+TEST(ResolveLinuxcnc, ErrorsAreLocated) {
+  EXPECT_EQ(codes(resolve_text("G1 X#<undefined>\n").sink), "PP-E703@1:5 ");
+  EXPECT_EQ(codes(resolve_text("G1 X[1/0]\n").sink), "PP-E707@1:5 ");
+  EXPECT_EQ(codes(resolve_text("G1 X[SQRT[-1]]\n").sink), "PP-E707@1:5 ");
+  EXPECT_EQ(codes(resolve_text("G1 X[1 +]\n").sink).substr(0, 7), "PP-E702");
+  EXPECT_EQ(codes(resolve_text("o100 while [1]\nG1 X1\n").sink).substr(0, 7), "PP-E708");
+  EXPECT_EQ(codes(resolve_text("o100 endwhile\n").sink).substr(0, 7), "PP-E708");
+  EXPECT_EQ(codes(resolve_text("o100 call\n").sink), "PP-E704@1:1 ");
+  EXPECT_EQ(codes(resolve_text("(abort, tool broken)\n").sink), "PP-E710@1:1 ");
+  ResolveOptions small;
+  small.max_blocks = 100;
+  EXPECT_EQ(codes(resolve_text("o1 while [1]\nG1 X1\no1 endwhile\n", small).sink).substr(0, 7), "PP-E705");
+  ResolveOptions shallow;
+  shallow.max_call_depth = 5;
+  EXPECT_EQ(codes(resolve_text("o1 sub\no1 call\no1 endsub\no1 call\n", shallow).sink).substr(0, 7), "PP-E706");
+}
+
+TEST(ResolveLinuxcnc, DiagnosticsMapBackToTheSource) {
+  const auto run = resolve_text("o1 sub\n  G1 X#1\no1 endsub\no1 call [5]\nM2\n");
+  ASSERT_FALSE(run.sink.has_errors());
+  Diagnostic d;
+  d.code = "PP-U999";
+  d.file = "t.ngc";
+  d.where = {1, 4};
+  d.source_line = "  G1 X5.";
+  map_to_source(run.r, d);
+  EXPECT_EQ(d.where.line, 2u);
+  EXPECT_NE(d.message.find("reached through o1 call at t.ngc:4"), std::string::npos) << d.message;
+}
+
+TEST(ResolveLinuxcnc, ParseSetting) {
+  EXPECT_EQ(parse_setting("#5061=1.25").first, "#5061");
+  EXPECT_EQ(parse_setting("#<_probe>= -2").second, -2);
+  EXPECT_EQ(parse_setting("#<_probe>=-2").first, "#<_PROBE>");
+  EXPECT_THROW((void)parse_setting("#5061"), postproc::Error);
+  EXPECT_THROW((void)parse_setting("#5061=abc"), postproc::Error);
+}
