@@ -138,7 +138,8 @@ void setup_compensate(CLI::App& app, int& rc) {
     const bool servo = o->mode != "geometric";
     // Flat programs stream from the file; programs with parameters or control flow are resolved
     // in memory (compensate_program).
-    bool streaming = !servo && o->input != "-";
+    std::error_code ec;
+    bool streaming = !servo && o->input != "-" && std::filesystem::is_regular_file(o->input, ec);
     if (streaming) {
       gcode::LineReader scan(o->input);
       streaming = !gcode::needs_resolution(scan, d);

@@ -46,7 +46,9 @@ ProgramStats run_program_file(const std::string& path, const Dialect& d, std::st
                               BlockVisitor& visitor, const ResolveOptions& opt, ResolvedProgram* resolved) {
   std::string text;
   bool needed = false;
-  if (path == "-") {
+  std::error_code ec;
+  // Standard input, pipes and other streams can be read once only: held in memory.
+  if (path == "-" || !std::filesystem::is_regular_file(path, ec)) {
     text = io::read_file(path, "NC program");
     needed = needs_resolution(text, d);
     if (!needed) {

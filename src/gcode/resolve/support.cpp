@@ -2,6 +2,7 @@
 #include "support.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <filesystem>
 
@@ -205,40 +206,71 @@ SourceFile* FileSet::find(const std::vector<std::string>& candidates) {
 
 namespace {
 
-bool contains_word(std::string_view raw, std::string_view w) {
-  if (raw.size() < w.size()) return false;
-  for (std::size_t i = 0; i + w.size() <= raw.size(); ++i) {
-    std::size_t k = 0;
-    while (k < w.size() && std::toupper(static_cast<unsigned char>(raw[i + k])) == w[k]) ++k;
-    if (k == w.size()) return true;
+/// `w` (upper case) at raw[i], case-insensitively.
+bool at(std::string_view raw, std::size_t i, std::string_view w) {
+  if (raw.size() - i < w.size()) return false;
+  for (std::size_t k = 0; k < w.size(); ++k) {
+    char c = raw[i + k];
+    if (c >= 'a' && c <= 'z') c = static_cast<char>(c - 32);
+    if (c != w[k]) return false;
   }
-  return false;
+  return true;
 }
 
-/// Cheap pre-filter: can this line hold anything resolve() evaluates?
+/// Cheap pre-filter: can this line hold anything resolve() evaluates? One pass over the line
+/// looking for the dialect's statement characters and words (the lexer then decides).
 bool may_need(std::string_view raw, const Dialect& d) {
-  if (raw.find_first_of("#[=") != std::string_view::npos) return true;
-  switch (d.id) {
-    case DialectId::linuxcnc: {
-      const auto p = raw.find_first_not_of(" \t/");
-      if (p == std::string_view::npos) return false;
-      std::size_t q = p;
-      if (raw[q] == 'N' || raw[q] == 'n')
-        while (++q < raw.size() && (std::isdigit(static_cast<unsigned char>(raw[q])) || raw[q] == ' ')) {}
-      return q < raw.size() && (raw[q] == 'o' || raw[q] == 'O');
-    }
-    case DialectId::fanuc:
-      for (std::string_view w : {"M98", "M99", "G65", "G66", "GOTO", "IF", "WHILE", "END"})
-        if (contains_word(raw, w)) return true;
-      return false;
-    case DialectId::siemens:
-      if (raw.find(':') != std::string_view::npos) return true;
-      for (std::string_view w : {"IF", "ELSE", "WHILE", "FOR", "LOOP", "GOTO", "REPEAT", "UNTIL", "DEF", "CALL", "PROC",
-                                 "RET", "L", "M17", "SETAL"})
-        if (contains_word(raw, w)) return true;
-      return false;
-    default: return false;
+  if (d.id == DialectId::linuxcnc) {
+    if (raw.find_first_of("#[") != std::string_view::npos) return true;
+    const auto p = raw.find_first_not_of(" \t/");
+    if (p == std::string_view::npos) return false;
+    std::size_t q = p;
+    if (raw[q] == 'N' || raw[q] == 'n')
+      while (++q < raw.size() && (std::isdigit(static_cast<unsigned char>(raw[q])) || raw[q] == ' ')) {}
+    return q < raw.size() && (raw[q] == 'o' || raw[q] == 'O');
   }
+  const bool fanuc = d.id == DialectId::fanuc;
+  if (!fanuc && d.id != DialectId::siemens) return false;
+  // The characters that can start a statement word, per dialect (both cases): most characters of
+  // a motion block (digits, '.', '-', blanks, axis letters) are skipped with one table look-up.
+  struct Table {
+    std::array<bool, 256> fanuc{}, siemens{};
+    Table() {
+      for (unsigned char c : std::string_view("#[=MGIWEmgiwe")) fanuc[c] = siemens[c] = true;
+      for (unsigned char c : std::string_view(":FLRUDCPSflrudcps")) siemens[c] = true;
+    }
+  };
+  static const Table table;
+  const std::array<bool, 256>& start = fanuc ? table.fanuc : table.siemens;
+  for (std::size_t i = 0; i < raw.size(); ++i) {
+    if (!start[static_cast<unsigned char>(raw[i])]) continue;
+    char c = raw[i];
+    if (c >= 'a' && c <= 'z') c = static_cast<char>(c - 32);
+    const std::size_t n = i + 1;
+    switch (c) {
+      case '#': case '[': case '=': return true;
+      case ':': if (!fanuc) return true; break;
+      case 'M': if (fanuc ? (at(raw, n, "98") || at(raw, n, "99")) : at(raw, n, "17")) return true; break;
+      case 'G': if (at(raw, n, "OTO") || (fanuc && (at(raw, n, "65") || at(raw, n, "66")))) return true; break;
+      case 'I': if (at(raw, n, "F")) return true; break;
+      case 'W': if (at(raw, n, "HILE")) return true; break;
+      case 'E': if (at(raw, n, "ND") || (!fanuc && at(raw, n, "LSE"))) return true; break;
+      default:
+        if (fanuc) break;
+        switch (c) {
+          case 'F': if (at(raw, n, "OR")) return true; break;
+          case 'L': return true;  // LOOP, L123 calls (the lexer decides)
+          case 'R': if (at(raw, n, "EPEAT") || at(raw, n, "ET")) return true; break;
+          case 'U': if (at(raw, n, "NTIL")) return true; break;
+          case 'D': if (at(raw, n, "EF")) return true; break;
+          case 'C': if (at(raw, n, "ALL")) return true; break;
+          case 'P': if (at(raw, n, "ROC")) return true; break;
+          case 'S': if (at(raw, n, "ETAL")) return true; break;
+          default: break;
+        }
+    }
+  }
+  return false;
 }
 
 bool line_needs(std::string_view raw, std::uint64_t line, const Dialect& d, Block& b) {
@@ -260,7 +292,11 @@ bool line_needs(std::string_view raw, std::uint64_t line, const Dialect& d, Bloc
     for (const Token& t : b.tokens)
       if (t.kind == TokenKind::call || t.kind == TokenKind::keyword) {
         const std::string_view n = b.text(t.name);
-        if (contains_word(n, "CALL") || contains_word(n, "RET") || contains_word(n, "SETAL")) return true;
+        std::string un(n);
+        for (char& c : un) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+        if (un.find("CALL") != std::string::npos || un.find("RET") != std::string::npos ||
+            un.find("SETAL") != std::string::npos)
+          return true;
       }
   }
   return false;
