@@ -36,312 +36,14 @@
 #include <unordered_map>
 #include <vector>
 
+#include "src/gcode/text.hpp"
+#include "fanuc_expr.hpp"
 #include "support.hpp"
 
 namespace postproc::gcode::resolver {
 namespace {
 
-constexpr bool is_digit(char c) { return c >= '0' && c <= '9'; }
-constexpr bool is_alpha(char c) { return (c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z'); }
-constexpr bool is_blank(char c) { return c == ' ' || c == '\t'; }
-constexpr char up(char c) { return c >= 'a' && c <= 'z' ? static_cast<char>(c - 'a' + 'A') : c; }
-constexpr double kPi = 3.14159265358979323846;
-
-bool ieq(std::string_view a, std::string_view b) {
-  if (a.size() != b.size()) return false;
-  for (std::size_t i = 0; i < a.size(); ++i)
-    if (up(a[i]) != up(b[i])) return false;
-  return true;
-}
-
-/// A failure while evaluating or parsing: reported at `span` of the current line.
-struct Failure {
-  std::string code;
-  std::string message;
-  Span span;
-};
-
-// ---------------------------------------------------------------------------------------------
-// Expressions
-
-enum class Op : std::uint8_t {
-  num, var, var_ind, neg, group, add, sub, mul, div, bor, bxor, band, mod, eq, ne, gt, ge, lt, le, fn
-};
-enum class Fn : std::uint8_t { sin, cos, tan, asin, acos, atan, atan2, sqrt, abs, bin, bcd, round, fix, fup, ln, exp, pow, adp };
-
-struct Node {
-  Op op = Op::num;
-  Fn fn = Fn::sin;
-  std::int32_t a = -1, b = -1;
-  double num = 0;  // literal, or the variable number of Op::var
-  Span span;       // in the line's raw text
-};
-
-struct Value {
-  double v = 0;
-  bool vacant = false;
-};
-
-/// Parsed expressions of one line (node pool; an expression is a root index).
-struct ExprPool {
-  std::vector<Node> nodes;
-};
-
-class Parser {
- public:
-  Parser(std::string_view raw, std::uint32_t begin, std::uint32_t end, ExprPool& pool)
-      : s_(raw), i_(begin), end_(end), pool_(pool) {}
-
-  std::uint32_t pos() const { return i_; }
-  void skip() {
-    while (i_ < end_ && is_blank(s_[i_])) ++i_;
-  }
-  bool at_end() {
-    skip();
-    return i_ >= end_;
-  }
-  char peek() {
-    skip();
-    return i_ < end_ ? s_[i_] : '\0';
-  }
-  std::string_view peek_word() {
-    skip();
-    std::uint32_t e = i_;
-    while (e < end_ && is_alpha(s_[e])) ++e;
-    return s_.substr(i_, e - i_);
-  }
-  bool accept_word(std::string_view w) {
-    if (!ieq(peek_word(), w)) return false;
-    i_ += static_cast<std::uint32_t>(w.size());
-    return true;
-  }
-  [[noreturn]] void fail(std::string msg, std::uint32_t at) const {
-    throw Failure{"PP-E702", std::move(msg), {at, at + 1}};
-  }
-  void expect(char c, std::string_view what) {
-    if (peek() != c) fail(fmt::format("expected '{}' {}", c, what), i_);
-    ++i_;
-  }
-
-  /// A whole expression up to `end_` (or a ',' / ']' when nested).
-  std::int32_t expression() { return has_relop(i_, end_) ? logical() : arith(true); }
-
-  /// A variable reference at '#'.
-  std::int32_t variable() {
-    const std::uint32_t start = i_;
-    expect('#', "for a variable");
-    skip();
-    if (i_ < end_ && is_digit(s_[i_])) {
-      double n = 0;
-      while (i_ < end_ && is_digit(s_[i_])) n = n * 10 + (s_[i_++] - '0');
-      return add({Op::var, Fn::sin, -1, -1, n, {start, i_}});
-    }
-    std::int32_t inner = -1;
-    if (i_ < end_ && s_[i_] == '[') {
-      inner = bracket();
-    } else if (i_ < end_ && s_[i_] == '#') {
-      inner = variable();
-    } else {
-      fail("'#' must be followed by a variable number, #[expression] or another #variable", start);
-    }
-    return add({Op::var_ind, Fn::sin, inner, -1, 0, {start, i_}});
-  }
-
- private:
-  std::int32_t add(Node n) {
-    pool_.nodes.push_back(n);
-    return static_cast<std::int32_t>(pool_.nodes.size() - 1);
-  }
-
-  static bool is_relop(std::string_view w) {
-    return ieq(w, "EQ") || ieq(w, "NE") || ieq(w, "GT") || ieq(w, "GE") || ieq(w, "LT") || ieq(w, "LE");
-  }
-  /// True when [from, to) holds a comparison at bracket depth 0 (a condition).
-  bool has_relop(std::uint32_t from, std::uint32_t to) const {
-    int depth = 0;
-    for (std::uint32_t j = from; j < to;) {
-      const char c = s_[j];
-      if (c == '[') ++depth;
-      if (c == ']' && --depth < 0) return false;
-      if (is_alpha(c)) {
-        std::uint32_t e = j;
-        while (e < to && is_alpha(s_[e])) ++e;
-        if (depth == 0 && is_relop(s_.substr(j, e - j))) return true;
-        j = e;
-        continue;
-      }
-      ++j;
-    }
-    return false;
-  }
-  std::uint32_t matching(std::uint32_t open) const {
-    int depth = 0;
-    for (std::uint32_t j = open; j < end_; ++j) {
-      if (s_[j] == '[') ++depth;
-      if (s_[j] == ']' && --depth == 0) return j;
-    }
-    return end_;
-  }
-
-  std::int32_t bracket() {
-    const std::uint32_t start = i_;
-    expect('[', "");
-    const std::uint32_t close = matching(start);
-    if (close >= end_) fail("'[' is not closed; add ']'", start);
-    const std::uint32_t saved_end = end_;
-    end_ = close;
-    const std::int32_t e = expression();
-    if (!at_end()) fail(fmt::format("unexpected '{}' in the expression", s_.substr(i_, 1)), i_);
-    end_ = saved_end;
-    i_ = close + 1;
-    return add({Op::group, Fn::sin, e, -1, 0, {start, i_}});
-  }
-
-  std::int32_t logical() {
-    std::int32_t l = relation();
-    for (;;) {
-      const std::uint32_t at = i_;
-      Op op{};
-      if (accept_word("AND")) op = Op::band;
-      else if (accept_word("OR")) op = Op::bor;
-      else if (accept_word("XOR")) op = Op::bxor;
-      else return l;
-      const std::int32_t r = relation();
-      l = add({op, Fn::sin, l, r, 0, {pool_.nodes[static_cast<std::size_t>(l)].span.begin, i_}});
-      (void)at;
-    }
-  }
-  std::int32_t relation() {
-    const std::int32_t l = arith(false);
-    const std::string_view w = peek_word();
-    Op op{};
-    if (ieq(w, "EQ")) op = Op::eq;
-    else if (ieq(w, "NE")) op = Op::ne;
-    else if (ieq(w, "GT")) op = Op::gt;
-    else if (ieq(w, "GE")) op = Op::ge;
-    else if (ieq(w, "LT")) op = Op::lt;
-    else if (ieq(w, "LE")) op = Op::le;
-    else return l;
-    i_ += 2;
-    const std::int32_t r = arith(false);
-    return add({op, Fn::sin, l, r, 0, {pool_.nodes[static_cast<std::size_t>(l)].span.begin, i_}});
-  }
-  std::int32_t arith(bool logic) {
-    std::int32_t l = term(logic);
-    for (;;) {
-      Op op{};
-      const char c = peek();
-      if (c == '+') { op = Op::add; ++i_; }
-      else if (c == '-') { op = Op::sub; ++i_; }
-      else if (logic && accept_word("OR")) op = Op::bor;
-      else if (logic && accept_word("XOR")) op = Op::bxor;
-      else return l;
-      const std::int32_t r = term(logic);
-      l = add({op, Fn::sin, l, r, 0, {pool_.nodes[static_cast<std::size_t>(l)].span.begin, i_}});
-    }
-  }
-  std::int32_t term(bool logic) {
-    std::int32_t l = unary(logic);
-    for (;;) {
-      Op op{};
-      const char c = peek();
-      const std::uint32_t at = i_;
-      if (c == '*') { op = Op::mul; ++i_; }
-      else if (c == '/') { op = Op::div; ++i_; }
-      else if (accept_word("MOD")) op = Op::mod;
-      else if (logic && accept_word("AND")) op = Op::band;
-      else return l;
-      const std::int32_t r = unary(logic);
-      l = add({op, Fn::sin, l, r, 0, {at, i_}});
-    }
-  }
-  std::int32_t unary(bool logic) {
-    const char c = peek();
-    const std::uint32_t start = i_;
-    if (c == '-') {
-      ++i_;
-      const std::int32_t a = unary(logic);
-      return add({Op::neg, Fn::sin, a, -1, 0, {start, i_}});
-    }
-    if (c == '+') {
-      ++i_;
-      return unary(logic);
-    }
-    return primary();
-  }
-  std::int32_t primary() {
-    const char c = peek();
-    const std::uint32_t start = i_;
-    if (c == '#') return variable();
-    if (c == '[') return bracket();
-    if (is_digit(c) || c == '.') {
-      double v = 0;
-      bool digits = false;
-      while (i_ < end_ && is_digit(s_[i_])) { v = v * 10 + (s_[i_++] - '0'); digits = true; }
-      if (i_ < end_ && s_[i_] == '.') {
-        ++i_;
-        double scale = 0.1;
-        while (i_ < end_ && is_digit(s_[i_])) { v += (s_[i_++] - '0') * scale; scale /= 10; digits = true; }
-      }
-      if (!digits) fail("a lone '.' is not a number", start);
-      return add({Op::num, Fn::sin, -1, -1, v, {start, i_}});
-    }
-    if (is_alpha(c)) {
-      const std::string_view w = peek_word();
-      static constexpr std::pair<std::string_view, Fn> kFns[] = {
-          {"SIN", Fn::sin},   {"COS", Fn::cos},     {"TAN", Fn::tan},   {"ASIN", Fn::asin}, {"ACOS", Fn::acos},
-          {"ATAN", Fn::atan}, {"ATN", Fn::atan},    {"SQRT", Fn::sqrt}, {"SQR", Fn::sqrt},  {"ABS", Fn::abs},
-          {"BIN", Fn::bin},   {"BCD", Fn::bcd},     {"ROUND", Fn::round}, {"RND", Fn::round}, {"FIX", Fn::fix},
-          {"FUP", Fn::fup},   {"LN", Fn::ln},       {"EXP", Fn::exp},   {"POW", Fn::pow},   {"ADP", Fn::adp}};
-      for (const auto& [name, fn] : kFns) {
-        if (!ieq(w, name)) continue;
-        i_ += static_cast<std::uint32_t>(w.size());
-        if (peek() != '[') fail(fmt::format("{} needs its argument in brackets: {}[…]", name, name), i_);
-        const std::uint32_t open = i_;
-        const std::uint32_t close = matching(open);
-        if (close >= end_) fail("'[' is not closed; add ']'", open);
-        ++i_;
-        const std::uint32_t saved_end = end_;
-        end_ = close;
-        std::int32_t a = expression();
-        std::int32_t b = -1;
-        if (peek() == ',') {
-          ++i_;
-          b = expression();
-        }
-        if (!at_end()) fail(fmt::format("unexpected '{}' in the argument of {}", s_.substr(i_, 1), name), i_);
-        end_ = saved_end;
-        i_ = close + 1;
-        Fn f = fn;
-        if (f == Fn::atan) {
-          if (b < 0 && peek() == '/') {
-            // ATAN[a]/[b]
-            const std::uint32_t slash = i_;
-            ++i_;
-            if (peek() == '[') {
-              b = bracket();
-            } else {
-              i_ = slash;
-            }
-          }
-          if (b >= 0) f = Fn::atan2;
-        } else if (f == Fn::pow) {
-          if (b < 0) fail("POW takes two arguments: POW[base,exponent]", start);
-        } else if (b >= 0) {
-          fail(fmt::format("{} takes one argument", name), start);
-        }
-        return add({Op::fn, f, a, b, 0, {start, i_}});
-      }
-      fail(fmt::format("'{}' is not a Fanuc macro function or operator", w), start);
-    }
-    if (i_ >= end_) fail("an operand is missing at the end of the expression", end_ > 0 ? end_ - 1 : 0);
-    fail(fmt::format("unexpected '{}' in the expression", s_.substr(i_, 1)), i_);
-  }
-
-  std::string_view s_;
-  std::uint32_t i_, end_;
-  ExprPool& pool_;
-};
+using namespace fanuc_expr;
 
 // ---------------------------------------------------------------------------------------------
 // Line plans: what a line does, parsed once per (file, line).
@@ -561,7 +263,7 @@ void Runner::parse_statement(const Block& b, const Token& t, LinePlan& p, Item& 
       throw Failure{"PP-E702", fmt::format("{} takes a loop number 1, 2 or 3", what), {at, ps.pos() > at ? ps.pos() : at + 1}};
     return n.num;
   };
-  if (ieq(kw, "IF")) {
+  if (text::iequals(kw, "IF")) {
     if (ps.peek() != '[') ps.fail("IF needs its condition in brackets: IF [#1 GT 0] GOTO 10", ps.pos());
     it.e1 = ps.expression();  // the bracket (the rest is a keyword)
     if (ps.accept_word("GOTO")) {
@@ -578,19 +280,19 @@ void Runner::parse_statement(const Block& b, const Token& t, LinePlan& p, Item& 
     } else {
       ps.fail("IF […] must be followed by GOTO n or THEN #i=…", ps.pos());
     }
-  } else if (ieq(kw, "WHILE")) {
+  } else if (text::iequals(kw, "WHILE")) {
     it.kind = ItemKind::while_do;
     if (ps.peek() != '[') ps.fail("WHILE needs its condition in brackets: WHILE [#1 LT 10] DO 1", ps.pos());
     it.e1 = ps.expression();
     if (!ps.accept_word("DO")) ps.fail("WHILE […] must be followed by DO m", ps.pos());
     it.number = loop_number("DO");
-  } else if (ieq(kw, "DO")) {
+  } else if (text::iequals(kw, "DO")) {
     it.kind = ItemKind::do_loop;
     it.number = loop_number("DO");
-  } else if (ieq(kw, "END")) {
+  } else if (text::iequals(kw, "END")) {
     it.kind = ItemKind::end_loop;
     it.number = loop_number("END");
-  } else if (ieq(kw, "GOTO")) {
+  } else if (text::iequals(kw, "GOTO")) {
     it.kind = ItemKind::go_to;
     if (ps.at_end()) ps.fail("GOTO needs a sequence number", ps.pos());
     it.e1 = ps.expression();
