@@ -51,7 +51,13 @@ nlohmann::json report_json(const CompensateArgs& a, const machine::Machine& m, c
     nlohmann::json given = nlohmann::json::object(), used = nlohmann::json::object();
     for (const auto& [name, value] : make_resolve_options(a.resolve).set) given[name] = value;
     for (const auto& [name, value] : r.used_settings) used[name] = value;
-    j["flattened"] = {{"resolved_lines", r.resolved_lines}, {"set_given", given}, {"set_used", used}};
+    if (a.flatten)
+      j["flattened"] = {{"resolved_lines", r.resolved_lines}, {"set_given", given}, {"set_used", used}};
+    else
+      j["resolved_in_place"] = {{"resolved_lines", r.resolved_lines},
+                                {"source_lines_rewritten", r.source_lines_rewritten},
+                                {"set_given", given},
+                                {"set_used", used}};
   }
   j["seconds"] = seconds;
   j["diagnostics"] = comp::diagnostics_json(sink);
@@ -91,7 +97,8 @@ void setup_compensate(CLI::App& app, int& rc) {
       ->capture_default_str();
   cmd->add_flag("--flatten", o->flatten,
                 "programs with parameters, expressions, subprograms or loops: write the resolved program as literal "
-                "moves (loops unrolled, calls expanded; comments and other blocks kept); without it they are refused");
+                "moves (loops unrolled, calls expanded; comments and other blocks kept); without it the corrections "
+                "are written into the program's own lines where that is exact, and refused (PP-E711) where not");
   add_resolve_options(*cmd, o->resolve);
   cmd->add_flag("--no-header", o->no_header, "do not write the header comment naming tool, machine file and hash");
   cmd->add_flag("--in-place", o->in_place, "allow -o to name the input (a .bak backup is kept)");

@@ -17,8 +17,8 @@ if [[ ! -d "$corpus" ]]; then
   exit 77
 fi
 corpus=$(realpath "$corpus")
-# Programs written back byte for byte or flattened (issue 3 moved the ones with parameters from
-# "byte for byte with unresolved words" to "flattened" or "refused with a reason").
+# Programs written back byte for byte, flat or resolved (issue 3: programs with parameters are
+# resolved, written back in place and flattened, or refused with a located reason).
 readonly min_accepted=18
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
@@ -65,7 +65,7 @@ TOML
 }
 
 cd "$corpus" || exit 1
-failures=0 accepted=0 refused=0 flattened=0
+failures=0 accepted=0 refused=0 flattened=0 resolved=0
 while IFS=$'\t' read -r file _repo _path _commit _license dialect _rest; do
   [[ "$file" == file || -z "$file" ]] && continue
   case "$dialect" in
@@ -77,22 +77,27 @@ while IFS=$'\t' read -r file _repo _path _commit _license dialect _rest; do
   machine "$d" "$lathe" > "$work/m.toml"
   out="$work/out"
   rm -f "$out"
-  "$bin" compensate "$file" -m "$work/m.toml" -o "$out" --no-header > /dev/null 2> "$work/err" < /dev/null
+  rm -f "$work/rep.json"
+  "$bin" compensate "$file" -m "$work/m.toml" -o "$out" --no-header --report "$work/rep.json" > /dev/null 2> "$work/err" < /dev/null
   rc=$?
-  # A program with parameters, calls or control flow is refused at its first such line (PP-E711,
-  # issue 3); --flatten resolves it and writes the literal program, or refuses with a located reason.
-  if [[ $rc == 2 ]] && grep -q 'error: PP-E711' "$work/err"; then
-    [[ $(grep -c 'error: PP-' "$work/err") == 1 ]] || { echo "FAIL $file: PP-E711 with other errors"; failures=$((failures + 1)); }
-    "$bin" compensate "$file" -m "$work/m.toml" -o "$out" --no-header --flatten > /dev/null 2> "$work/err" < /dev/null
-    rc=$?
-    if [[ $rc == 0 ]]; then
-      if grep -qE '#[0-9<\[]|^[[:space:]]*[oO][0-9<].*(sub|call|while|if|endwhile|endif|endsub)' "$out"; then
-        echo "FAIL $file: flattened output still holds parameters or o-words"; failures=$((failures + 1))
-      else
-        flattened=$((flattened + 1)); echo "flatten  $file ($(wc -l < "$file") → $(wc -l < "$out") lines)"
-      fi
+  # A program with parameters, calls or control flow (issue 3) is resolved; through a zero-error
+  # machine nothing needs a correction, so written back in place it must come out byte for byte
+  # too. --flatten must then write its literal program, free of parameters and o-words.
+  if [[ $rc == 0 ]] && grep -q '"resolution"' "$work/rep.json"; then
+    if ! cmp -s "$file" "$out"; then
+      echo "FAIL $file: resolved in place but not byte-identical:"; cmp "$file" "$out" | head -3; failures=$((failures + 1))
       continue
     fi
+    resolved=$((resolved + 1))
+    "$bin" compensate "$file" -m "$work/m.toml" -o "$out" --no-header --flatten > /dev/null 2> "$work/err" < /dev/null
+    if [[ $? != 0 ]]; then
+      echo "FAIL $file: resolved in place but --flatten refused:"; head -3 "$work/err"; failures=$((failures + 1))
+    elif grep -qE '#[0-9<\[]|^[[:space:]]*[oO][0-9<].*(sub|call|while|if|endwhile|endif|endsub)' "$out"; then
+      echo "FAIL $file: flattened output still holds parameters or o-words"; failures=$((failures + 1))
+    else
+      flattened=$((flattened + 1)); echo "resolved $file (in place byte for byte; flattened $(wc -l < "$file") → $(wc -l < "$out") lines)"
+    fi
+    continue
   fi
   case $rc in
     0)
@@ -112,5 +117,5 @@ while IFS=$'\t' read -r file _repo _path _commit _license dialect _rest; do
     *) echo "FAIL $file: exit $rc"; tail -3 "$work/err"; failures=$((failures + 1)) ;;
   esac
 done < MANIFEST.tsv
-echo "corpus_compensate: $accepted byte-identical, $flattened flattened, $refused refused, $failures failures"
-[[ $failures -eq 0 && $((accepted + flattened)) -ge $min_accepted ]]
+echo "corpus_compensate: $accepted byte-identical, $resolved resolved and written back byte-identical ($flattened also flattened), $refused refused, $failures failures"
+[[ $failures -eq 0 && $((accepted + resolved)) -ge $min_accepted && $flattened -eq $resolved ]]

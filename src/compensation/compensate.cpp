@@ -55,6 +55,8 @@ std::string header_comment(const gcode::Dialect& d, const machine::Machine& m, c
   std::string text = fmt::format("postproc {} compensate mode={} machine={} sha256={}", opt.tool_version, opt.mode,
                                  m.file, m.sha256);
   if (opt.flatten) text += " flattened=parameters, calls and loops resolved into literal moves";
+  if (opt.resolved_in_place && !opt.flatten)
+    text += " resolved=parameters, calls and loops kept, literal words corrected in place";
   for (const auto& [name, value] : opt.resolve.set) text += fmt::format(" set {}={}", name, value);
   for (char& c : text)
     if (c == '(' || c == ')' || c == ';') c = '_';

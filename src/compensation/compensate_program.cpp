@@ -3,6 +3,7 @@
 #include <filesystem>
 
 #include "postproc/compensation/compensate.hpp"
+#include "postproc/compensation/write_back.hpp"
 #include "postproc/error.hpp"
 
 namespace postproc::comp {
@@ -39,31 +40,7 @@ CompensateResult compensate_program(std::string_view text, std::string_view file
                                     gcode::DiagnosticSink& sink, ContourDetails* details) {
   CompensateOptions opt = options;
   if (opt.input_bytes == 0) opt.input_bytes = text.size();
-  if (const std::uint64_t line = gcode::first_resolution_line(text, dialect); line != 0) {
-    if (!opt.flatten) {
-      gcode::Diagnostic d;
-      d.severity = gcode::Severity::error;
-      d.code = "PP-E711";
-      d.file = std::string(file);
-      d.where = {line, 1};
-      std::size_t pos = 0;
-      for (std::uint64_t k = 1; k < line && pos != std::string_view::npos; ++k) {
-        pos = text.find('\n', pos);
-        if (pos != std::string_view::npos) ++pos;
-      }
-      if (pos != std::string_view::npos) {
-        std::string_view l = text.substr(pos, text.find('\n', pos) - pos);
-        if (!l.empty() && l.back() == '\r') l.remove_suffix(1);
-        d.source_line = std::string(l);
-        d.length = static_cast<std::uint32_t>(std::max<std::size_t>(1, l.size()));
-      }
-      d.message =
-          "the program uses parameters, expressions, subprogram calls or control flow (first here); a corrected value "
-          "cannot be written back into an expression or into a loop body or subprogram that runs with different "
-          "values: give --flatten to write the resolved program as literal moves";
-      sink.report(std::move(d));
-      return {};
-    }
+  if (gcode::first_resolution_line(text, dialect) != 0) {
     gcode::ResolveOptions ro = opt.resolve;
     if (ro.search_dirs.empty()) {
       const std::filesystem::path dir = file == "-" ? std::filesystem::path(".") : std::filesystem::path(file).parent_path();
@@ -79,9 +56,36 @@ CompensateResult compensate_program(std::string_view text, std::string_view file
       sink.report(std::move(m2));
     };
     opt.input_bytes = resolved.text.size();
-    CompensateResult r = compensate_flat(resolved.text, file, dialect, m, opt, popt, out, mapped, details);
+    CompensateResult r;
+    if (opt.flatten) {
+      r = compensate_flat(resolved.text, file, dialect, m, opt, popt, out, mapped, details);
+      r.flattened = true;
+    } else {
+      // Compensate the literal program in memory, then carry every corrected block back onto
+      // its source line (write_back.hpp).
+      CompensateOptions lopt = opt;
+      lopt.header = false;
+      std::vector<std::uint64_t> map;
+      lopt.line_map = &map;
+      auto mem = io::OutputFile::memory();
+      r = compensate_flat(resolved.text, file, dialect, m, lopt, popt, mem, mapped, details);
+      if (sink.count(gcode::Severity::error) > errors) return r;
+      const std::string literal = mem.take();
+      CompensateOptions hopt = opt;
+      hopt.resolved_in_place = true;
+      std::string written;
+      const WriteBackResult wb = write_back(text, file, dialect, resolved, literal, map,
+                                            opt.header ? header_comment(dialect, m, hopt) : std::string(), written, sink);
+      if (!wb.ok) return r;
+      out.write(written);
+      r.source_lines_rewritten = wb.lines_changed;
+      r.segments_added = wb.lines_added;  // lines added to the program as written
+    }
     r.resolved_lines = resolved.source_line.size();
     r.used_settings = resolved.used_settings;
+    // The worst lines are lines of the program as written.
+    for (std::uint64_t* l : {&r.worst_line, &r.contour_worst_line})
+      if (*l >= 1 && *l <= resolved.source_line.size()) *l = resolved.source_line[*l - 1];
     return r;
   }
   opt.flatten = false;  // nothing to flatten: the header says nothing about it
@@ -111,11 +115,16 @@ CompensateResult compensate_flat(std::string_view text, std::string_view file, c
   gcode::LineReader reader{text};
   const CompensateResult geo = compensate(reader, file, dialect, m, gopt, mem, sink);
   CompensateResult r;
+  std::vector<std::uint64_t> contour_lines;  // output line → intermediate line
+  copt.line_map = opt.line_map != nullptr ? &contour_lines : nullptr;
   if (!sink.has_errors()) {
     const std::string intermediate = mem.take();
     copt.input_bytes = intermediate.size();
     r = compensate_contour(intermediate, file, dialect, m, copt, popt, out, sink, &cd);
   }
+  if (opt.line_map != nullptr)
+    for (const std::uint64_t l : contour_lines)
+      opt.line_map->push_back(l >= 1 && l <= geo_lines.size() ? geo_lines[l - 1] : 0);
   merge_geometric(r, geo);
   if (r.contour_worst_line >= 1 && r.contour_worst_line <= geo_lines.size())
     r.contour_worst_line = geo_lines[r.contour_worst_line - 1];

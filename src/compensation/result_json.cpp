@@ -30,6 +30,14 @@ nlohmann::json result_json(const CompensateResult& r, std::string_view mode, con
                   {"worst_line_before", r.worst_line},
                   {"max_residual_after_mm", r.max_residual_mm},
                   {"max_residual_after_deg", r.max_residual_rad * kDeg}};
+  if (r.resolved_lines > 0) {  // a program with parameters or control flow (gcode/resolve.hpp)
+    nlohmann::json used = nlohmann::json::object();
+    for (const auto& [name, value] : r.used_settings) used[name] = value;
+    j["resolution"] = {{"resolved_lines", r.resolved_lines},
+                       {"written", r.flattened ? "flattened" : "in place"},
+                       {"source_lines_rewritten", r.source_lines_rewritten},
+                       {"set_used", used}};
+  }
   if (mode != "geometric") {
     j["contour"] = {{"before_tip_um", r.contour_before_mm * 1000},
                     {"before_axis_arcsec", r.contour_before_rad * kArcsec},

@@ -42,10 +42,14 @@ struct CompensateOptions {
   /// options (--set values; subprogram folders, default: the program's folder) …
   gcode::ResolveOptions resolve;
   /// … and written as the resolved literal program (loops unrolled, calls expanded, comments and
-  /// non-motion blocks kept; the header says "flattened"). Without it such a program is refused
-  /// (PP-E711): a corrected value cannot be written back into an expression or into a loop body
-  /// that runs with different values.
+  /// non-motion blocks kept; the header says "flattened"). Without it the corrections are written
+  /// back into the program's own lines (write_back.hpp), and where that cannot be exact (a word
+  /// that needs a correction is an expression, a loop body needs different corrections per run)
+  /// the program is refused (PP-E711).
   bool flatten = false;
+  /// Set by compensate_program when it wrote a resolved program's corrections back into its own
+  /// lines: the header says so.
+  bool resolved_in_place = false;
 };
 
 /// Figures of one run (the --report JSON carries them).
@@ -81,7 +85,9 @@ struct CompensateResult {
   int contour_iterations = 0;
   bool contour_converged = false;
   double fit_residual_mm = 0;            ///< largest NURBS fit residual of the intended contour, mm
-  std::uint64_t resolved_lines = 0;      ///< --flatten: lines of the resolved program (0: not resolved)
+  std::uint64_t resolved_lines = 0;      ///< lines of the resolved program (0: not resolved)
+  std::uint64_t source_lines_rewritten = 0;  ///< resolved without --flatten: program lines rewritten
+  bool flattened = false;                 ///< written as the resolved literal program (--flatten)
   std::map<std::string, double> used_settings;  ///< --set values the program read
 };
 
@@ -110,9 +116,10 @@ CompensateResult compensate_contour(std::string_view text, std::string_view file
                                     gcode::DiagnosticSink& sink, ContourDetails* details = nullptr);
 
 /// `postproc compensate --mode geometric|contour|all` on a program held in memory, as the CLI and
-/// `postproc batch` run it. A program with parameters or control flow is refused (PP-E711) unless
-/// opt.flatten, then resolved (gcode/resolve.hpp) and compensated as its literal program, with
-/// diagnostics mapped to the source lines. Then: geometric streams the text through compensate(); contour runs
+/// `postproc batch` run it. A program with parameters or control flow is resolved
+/// (gcode/resolve.hpp) and compensated as its literal program, with diagnostics and worst lines
+/// mapped to the source lines; it is written as that literal program when opt.flatten, else its
+/// corrections are carried back into its own lines (write_back.hpp, refusals PP-E711). Then: geometric streams the text through compensate(); contour runs
 /// compensate_contour(); all runs the geometric stage into memory (no header), then the contour
 /// stage on its output, and reports the geometric figures next to the contour ones (the contour
 /// worst line mapped back to the input). `opt.mode` selects; anything else throws

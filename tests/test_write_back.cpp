@@ -1,0 +1,343 @@
+// compensate on programs with parameters, subprograms and control flow, written back into their own
+// lines (write_back.hpp): the written program, resolved again, is exactly the flattened compensated
+// program; what needs no change stays byte for byte; what cannot be written back exactly is
+// refused at its line and word.
+#include <algorithm>
+#include <fstream>
+#include <sstream>
+
+#include "postproc/compensation/compensate.hpp"
+#include "postproc/compensation/write_back.hpp"
+#include "postproc/gcode/resolve.hpp"
+#include "postproc/machine/machine.hpp"
+#include "support.hpp"
+
+namespace {
+namespace mc = postproc::machine;
+namespace gc = postproc::gcode;
+namespace cp = postproc::comp;
+using pptest::TempDir;
+
+const std::string kSamples = std::string(POSTPROC_SOURCE_DIR) + "/samples/";
+
+mc::Machine load(const std::string& name) {
+  gc::DiagnosticSink sink;
+  auto m = mc::load_machine(kSamples + "machines/" + name, sink);
+  for (const auto& d : sink.stored()) ADD_FAILURE() << gc::format(d);
+  if (!m) throw std::runtime_error("machine file refused: " + name);
+  return *m;
+}
+
+struct Outcome {
+  std::string out;
+  cp::CompensateResult result;
+  gc::DiagnosticSink sink;
+  [[nodiscard]] bool ok() const { return !sink.has_errors(); }
+  [[nodiscard]] std::string errors() const {
+    std::string s;
+    for (const auto& d : sink.stored()) s += gc::format(d) + "\n";
+    return s;
+  }
+};
+
+void run(const mc::Machine& m, std::string_view program, Outcome& r, bool flatten, const std::string& mode = "geometric",
+         const std::string& file = "in.nc", bool header = true) {
+  const gc::Dialect d = *gc::make_dialect(m.dialect_name, m.dialect_options);
+  cp::CompensateOptions opt;
+  opt.tool_version = "test";
+  opt.flatten = flatten;
+  opt.mode = mode;
+  opt.header = header;
+  postproc::contour::PrecompensateOptions popt;
+  auto mem = postproc::io::OutputFile::memory();
+  r.result = cp::compensate_program(program, file, d, m, opt, popt, mem, r.sink);
+  r.out = mem.take();
+}
+
+/// The lines of `text` without the header comment (and without "\r").
+std::vector<std::string> lines_without_header(std::string_view text) {
+  std::vector<std::string> out;
+  std::istringstream in{std::string(text)};
+  for (std::string l; std::getline(in, l);) {
+    if (!l.empty() && l.back() == '\r') l.pop_back();
+    if (l.find("postproc test compensate") != std::string::npos) continue;
+    out.push_back(l);
+  }
+  return out;
+}
+
+/// Compensated in place and flattened; the in-place program, resolved again, must be the flattened
+/// one line for line.
+void expect_same_as_flattened(const mc::Machine& m, std::string_view program, const std::string& mode = "geometric") {
+  Outcome in_place, flat;
+  run(m, program, in_place, false, mode);
+  ASSERT_TRUE(in_place.ok()) << in_place.errors();
+  run(m, program, flat, true, mode);
+  ASSERT_TRUE(flat.ok()) << flat.errors();
+  EXPECT_NE(in_place.out, program);
+  EXPECT_NE(in_place.out.find("resolved=parameters, calls and loops kept"), std::string::npos);
+  EXPECT_NE(flat.out.find("flattened="), std::string::npos);
+  const gc::Dialect d = *gc::make_dialect(m.dialect_name, m.dialect_options);
+  gc::DiagnosticSink sink;
+  const gc::ResolvedProgram again = gc::resolve(in_place.out, "out.nc", d, {}, sink);
+  ASSERT_FALSE(sink.has_errors());
+  ASSERT_TRUE(again.resolved);
+  EXPECT_EQ(lines_without_header(again.text), lines_without_header(flat.out));
+  EXPECT_GT(in_place.result.source_lines_rewritten, 0u);
+  EXPECT_GT(in_place.result.resolved_lines, 0u);
+  // Through a machine without geometric errors the program comes back byte for byte (the servo
+  // modes still correct the drives' lag).
+  if (mode != "geometric") return;
+  mc::Machine perfect = m;
+  perfect.actual = perfect.nominal;
+  Outcome same;
+  run(perfect, program, same, false, mode, "in.nc", false);
+  ASSERT_TRUE(same.ok()) << same.errors();
+  EXPECT_EQ(same.out, program);
+}
+
+/// The one error of a refused run.
+const gc::Diagnostic& only_error(const Outcome& r) {
+  EXPECT_EQ(r.sink.count(gc::Severity::error), 1u) << r.errors();
+  static const gc::Diagnostic none;
+  return r.sink.stored().empty() ? none : r.sink.stored().front();
+}
+
+bool has_line(std::string_view text, std::string_view line) {
+  const auto lines = lines_without_header(text);
+  return std::find(lines.begin(), lines.end(), std::string(line)) != lines.end();
+}
+
+const char* const kLinuxCnc = R"(%
+(in place: parameters, a subroutine called once, a branch, a loop whose runs agree)
+G21 G90 G94 G18 G8
+G54
+T1 M6
+#<_feed> = 300
+o100 sub
+  G1 X46. Z0. B-3. C20.
+  #<_depth> = [#<_depth> + 1]
+o100 endsub
+#<_depth> = 0
+G0 X60. Z10. B0. C0.
+G1 X45. Z2. F#<_feed>
+o100 call
+o200 if [#<_depth> GT 0]
+  G1 X47.5 Z-5. B-4. C40. (taken)
+o200 else
+  G1 X48. Z-6. B-2. C50. (not taken)
+o200 endif
+o300 repeat [2]
+  G0 X60. Z10. B0. C0.
+  G1 X45. Z2. B0. C0.
+o300 endrepeat
+G1 X48. Z-8. B-1. C60. #<x> = 5
+G0 X60.
+M30
+%
+)";
+
+const char* const kFanuc = R"(%
+O1000
+G21 G90 G94 G17
+G54
+G43 H1
+#100=500
+G0 X0. Y0. Z50. A0. C0.
+G65 P9001 A10. B20.
+G1 X10. Y20. Z5. A10. C30. F#100
+IF [#100 GT 100] GOTO 10
+G1 X99. Y99. Z5. A0. C0.
+N10 G1 X15. Y25. Z5. A15. C35.
+#1=0
+WHILE [#1 LT 2] DO 1
+G0 X0. Y0. Z20. A0. C0.
+G1 X1. Y0. Z20. A0. C0.
+#1=#1+1
+END 1
+G0 Z50.
+M30
+O9001
+G1 X5. Y5. Z10. A0. C0. F[#2*10]
+M99
+%
+)";
+
+const char* const kSiemens = R"(N10 G17 G90 G54 G71
+N20 DEF REAL DEPTH
+N30 R1=5 DEPTH=-2
+N40 G0 X0 Y0 Z50 A0 C0
+N50 G1 X10 Y20 Z5 A10 C30 F=R1*100
+N60 IF R1>3 GOTOF SKIP
+N70 G1 X99 Y99 Z5 A0 C0
+N80 SKIP: G1 X15 Y25 Z5 A15 C35
+N85 G1 X100 Y0 Z5 A60 C180
+N90 M30
+)";
+
+TEST(WriteBack, LinuxCncInPlaceEqualsFlattened) {
+  const mc::Machine m = load("lathe_xzbc_doc004.toml");
+  expect_same_as_flattened(m, kLinuxCnc);
+  Outcome r;
+  run(m, kLinuxCnc, r, false);
+  ASSERT_TRUE(r.ok()) << r.errors();
+  // Statements, the branch not taken and comments stay byte for byte; the literal words of the
+  // executed moves are corrected; F#<_feed> keeps its parameter.
+  for (const char* kept : {"#<_feed> = 300", "  #<_depth> = [#<_depth> + 1]", "o200 if [#<_depth> GT 0]",
+                           "  G1 X48. Z-6. B-2. C50. (not taken)", "o300 repeat [2]", "M30"})
+    EXPECT_TRUE(has_line(r.out, kept)) << kept;
+  EXPECT_FALSE(has_line(r.out, "G1 X45. Z2. F#<_feed>"));
+  EXPECT_NE(r.out.find(" F#<_feed>\n"), std::string::npos);
+  EXPECT_NE(r.out.find("#<x> = 5\n"), std::string::npos);  // the assignment on a move line is kept
+  EXPECT_EQ(lines_without_header(r.out).size(), lines_without_header(kLinuxCnc).size() + r.result.segments_added);
+}
+
+TEST(WriteBack, FanucInPlaceEqualsFlattened) {
+  const mc::Machine m = load("trunnion_ac_fanuc.toml");
+  expect_same_as_flattened(m, kFanuc);
+  Outcome r;
+  run(m, kFanuc, r, false);
+  ASSERT_TRUE(r.ok()) << r.errors();
+  for (const char* kept : {"#100=500", "G65 P9001 A10. B20.", "IF [#100 GT 100] GOTO 10", "G1 X99. Y99. Z5. A0. C0.",
+                           "WHILE [#1 LT 2] DO 1", "END 1", "O9001", "M99"})
+    EXPECT_TRUE(has_line(r.out, kept)) << kept;
+  // The subdivided move's added points follow it as new lines.
+  EXPECT_GT(r.result.segments_added, 0u);
+  EXPECT_EQ(lines_without_header(r.out).size(), lines_without_header(kFanuc).size() + r.result.segments_added);
+  // The header goes after '%' and the program number, as in a flat program.
+  EXPECT_EQ(r.out.substr(0, 8), "%\nO1000\n");
+  EXPECT_EQ(r.out.substr(8, 9), "(postproc");
+}
+
+TEST(WriteBack, SiemensInPlaceEqualsFlattened) {
+  const mc::Machine m = load("trunnion_ac_siemens.toml");
+  expect_same_as_flattened(m, kSiemens);
+  Outcome r;
+  run(m, kSiemens, r, false);
+  ASSERT_TRUE(r.ok()) << r.errors();
+  EXPECT_TRUE(has_line(r.out, "N70 G1 X99 Y99 Z5 A0 C0"));
+  EXPECT_TRUE(has_line(r.out, "N30 R1=5 DEPTH=-2"));
+  EXPECT_NE(r.out.find("F=R1*100\n"), std::string::npos);
+  EXPECT_NE(r.out.find("\nN80 SKIP: G1 X15."), std::string::npos);
+}
+
+TEST(WriteBack, ContourModesInPlaceEqualFlattened) {
+  // The servo correction of a move depends on the moves around it, so the loop whose runs agree
+  // geometrically does not here (refused below); this program's loop runs once.
+  const mc::Machine m = load("lathe_xzbc_doc004.toml");
+  const std::string once = R"(%
+G21 G90 G94 G18 G8
+G54
+T1 M6
+#<_feed> = 300
+G0 X60. Z10. B0. C0.
+G1 X45. Z2. F#<_feed>
+G1 X46. Z0. B-3. C20.
+o100 repeat [1]
+  G0 X60. Z10.
+o100 endrepeat
+o200 if [#<_feed> GT 100]
+  G1 X47.5 Z-5. B-4. C40.
+o200 else
+  G1 X48. Z-6. B-2. C50.
+o200 endif
+G1 X48. Z-8. C60.
+G0 X60.
+M30
+%
+)";
+  expect_same_as_flattened(m, once, "contour");
+  expect_same_as_flattened(m, once, "all");
+  Outcome r;
+  run(m, kLinuxCnc, r, false, "all");
+  EXPECT_EQ(only_error(r).where.line, 22u);
+}
+
+TEST(WriteBack, LineEndsAreKept) {
+  const mc::Machine m = load("trunnion_ac_fanuc.toml");
+  std::string crlf;
+  for (const char* c = kFanuc; *c != 0; ++c) {
+    if (*c == '\n') crlf += '\r';
+    crlf += *c;
+  }
+  Outcome r;
+  run(m, crlf, r, false);
+  ASSERT_TRUE(r.ok()) << r.errors();
+  std::size_t lf = 0, crlf_ends = 0;
+  for (std::size_t i = 0; i < r.out.size(); ++i)
+    if (r.out[i] == '\n') {
+      ++lf;
+      if (i > 0 && r.out[i - 1] == '\r') ++crlf_ends;
+    }
+  EXPECT_EQ(lf, crlf_ends);  // the added lines of the subdivided move too
+  Outcome lf_run;
+  run(m, kFanuc, lf_run, false);
+  std::string stripped = r.out;
+  stripped.erase(std::remove(stripped.begin(), stripped.end(), '\r'), stripped.end());
+  EXPECT_EQ(stripped, lf_run.out);
+}
+
+TEST(WriteBack, ExpressionThatNeedsACorrectionIsRefused) {
+  const mc::Machine m = load("lathe_xzbc_doc004.toml");
+  const std::string program = "G21 G90 G18 G8\nG54\n#<r> = 45\nG0 X60. Z10. B0. C0.\nG1 X[#<r> + 1] Z2. F300.\nM30\n";
+  Outcome r;
+  run(m, program, r, false);
+  EXPECT_TRUE(r.out.empty());
+  const gc::Diagnostic& d = only_error(r);
+  EXPECT_EQ(d.code, "PP-E711");
+  EXPECT_EQ(d.where.line, 5u);
+  EXPECT_EQ(d.where.column, 4u);
+  EXPECT_EQ(d.length, std::string("X[#<r> + 1]").size());
+  EXPECT_NE(d.message.find("written as 'X[#<r> + 1]' here (as resolved: X46.)"), std::string::npos) << d.message;
+  EXPECT_NE(d.message.find("--flatten"), std::string::npos);
+  // --flatten writes it.
+  Outcome flat;
+  run(m, program, flat, true);
+  EXPECT_TRUE(flat.ok()) << flat.errors();
+}
+
+TEST(WriteBack, LoopBodyWithDifferentCorrectionsIsRefused) {
+  const mc::Machine m = load("trunnion_ac_fanuc.toml");
+  const std::string program =
+      "G21 G90 G17 G54 G43 H1\nG0 X0. Y0. Z50. A0. C0.\n#1=0\nWHILE [#1 LT 3] DO 1\nG91 G1 X10. F500.\n#1=#1+1\n"
+      "END 1\nG90\nM30\n";
+  Outcome r;
+  run(m, program, r, false);
+  const gc::Diagnostic& d = only_error(r);
+  EXPECT_EQ(d.code, "PP-E711");
+  EXPECT_EQ(d.where.line, 5u);
+  EXPECT_NE(d.message.find("runs 3 times"), std::string::npos) << d.message;
+  EXPECT_NE(d.message.find("differ between runs"), std::string::npos) << d.message;
+}
+
+TEST(WriteBack, MoveInASubprogramFileIsRefused) {
+  const mc::Machine m = load("lathe_xzbc_doc004.toml");
+  TempDir dir;
+  {
+    std::ofstream(dir.file("side.ngc")) << "o<side> sub\nG1 X50. Z-3. B-2. C10.\no<side> endsub\nM2\n";
+  }
+  const std::string program = "G21 G90 G18 G8\nG54\nG0 X60. Z10. B0. C0.\no<side> call\nM30\n";
+  Outcome r;
+  run(m, program, r, false, "geometric", dir.file("main.ngc"));
+  const gc::Diagnostic& d = only_error(r);
+  EXPECT_EQ(d.code, "PP-E711");
+  EXPECT_NE(d.file.find("side.ngc"), std::string::npos) << d.file;
+  EXPECT_EQ(d.where.line, 2u);
+  EXPECT_NE(d.message.find("subprogram file"), std::string::npos) << d.message;
+}
+
+TEST(WriteBack, SubdivisionOnALineWithAJumpIsRefused) {
+  const mc::Machine m = load("trunnion_ac_siemens.toml");
+  const std::string program =
+      "N10 G17 G90 G54 G71\nN20 R1=5\nN30 G0 X0 Y0 Z50 A0 C0\nN40 G1 X100 Y0 Z5 A60 C180 F500 GOTOF ENDE\n"
+      "N50 G1 X0\nN60 ENDE:\nN70 M30\n";
+  Outcome r;
+  run(m, program, r, false);
+  const gc::Diagnostic& d = only_error(r);
+  EXPECT_EQ(d.code, "PP-E711");
+  EXPECT_EQ(d.where.line, 4u);
+  EXPECT_EQ(d.where.column, std::string("N40 G1 X100 Y0 Z5 A60 C180 F500 ").size() + 1);
+  EXPECT_NE(d.message.find("control flow ('GOTOF ENDE')"), std::string::npos) << d.message;
+}
+
+}  // namespace
