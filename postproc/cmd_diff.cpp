@@ -29,6 +29,7 @@ struct DiffArgs {
   double fail_above_um = -1;
   std::size_t worst = 10;
   std::size_t max_per_code = 20;
+  ResolveArgs resolve;
 };
 
 std::string csv_of(const comp::DiffResult& r, bool machine) {
@@ -62,9 +63,9 @@ std::optional<Predictions> predict_both(const DiffArgs& o, const machine::Machin
   gcode::DiagnosticSink sink;
   DiagnosticPrinter printer(sink, o.max_per_code);
   Predictions p;
-  gcode::LineReader in_a{a}, in_b{b};
-  p.original = contour::build_path(in_a, o.original, d, m, contour::PathOptions{}, sink);
-  p.corrected = contour::build_path(in_b, o.corrected, d, m, contour::PathOptions{}, sink);
+  const gcode::ResolveOptions ro = make_resolve_options(o.resolve);
+  p.original = contour::build_path(a, o.original, d, m, contour::PathOptions{}, sink, ro);
+  p.corrected = contour::build_path(b, o.corrected, d, m, contour::PathOptions{}, sink, ro);
   printer.finish();
   if (sink.has_errors()) {
     std::fputs("postproc: diff: --predict refused (see the errors above)\n", stderr);
@@ -116,6 +117,7 @@ void setup_diff(CLI::App& app, int& rc) {
   cmd->add_option("--worst", o->worst, "how many of the largest changes to list")->capture_default_str();
   cmd->add_option("--max-per-code", o->max_per_code, "show at most this many diagnostics per code")->capture_default_str();
   add_dialect_options(*cmd, o->dialect, false);
+  add_resolve_options(*cmd, o->resolve);
   cmd->callback([o, &rc] {
     gcode::DiagnosticSink sink;
     DiagnosticPrinter printer(sink, o->max_per_code);
@@ -128,7 +130,8 @@ void setup_diff(CLI::App& app, int& rc) {
                                                               : make_dialect(o->dialect);
     const std::string a = io::read_file(o->original, "NC program");
     const std::string b = io::read_file(o->corrected, "NC program");
-    const comp::DiffResult r = comp::diff(a, b, o->original, o->corrected, d, m ? &*m : nullptr, sink);
+    const comp::DiffResult r = comp::diff(a, b, o->original, o->corrected, d, m ? &*m : nullptr, sink,
+                                               make_resolve_options(o->resolve));
     printer.finish();
     if (sink.has_errors()) {
       std::fputs("postproc: diff: the programs have errors (see above); nothing compared\n", stderr);

@@ -28,14 +28,14 @@ struct Loaded {
 };
 
 std::optional<Loaded> load(const std::string& program, const std::string& machine_file, std::size_t max_per_code,
-                           int& rc) {
+                           const ResolveArgs& resolve, int& rc) {
   machine::Machine m = load_or_refuse(machine_file, max_per_code);
   gcode::DiagnosticSink sink;
   DiagnosticPrinter printer(sink, max_per_code);
   gcode::Dialect d = *gcode::make_dialect(m.dialect_name, m.dialect_options);
   Loaded l{std::move(m), d, io::read_file(program, "NC program"), {}};
-  gcode::LineReader in{std::string_view(l.text)};
-  l.path = contour::build_path(in, program, l.dialect, l.machine, contour::PathOptions{}, sink);
+  l.path = contour::build_path(l.text, program, l.dialect, l.machine, contour::PathOptions{}, sink,
+                               make_resolve_options(resolve));
   printer.finish();
   if (sink.has_errors()) {
     std::fputs(fmt::format("postproc: {}: refused (see the errors above)\n", program).c_str(), stderr);
@@ -61,6 +61,7 @@ struct PredictArgs {
   double marker_length_mm = 100;
   std::size_t worst = 10;
   std::size_t max_per_code = 20;
+  ResolveArgs resolve;
 };
 
 struct SimulateArgs {
@@ -69,6 +70,7 @@ struct SimulateArgs {
   std::size_t every = 1;
   bool nominal = false;
   std::size_t max_per_code = 20;
+  ResolveArgs resolve;
 };
 
 }  // namespace
@@ -87,11 +89,12 @@ void setup_predict(CLI::App& app, int& rc) {
   cmd->add_option("--marker-length", o->marker_length_mm, "distance of the tool-axis marker point from the tip, mm")
       ->capture_default_str();
   cmd->add_option("--max-per-code", o->max_per_code, "show at most this many diagnostics per code")->capture_default_str();
+  add_resolve_options(*cmd, o->resolve);
   cmd->callback([o, &rc] {
     if (!(o->marker_length_mm > 0)) throw Error(ExitCode::usage, "--marker-length must be a positive length in mm");
     ProgressBar bar("postproc: predict:");
     bar.update("reading the path", 0, 0);
-    auto l = load(o->input, o->machine, o->max_per_code, rc);
+    auto l = load(o->input, o->machine, o->max_per_code, o->resolve, rc);
     if (!l) return;
     contour::ReferenceOptions ropt;
     ropt.marker_length_mm = o->marker_length_mm;
@@ -152,16 +155,17 @@ void setup_simulate(CLI::App& app, int& rc) {
                 "measure against the path of the nominal machine (the drawing: geometric and servo errors "
                 "together, e.g. after compensate --mode all); default: the calibrated machine's path without lag");
   cmd->add_option("--max-per-code", o->max_per_code, "show at most this many diagnostics per code")->capture_default_str();
+  add_resolve_options(*cmd, o->resolve);
   cmd->callback([o, &rc] {
     if (o->every == 0) throw Error(ExitCode::usage, "--every must be at least 1");
     if (!(o->settle_s >= 0)) throw Error(ExitCode::usage, "--settle must be a time ≥ 0 in s");
     ProgressBar bar("postproc: simulate:");
     bar.update("reading the path", 0, 0);
-    auto l = load(o->input, o->machine, o->max_per_code, rc);
+    auto l = load(o->input, o->machine, o->max_per_code, o->resolve, rc);
     if (!l) return;
     std::optional<Loaded> ref_prog;
     if (!o->reference.empty()) {
-      ref_prog = load(o->reference, o->machine, o->max_per_code, rc);
+      ref_prog = load(o->reference, o->machine, o->max_per_code, o->resolve, rc);
       if (!ref_prog) return;
       if (ref_prog->path.runs.size() != l->path.runs.size())
         throw Error(ExitCode::usage,

@@ -7,7 +7,9 @@
 #include <sstream>
 
 #include "postproc/compensation/compensate.hpp"
+#include "postproc/compensation/diff.hpp"
 #include "postproc/compensation/write_back.hpp"
+#include "postproc/contour/path.hpp"
 #include "postproc/gcode/resolve.hpp"
 #include "postproc/machine/machine.hpp"
 #include "support.hpp"
@@ -338,6 +340,57 @@ TEST(WriteBack, SubdivisionOnALineWithAJumpIsRefused) {
   EXPECT_EQ(d.where.line, 4u);
   EXPECT_EQ(d.where.column, std::string("N40 G1 X100 Y0 Z5 A60 C180 F500 ").size() + 1);
   EXPECT_NE(d.message.find("control flow ('GOTOF ENDE')"), std::string::npos) << d.message;
+}
+
+}  // namespace
+
+namespace {
+
+// The commands that read programs without writing them resolve them too: diff pairs the executed
+// motions in order and names their source lines; the servo path is the flattened program's.
+TEST(Resolved, DiffPairsExecutedMotionsAtTheirSourceLines) {
+  const mc::Machine m = load("lathe_xzbc_doc004.toml");
+  const gc::Dialect d = *gc::make_dialect(m.dialect_name, m.dialect_options);
+  Outcome r;
+  run(m, kLinuxCnc, r, false);
+  ASSERT_TRUE(r.ok()) << r.errors();
+  gc::DiagnosticSink sink;
+  const cp::DiffResult diff = cp::diff(kLinuxCnc, r.out, "in.ngc", "out.ngc", d, &m, sink);
+  ASSERT_FALSE(sink.has_errors());
+  // 10 moves executed (the loop body twice, the branch not taken never), each paired with itself.
+  EXPECT_EQ(diff.motions_original, 10u);
+  EXPECT_EQ(diff.motions_corrected, 10u + r.result.segments_added);
+  std::vector<std::uint64_t> lines;
+  for (const cp::BlockDiff& b : diff.blocks) lines.push_back(b.line_original);
+  ASSERT_EQ(r.result.segments_added, 0u);  // on this lathe no move needs subdivision
+  EXPECT_TRUE(diff.by_block);
+  EXPECT_EQ(lines, (std::vector<std::uint64_t>{12, 13, 8, 16, 21, 22, 21, 22, 24, 25}));
+  // The corrected program puts the tool where the original is meant to (tool-tip distance ≈ the
+  // geometric error it removes, well under 0.1 mm) and moves nothing that was not executed.
+  EXPECT_GT(diff.deviation.max, 1e-4);
+  EXPECT_LT(diff.deviation.max, 0.1);
+}
+
+TEST(Resolved, ServoPathEqualsTheFlattenedProgramsPath) {
+  const mc::Machine m = load("lathe_xzbc_doc004.toml");
+  const gc::Dialect d = *gc::make_dialect(m.dialect_name, m.dialect_options);
+  gc::DiagnosticSink sink;
+  const gc::ResolvedProgram flat = gc::resolve(kLinuxCnc, "in.ngc", d, {}, sink);
+  ASSERT_FALSE(sink.has_errors());
+  const postproc::contour::Path a =
+      postproc::contour::build_path(kLinuxCnc, "in.ngc", d, m, postproc::contour::PathOptions{}, sink, {});
+  gc::LineReader in{std::string_view(flat.text)};
+  const postproc::contour::Path b =
+      postproc::contour::build_path(in, "flat.ngc", d, m, postproc::contour::PathOptions{}, sink);
+  ASSERT_FALSE(sink.has_errors());
+  ASSERT_EQ(a.points.size(), b.points.size());
+  ASSERT_GT(a.points.size(), 3u);
+  for (std::size_t i = 0; i < a.points.size(); ++i) {
+    EXPECT_TRUE(a.points[i].q.isApprox(b.points[i].q, 1e-12)) << i;
+    EXPECT_DOUBLE_EQ(a.points[i].t, b.points[i].t) << i;
+    // Lines of the program as written, not of the resolved text.
+    EXPECT_EQ(a.points[i].line, flat.source_line[b.points[i].line - 1]) << i;
+  }
 }
 
 }  // namespace

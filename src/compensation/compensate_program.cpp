@@ -41,11 +41,7 @@ CompensateResult compensate_program(std::string_view text, std::string_view file
   CompensateOptions opt = options;
   if (opt.input_bytes == 0) opt.input_bytes = text.size();
   if (gcode::first_resolution_line(text, dialect) != 0) {
-    gcode::ResolveOptions ro = opt.resolve;
-    if (ro.search_dirs.empty()) {
-      const std::filesystem::path dir = file == "-" ? std::filesystem::path(".") : std::filesystem::path(file).parent_path();
-      ro.search_dirs.push_back(dir.empty() ? std::string(".") : dir.string());
-    }
+    const gcode::ResolveOptions ro = gcode::with_program_folder(opt.resolve, file);
     const std::size_t errors = sink.count(gcode::Severity::error);
     const gcode::ResolvedProgram resolved = gcode::resolve(text, file, dialect, ro, sink);
     if (sink.count(gcode::Severity::error) > errors) return {};

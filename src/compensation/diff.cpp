@@ -13,10 +13,28 @@ namespace postproc::comp {
 namespace {
 
 std::vector<const CollectedMotion*> motions_of(std::string_view text, std::string_view file, const gcode::Dialect& d,
-                                               gcode::DiagnosticSink& sink, MotionCollector& c) {
-  gcode::LineReader in{text};
-  gcode::run_program(in, d, file, sink, c);
+                                               const gcode::ResolveOptions& resolve, gcode::DiagnosticSink& sink,
+                                               MotionCollector& c) {
   std::vector<const CollectedMotion*> out;
+  if (gcode::needs_resolution(text, d)) {
+    // Collected per resolved line (each execution once, in order), then named by source line.
+    const std::size_t errors = sink.count(gcode::Severity::error);
+    const gcode::ResolvedProgram r = gcode::resolve(text, file, d, gcode::with_program_folder(resolve, file), sink);
+    if (sink.count(gcode::Severity::error) > errors) return out;
+    gcode::DiagnosticSink mapped(0);
+    mapped.on_report = [&](const gcode::Diagnostic& diag) {
+      gcode::Diagnostic m = diag;
+      gcode::map_to_source(r, m);
+      sink.report(std::move(m));
+    };
+    gcode::LineReader in{std::string_view(r.text)};
+    gcode::run_program(in, d, file, mapped, c);
+    for (auto& [line, m] : c.by_line)
+      if (line >= 1 && line <= r.source_line.size()) m.motion.line = r.source_line[line - 1];
+  } else {
+    gcode::LineReader in{text};
+    gcode::run_program(in, d, file, sink, c);
+  }
   out.reserve(c.by_line.size());
   for (const auto& [line, m] : c.by_line) out.push_back(&m);
   return out;
@@ -38,10 +56,10 @@ constexpr std::size_t kLookAhead = 4200;
 
 DiffResult diff(std::string_view original, std::string_view corrected, std::string_view file_original,
                 std::string_view file_corrected, const gcode::Dialect& d, const machine::Machine* m,
-                gcode::DiagnosticSink& sink) {
+                gcode::DiagnosticSink& sink, const gcode::ResolveOptions& resolve) {
   MotionCollector ca(d), cb(d);
-  const auto a = motions_of(original, file_original, d, sink, ca);
-  const auto b = motions_of(corrected, file_corrected, d, sink, cb);
+  const auto a = motions_of(original, file_original, d, resolve, sink, ca);
+  const auto b = motions_of(corrected, file_corrected, d, resolve, sink, cb);
   DiffResult r;
   r.motions_original = a.size();
   r.motions_corrected = b.size();

@@ -454,8 +454,12 @@ std::optional<std::vector<Drive>> joint_drives(const machine::Machine& m, std::s
   return out;
 }
 
-Path build_path(gcode::LineReader& in, std::string_view file, const gcode::Dialect& d, const machine::Machine& m,
-                const PathOptions& opt, gcode::DiagnosticSink& sink) {
+namespace {
+
+/// build_path with `run` driving the interpreter over the builder (visitor, its sink).
+template <class RunProgram>
+Path build_path_with(std::string_view file, const gcode::Dialect& d, const machine::Machine& m, const PathOptions& opt,
+                     gcode::DiagnosticSink& sink, RunProgram&& run) {
   Path path;
   path.joints = m.actual->joint_count();
   path.period = m.interpolation_period;
@@ -483,9 +487,25 @@ Path build_path(gcode::LineReader& in, std::string_view file, const gcode::Diale
     limits.push_back(l);
   }
   Builder b(file, d, m, opt, sink, path, std::move(limits));
-  gcode::run_program(in, d, file, b.collector(), b);
+  run(b.collector(), b);
   b.finish();
   return path;
+}
+
+}  // namespace
+
+Path build_path(gcode::LineReader& in, std::string_view file, const gcode::Dialect& d, const machine::Machine& m,
+                const PathOptions& opt, gcode::DiagnosticSink& sink) {
+  return build_path_with(file, d, m, opt, sink, [&](gcode::DiagnosticSink& s, gcode::BlockVisitor& v) {
+    gcode::run_program(in, d, file, s, v);
+  });
+}
+
+Path build_path(std::string_view text, std::string_view file, const gcode::Dialect& d, const machine::Machine& m,
+                const PathOptions& opt, gcode::DiagnosticSink& sink, const gcode::ResolveOptions& resolve) {
+  return build_path_with(file, d, m, opt, sink, [&](gcode::DiagnosticSink& s, gcode::BlockVisitor& v) {
+    gcode::run_program_text(text, d, file, s, v, resolve);
+  });
 }
 
 void interpolate(const Path& path, const Run& run, double settle, const std::function<void(const Sample&)>& visit) {

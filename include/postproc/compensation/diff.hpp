@@ -60,10 +60,12 @@ struct DiffResult {
 
 /// Compares two programs of the same dialect. `m` (optional) gives the machine for tool-tip
 /// figures. Diagnostics of either program go to `sink` under its file name; the caller decides
-/// whether errors stop it.
+/// whether errors stop it. A program with parameters, subprograms or control flow is resolved
+/// first (with `resolve`; gcode/resolve.hpp): its executed motions are compared in execution
+/// order and reported at their source lines.
 [[nodiscard]] DiffResult diff(std::string_view original, std::string_view corrected, std::string_view file_original,
                               std::string_view file_corrected, const gcode::Dialect& d, const machine::Machine* m,
-                              gcode::DiagnosticSink& sink);
+                              gcode::DiagnosticSink& sink, const gcode::ResolveOptions& resolve = {});
 
 /// Indices into r.blocks of the `n` largest deviations, largest first (ties: earlier pair first).
 [[nodiscard]] std::vector<std::size_t> worst_blocks(const DiffResult& r, std::size_t n);

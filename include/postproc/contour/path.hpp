@@ -31,6 +31,7 @@
 #include "postproc/gcode/diagnostic.hpp"
 #include "postproc/gcode/dialect.hpp"
 #include "postproc/gcode/line_reader.hpp"
+#include "postproc/gcode/resolve.hpp"
 #include "postproc/machine/machine.hpp"
 
 namespace postproc::contour {
@@ -108,6 +109,11 @@ struct PathOptions {
 /// `sink`; the path is still returned with what could be built.
 [[nodiscard]] Path build_path(gcode::LineReader& in, std::string_view file, const gcode::Dialect& d,
                               const machine::Machine& m, const PathOptions& opt, gcode::DiagnosticSink& sink);
+/// The same on a program held in memory that may use parameters, subprograms or control flow: it
+/// is resolved first (gcode/resolve.hpp, with `resolve`), and the points carry source lines.
+[[nodiscard]] Path build_path(std::string_view text, std::string_view file, const gcode::Dialect& d,
+                              const machine::Machine& m, const PathOptions& opt, gcode::DiagnosticSink& sink,
+                              const gcode::ResolveOptions& resolve);
 
 /// The servo drive of every joint of `m`: [drives.<joint>] when given, else [axes.<letter>] of the
 /// program axis of that name. Missing Kv: nullopt and an error naming the table to add.

@@ -104,6 +104,15 @@ void map_to_source(const ResolvedProgram& r, Diagnostic& d);
 ProgramStats run_program_file(const std::string& path, const Dialect& d, std::string_view file, DiagnosticSink& sink,
                               BlockVisitor& visitor, const ResolveOptions& opt, ResolvedProgram* resolved = nullptr);
 
+/// run_program_file on a program held in memory (`text`, named `file`; subprogram files are looked
+/// for in `opt.search_dirs`, else next to `file`).
+ProgramStats run_program_text(std::string_view text, const Dialect& d, std::string_view file, DiagnosticSink& sink,
+                              BlockVisitor& visitor, const ResolveOptions& opt, ResolvedProgram* resolved = nullptr);
+
+/// `opt` with the folder of `file` as the subprogram folder when it names none ("-": the current
+/// folder).
+[[nodiscard]] ResolveOptions with_program_folder(ResolveOptions opt, std::string_view file);
+
 /// run_program on a resolved program's text, with blocks, motions and diagnostics mapped to the
 /// source lines.
 ProgramStats run_resolved(const ResolvedProgram& r, const Dialect& d, std::string_view file, DiagnosticSink& sink,

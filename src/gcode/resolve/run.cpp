@@ -42,45 +42,63 @@ ProgramStats run_resolved(const ResolvedProgram& r, const Dialect& d, std::strin
   return run_program(reader, d, file, mapped, lines);
 }
 
-ProgramStats run_program_file(const std::string& path, const Dialect& d, std::string_view file, DiagnosticSink& sink,
-                              BlockVisitor& visitor, const ResolveOptions& opt, ResolvedProgram* resolved) {
-  std::string text;
-  bool needed = false;
-  std::error_code ec;
-  // Standard input, pipes and other streams can be read once only: held in memory.
-  if (path == "-" || !std::filesystem::is_regular_file(path, ec)) {
-    text = io::read_file(path, "NC program");
-    needed = needs_resolution(text, d);
-    if (!needed) {
-      LineReader reader{std::string_view(text)};
-      return run_program(reader, d, file, sink, visitor);
-    }
-  } else {
-    {
-      LineReader scan(path);
-      needed = needs_resolution(scan, d);
-    }
-    if (!needed) {
-      LineReader reader(path);
-      return run_program(reader, d, file, sink, visitor);
-    }
-    text = io::read_file(path, "NC program");
+ResolveOptions with_program_folder(ResolveOptions opt, std::string_view file) {
+  if (opt.search_dirs.empty()) {
+    const std::filesystem::path dir =
+        file == "-" ? std::filesystem::current_path() : std::filesystem::path(file).parent_path();
+    opt.search_dirs.push_back(dir.empty() ? std::string(".") : dir.string());
   }
-  ResolveOptions o = opt;
-  if (o.search_dirs.empty()) {
-    const std::filesystem::path dir = path == "-" ? std::filesystem::current_path() : std::filesystem::path(path).parent_path();
-    o.search_dirs.push_back(dir.empty() ? std::string(".") : dir.string());
-  }
+  return opt;
+}
+
+namespace {
+
+/// Resolves `text` and runs the interpreter on the result (the text needs resolution).
+ProgramStats resolve_and_run(std::string_view text, const Dialect& d, std::string_view file, DiagnosticSink& sink,
+                             BlockVisitor& visitor, const ResolveOptions& opt, ResolvedProgram* resolved) {
   const std::size_t errors = sink.count(Severity::error);
   ResolvedProgram local;
   ResolvedProgram& r = resolved ? *resolved : local;
-  r = resolve(text, file, d, o, sink);
+  r = resolve(text, file, d, with_program_folder(opt, file), sink);
   ProgramStats st;
   st.bytes = text.size();
   if (sink.count(Severity::error) > errors) return st;
   const ProgramStats rs = run_resolved(r, d, file, sink, visitor);
   st.blocks = rs.blocks;
   return st;
+}
+
+}  // namespace
+
+ProgramStats run_program_text(std::string_view text, const Dialect& d, std::string_view file, DiagnosticSink& sink,
+                              BlockVisitor& visitor, const ResolveOptions& opt, ResolvedProgram* resolved) {
+  if (!needs_resolution(text, d)) {
+    LineReader reader{text};
+    return run_program(reader, d, file, sink, visitor);
+  }
+  return resolve_and_run(text, d, file, sink, visitor, opt, resolved);
+}
+
+ProgramStats run_program_file(const std::string& path, const Dialect& d, std::string_view file, DiagnosticSink& sink,
+                              BlockVisitor& visitor, const ResolveOptions& opt, ResolvedProgram* resolved) {
+  std::error_code ec;
+  // Standard input, pipes and other streams can be read once only: held in memory.
+  if (path == "-" || !std::filesystem::is_regular_file(path, ec)) {
+    const std::string text = io::read_file(path, "NC program");
+    return run_program_text(text, d, file, sink, visitor, opt, resolved);
+  }
+  bool needed = false;
+  {
+    LineReader scan(path);
+    needed = needs_resolution(scan, d);
+  }
+  if (!needed) {
+    LineReader reader(path);
+    return run_program(reader, d, file, sink, visitor);
+  }
+  const std::string text = io::read_file(path, "NC program");
+  // Subprogram files are next to the program's path (which `file` may only name for display).
+  return resolve_and_run(text, d, file, sink, visitor, with_program_folder(opt, path), resolved);
 }
 
 }  // namespace postproc::gcode
