@@ -1,11 +1,13 @@
 // postproc convert IN -o OUT [options]: with no options the output is byte-identical to the input.
 #include <cmath>
+#include <filesystem>
 #include <memory>
 
 #include <fmt/format.h>
 
 #include "common.hpp"
 #include "postproc/gcode/convert.hpp"
+#include "postproc/io/input_file.hpp"
 
 namespace postproc::cli {
 namespace {
@@ -19,6 +21,7 @@ struct ConvertArgs {
   std::string renumber;  ///< "START[,STEP]"
   std::string decimals;  ///< "X=4,Y=4,…"
   std::string units;     ///< "mm" | "inch"
+  ResolveArgs resolve;
   std::optional<double> linearize;
   gcode::ConvertOptions opt;
 };
@@ -101,6 +104,11 @@ void setup_convert(CLI::App& app, int& rc) {
       ->check(CLI::IsMember({"mm", "inch"}));
   cmd->add_option("--linearize", o->linearize,
                   "replace arcs by G1 chords within this tolerance, mm (rounding of the printed points included)");
+  cmd->add_flag("--flatten", o->opt.flatten,
+                "programs with parameters, expressions, subprograms or loops: convert and write the resolved program "
+                "as literal moves (without it: --linearize writes its chords into the program's own lines where that "
+                "is exact, --units is refused)");
+  add_resolve_options(*cmd, o->resolve);
   cmd->add_option("--max-per-code", o->max_per_code, "show at most this many diagnostics per code")
       ->capture_default_str();
   cmd->callback([o, &rc] {
@@ -115,9 +123,23 @@ void setup_convert(CLI::App& app, int& rc) {
     const gcode::Dialect d = make_dialect(o->dialect);
     gcode::DiagnosticSink sink;
     DiagnosticPrinter printer(sink, o->max_per_code);
-    gcode::LineReader reader(o->input);
+    o->opt.resolve = make_resolve_options(o->resolve);
     io::OutputFile out(o->output, o->input, o->in_place);
-    const gcode::ConvertResult r = gcode::convert(reader, o->input, d, o->opt, out, sink);
+    // Programs without parameters or control flow stream from the file; others are held in memory.
+    std::error_code ec;
+    bool streaming = o->input != "-" && std::filesystem::is_regular_file(o->input, ec);
+    if (streaming) {
+      gcode::LineReader scan(o->input);
+      streaming = !gcode::needs_resolution(scan, d);
+    }
+    gcode::ConvertResult r;
+    if (streaming) {
+      gcode::LineReader reader(o->input);
+      r = gcode::convert(reader, o->input, d, o->opt, out, sink);
+    } else {
+      const std::string text = io::read_file(o->input, "NC program");
+      r = gcode::convert_program(text, o->input, d, o->opt, out, sink);
+    }
     printer.finish();
     if (sink.has_errors()) {
       std::fputs(fmt::format("postproc: {}: refused; nothing was written\n", o->input).c_str(), stderr);

@@ -3,13 +3,15 @@
 // program; what needs no change stays byte for byte; what cannot be written back exactly is
 // refused at its line and word.
 #include <algorithm>
+#include <cstring>
 #include <fstream>
 #include <sstream>
 
 #include "postproc/compensation/compensate.hpp"
 #include "postproc/compensation/diff.hpp"
-#include "postproc/compensation/write_back.hpp"
+#include "postproc/gcode/write_back.hpp"
 #include "postproc/contour/path.hpp"
+#include "postproc/gcode/convert.hpp"
 #include "postproc/gcode/resolve.hpp"
 #include "postproc/machine/machine.hpp"
 #include "support.hpp"
@@ -391,6 +393,86 @@ TEST(Resolved, ServoPathEqualsTheFlattenedProgramsPath) {
     // Lines of the program as written, not of the resolved text.
     EXPECT_EQ(a.points[i].line, flat.source_line[b.points[i].line - 1]) << i;
   }
+}
+
+}  // namespace
+
+namespace {
+
+const char* const kArcs = R"(G21 G90 G17
+#<r> = 0.5
+G0 X0 Y0
+G1 X10. Y0 F100.
+o100 if [#<r> GT 0.1]
+  G2 X20. Y0 I5. J0 (taken)
+o100 else
+  G3 X20. Y0 I5. J0 (not taken)
+o100 endif
+o200 repeat [2]
+  G1 X30. Y0
+  G3 X30. Y10. I0 J5.
+  G0 X30. Y0
+o200 endrepeat
+G1 X[#<r>*2] Y1.
+M2
+)";
+
+std::string convert_text(std::string_view text, const gc::ConvertOptions& opt, gc::DiagnosticSink& sink) {
+  const gc::Dialect d = pptest::dialect("linuxcnc");
+  auto mem = postproc::io::OutputFile::memory();
+  (void)gc::convert_program(text, "in.ngc", d, opt, mem, sink);
+  return mem.take();
+}
+
+TEST(ConvertResolved, LinearizeWritesChordsIntoTheProgramsOwnLines) {
+  gc::ConvertOptions opt;
+  opt.linearize_tolerance_mm = 0.01;
+  gc::DiagnosticSink sink;
+  const std::string in_place = convert_text(kArcs, opt, sink);
+  ASSERT_FALSE(sink.has_errors());
+  opt.flatten = true;
+  const std::string flat = convert_text(kArcs, opt, sink);
+  ASSERT_FALSE(sink.has_errors());
+  // Resolved again, the program written in place is the flattened one.
+  const gc::ResolvedProgram again = gc::resolve(in_place, "out.ngc", pptest::dialect("linuxcnc"), {}, sink);
+  ASSERT_FALSE(sink.has_errors());
+  EXPECT_EQ(lines_without_header(again.text), lines_without_header(flat));
+  // The arc not taken stays an arc; the statements stay; the loop's arc (the same each run) is
+  // replaced once.
+  for (const char* kept : {"  G3 X20. Y0 I5. J0 (not taken)", "o100 if [#<r> GT 0.1]", "o200 repeat [2]",
+                           "G1 X[#<r>*2] Y1."})
+    EXPECT_TRUE(has_line(in_place, kept)) << kept;
+  EXPECT_FALSE(has_line(in_place, "  G2 X20. Y0 I5. J0 (taken)"));
+  EXPECT_FALSE(has_line(in_place, "  G3 X30. Y10. I0 J5."));
+  // Only the two executed arcs grew into chords: every other line is there once, as written.
+  EXPECT_GT(std::count(in_place.begin(), in_place.end(), '\n'), std::count(kArcs, kArcs + std::strlen(kArcs), '\n'));
+}
+
+TEST(ConvertResolved, UnitsNeedFlatten) {
+  gc::ConvertOptions opt;
+  opt.units = gc::Units::inch;
+  gc::DiagnosticSink sink;
+  EXPECT_TRUE(convert_text(kArcs, opt, sink).empty());
+  ASSERT_EQ(sink.count(gc::Severity::error), 1u);
+  EXPECT_EQ(sink.stored().front().code, "PP-E502");
+  EXPECT_EQ(sink.stored().front().where.line, 2u);
+  EXPECT_NE(sink.stored().front().message.find("--flatten"), std::string::npos);
+  opt.flatten = true;
+  gc::DiagnosticSink ok;
+  const std::string flat = convert_text(kArcs, opt, ok);
+  ASSERT_FALSE(ok.has_errors());
+  EXPECT_EQ(flat.find('#'), std::string::npos);
+  EXPECT_TRUE(has_line(flat, "G1 X0.0394 Y0.0394"));  // X[#<r>*2] = 1 mm
+}
+
+TEST(ConvertResolved, TextOptionsKeepStatementsWithoutWarnings) {
+  gc::ConvertOptions opt;
+  opt.strip_comments = true;
+  gc::DiagnosticSink sink;
+  const std::string out = convert_text(kArcs, opt, sink);
+  EXPECT_EQ(sink.stored().size(), 0u) << (sink.stored().empty() ? "" : gc::format(sink.stored().front()));
+  EXPECT_TRUE(has_line(out, "  G3 X20. Y0 I5. J0"));  // the comment of a line not executed goes too
+  EXPECT_TRUE(has_line(out, "o100 else"));
 }
 
 }  // namespace

@@ -3,7 +3,7 @@
 #include <filesystem>
 
 #include "postproc/compensation/compensate.hpp"
-#include "postproc/compensation/write_back.hpp"
+#include "postproc/gcode/write_back.hpp"
 #include "postproc/error.hpp"
 
 namespace postproc::comp {
@@ -70,7 +70,7 @@ CompensateResult compensate_program(std::string_view text, std::string_view file
       CompensateOptions hopt = opt;
       hopt.resolved_in_place = true;
       std::string written;
-      const WriteBackResult wb = write_back(text, file, dialect, resolved, literal, map,
+      const gcode::WriteBackResult wb = gcode::write_back(text, file, dialect, resolved, literal, map,
                                             opt.header ? header_comment(dialect, m, hopt) : std::string(), written, sink);
       if (!wb.ok) return r;
       out.write(written);

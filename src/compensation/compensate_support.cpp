@@ -67,12 +67,6 @@ void MotionCollector::block(const gcode::Block& b, std::span<const gcode::Motion
   by_line[b.line] = CollectedMotion{m, track_.has(gcode::GMeaning::home_return)};
 }
 
-bool header_waits(const gcode::Block& b) {
-  bool leading = b.leader || b.raw.empty();
-  for (const gcode::Token& t : b.tokens)
-    leading = leading || t.kind == gcode::TokenKind::percent || t.kind == gcode::TokenKind::program_number;
-  return leading && b.words.empty() && b.line <= 3;
-}
 
 gcode::AxisMask written_axes(const machine::Machine& m, Form f) {
   gcode::AxisMask mask = 0;

@@ -10,14 +10,13 @@
 #include "postproc/compensation/program_map.hpp"
 #include "postproc/gcode/block_writer.hpp"
 #include "postproc/gcode/program.hpp"
+#include "postproc/gcode/write_back.hpp"
 #include "postproc/machine/machine.hpp"
 #include "src/gcode/convert_support.hpp"
 
 namespace postproc::comp {
 
-/// True while the header comment must wait: it goes after a leading '%' line and the program
-/// number / name line.
-[[nodiscard]] bool header_waits(const gcode::Block& b);
+using gcode::header_waits;  // gcode/write_back.hpp
 
 /// mm (or degrees) per program unit of axis `a` in motion `m` (inch programs, X as a diameter).
 [[nodiscard]] double unit_scale(int a, const gcode::Motion& m);

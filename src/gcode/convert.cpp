@@ -229,6 +229,7 @@ ConvertResult convert(LineReader& in, std::string_view file, const Dialect& dial
   const bool second_pass = opt.units || (opt.linearize_tolerance_mm && !first.identity());
   if (!second_pass) {
     Pass pass(file, dialect, opt, to_file, Forward{sink}, result);
+    pass.line_map = opt.line_map;
     const ProgramStats st = run_program(in, dialect, file, pass.collector(), pass);
     pass.flush();
     result.bytes_in = st.bytes;
@@ -252,6 +253,7 @@ ConvertResult convert(LineReader& in, std::string_view file, const Dialect& dial
   Pass pass(file, dialect, second, to_file, Forward{sink, &line_map, true, opt.units.has_value()}, lin);
   pass.in_map = &line_map;
   pass.in_changed = &line_changed;
+  pass.line_map = opt.line_map;
   LineReader again{std::string_view(buffer)};
   run_program(again, dialect, file, pass.collector(), pass);
   pass.flush();

@@ -6,11 +6,13 @@
 #include <array>
 #include <cstdint>
 #include <optional>
+#include <vector>
 #include <string_view>
 
 #include "postproc/gcode/dialect.hpp"
 #include "postproc/gcode/diagnostic.hpp"
 #include "postproc/gcode/line_reader.hpp"
+#include "postproc/gcode/resolve.hpp"
 #include "postproc/io/output_file.hpp"
 
 namespace postproc::gcode {
@@ -37,6 +39,13 @@ struct ConvertOptions {
   /// --linearize: replaces every arc by G1 chords deviating at most this much from it, mm,
   /// the rounding of the printed coordinates included.
   std::optional<double> linearize_tolerance_mm;
+  /// If set, receives for every written line the input line it came from (1-based).
+  std::vector<std::uint64_t>* line_map = nullptr;
+  /// Programs with parameters, expressions, subprograms or control flow (convert_program): resolved
+  /// with these options …
+  ResolveOptions resolve;
+  /// … and written as the resolved literal program, converted.
+  bool flatten = false;
 
   [[nodiscard]] bool any_min_decimals() const {
     for (auto d : min_decimals)
@@ -73,5 +82,18 @@ struct ConvertResult {
 /// input's lines).
 ConvertResult convert(LineReader& in, std::string_view file, const Dialect& dialect, const ConvertOptions& opt,
                       io::OutputFile& out, DiagnosticSink& sink);
+
+/// convert on a program held in memory that may use parameters, expressions, subprograms or
+/// control flow (resolve.hpp):
+/// - opt.flatten: it is resolved and its literal program converted;
+/// - --units without flatten: refused (PP-E502): lengths held in parameters and on lines the run
+///   does not reach cannot be converted exactly;
+/// - --linearize: the resolved program is linearised and the chords are written back into the
+///   program's own lines (write_back.hpp: refused where that is not exact, PP-E711); arcs on lines
+///   the run does not reach stay arcs;
+/// - the other options (comments, renumbering, decimals) work on the text as written.
+/// A program without such statements is converted as by convert().
+ConvertResult convert_program(std::string_view text, std::string_view file, const Dialect& dialect,
+                              const ConvertOptions& opt, io::OutputFile& out, DiagnosticSink& sink);
 
 }  // namespace postproc::gcode

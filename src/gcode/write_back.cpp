@@ -1,6 +1,6 @@
-// write_back: the compensated literal program of a resolved program, carried back onto the source
-// lines it was executed from (include/postproc/compensation/write_back.hpp).
-#include "postproc/compensation/write_back.hpp"
+// write_back: the rewritten literal program of a resolved program, carried back onto the source
+// lines it was executed from (include/postproc/gcode/write_back.hpp).
+#include "postproc/gcode/write_back.hpp"
 
 #include <algorithm>
 #include <optional>
@@ -9,15 +9,11 @@
 #include <fmt/format.h>
 
 #include "postproc/gcode/lexer.hpp"
-#include "src/compensation/compensate_support.hpp"
 #include "src/gcode/text.hpp"
 
-namespace postproc::comp {
+namespace postproc::gcode {
 namespace {
 
-using gcode::Block;
-using gcode::Span;
-using gcode::Word;
 
 struct SourceLine {
   std::string_view text, eol;
@@ -53,18 +49,18 @@ std::vector<std::string_view> split_lf(std::string_view t) {
   return lines;
 }
 
-bool lex(const gcode::Dialect& d, std::string_view text, std::uint64_t line, Block& b) {
+bool lex(const Dialect& d, std::string_view text, std::uint64_t line, Block& b) {
   b.clear();
   b.raw = text;
   b.line = line;
-  gcode::DiagnosticSink quiet(0);
-  return gcode::lex_block(d, b, gcode::LexContext{"", &quiet});
+  DiagnosticSink quiet(0);
+  return lex_block(d, b, LexContext{"", &quiet});
 }
 
 /// The index of the `ordinal`-th word named `name` in `b` (case-insensitive), -1 when none.
 int nth_word(const Block& b, std::string_view name, int ordinal) {
   for (std::size_t i = 0; i < b.words.size(); ++i)
-    if (gcode::text::iequals(b.text(b.words[i].name), name) && ordinal-- == 0) return static_cast<int>(i);
+    if (text::iequals(b.text(b.words[i].name), name) && ordinal-- == 0) return static_cast<int>(i);
   return -1;
 }
 
@@ -97,7 +93,7 @@ struct Refusal {
 /// `eol`), or the reason it cannot.
 class LineMapper {
  public:
-  explicit LineMapper(const gcode::Dialect& d) : d_(d) {}
+  explicit LineMapper(const Dialect& d) : d_(d) {}
 
   std::optional<std::string> map(std::string_view s, std::string_view r, const std::vector<std::string_view>& out,
                                  std::string_view eol, Refusal& why) {
@@ -119,8 +115,8 @@ class LineMapper {
       return std::nullopt;
     }
     if (out.size() > 1)
-      for (const gcode::Token& t : bs_.tokens)
-        if (t.kind == gcode::TokenKind::control_flow || t.kind == gcode::TokenKind::call) {
+      for (const Token& t : bs_.tokens)
+        if (t.kind == TokenKind::control_flow || t.kind == TokenKind::call) {
           why.column = t.span.begin + 1;
           why.why = fmt::format("the move needs subdivision into {} moves, written as new lines after this one, but "
                                 "the line also holds control flow ('{}') that would skip or repeat them",
@@ -135,7 +131,7 @@ class LineMapper {
     for (std::size_t j = 0; j < bo_.words.size(); ++j) {
       const Word& wo = bo_.words[j];
       const std::string_view ot = bo_.text(wo.span);
-      if (i < br_.words.size() && gcode::text::iequals(br_.text(br_.words[i].name), bo_.text(wo.name))) {
+      if (i < br_.words.size() && text::iequals(br_.text(br_.words[i].name), bo_.text(wo.name))) {
         const Word& wr = br_.words[i];
         if (br_.text(wr.span) != ot) on_r.push_back({wr.span.begin, wr.span.end, std::string(ot), static_cast<int>(i)});
         ++i;
@@ -162,7 +158,7 @@ class LineMapper {
       const std::string_view name = br_.text(wr.name);
       int ordinal = 0;
       for (int k = 0; k < e.word; ++k)
-        if (gcode::text::iequals(br_.text(br_.words[static_cast<std::size_t>(k)].name), name)) ++ordinal;
+        if (text::iequals(br_.text(br_.words[static_cast<std::size_t>(k)].name), name)) ++ordinal;
       const int si = nth_word(bs_, name, ordinal);
       if (si < 0) {
         why.why = fmt::format("the word {} of the block as resolved is not in the source line", br_.text(wr.span));
@@ -193,7 +189,7 @@ class LineMapper {
   }
 
  private:
-  const gcode::Dialect& d_;
+  const Dialect& d_;
   Block bs_, br_, bo_;
 };
 
@@ -222,18 +218,25 @@ std::string shorten(std::string_view s) {
 
 }  // namespace
 
-WriteBackResult write_back(std::string_view source, std::string_view file, const gcode::Dialect& d,
-                           const gcode::ResolvedProgram& r, std::string_view compensated,
+bool header_waits(const Block& b) {
+  bool leading = b.leader || b.raw.empty();
+  for (const Token& t : b.tokens)
+    leading = leading || t.kind == TokenKind::percent || t.kind == TokenKind::program_number;
+  return leading && b.words.empty() && b.line <= 3;
+}
+
+WriteBackResult write_back(std::string_view source, std::string_view file, const Dialect& d,
+                           const ResolvedProgram& r, std::string_view compensated,
                            const std::vector<std::uint64_t>& line_map, std::string_view header, std::string& out,
-                           gcode::DiagnosticSink& sink) {
+                           DiagnosticSink& sink) {
   WriteBackResult res;
   const std::vector<SourceLine> src = split_source(source);
   const std::vector<std::string_view> resolved = split_lf(r.text);
   const std::vector<std::string_view> comp = split_lf(compensated);
   const std::size_t n = r.source_line.size();
   const auto refuse = [&](std::uint64_t line, std::string_view text, const Refusal& why, std::string_view in_file) {
-    gcode::Diagnostic diag;
-    diag.severity = gcode::Severity::error;
+    Diagnostic diag;
+    diag.severity = Severity::error;
     diag.code = "PP-E711";
     diag.file = std::string(in_file);
     diag.where = {line, why.column};
@@ -369,4 +372,4 @@ WriteBackResult write_back(std::string_view source, std::string_view file, const
   return res;
 }
 
-}  // namespace postproc::comp
+}  // namespace postproc::gcode
