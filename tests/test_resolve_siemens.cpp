@@ -491,3 +491,23 @@ TEST(ResolveSiemens, SharedCorpus) {
     }
   }
 }
+
+// The pre-scan finds a program whose only statement is a bare subprogram name (with or without
+// arguments); keywords, predefined procedures and vendor cycles alone do not need resolution.
+TEST(ResolveSiemens, BareSubprogramNamesNeedResolution) {
+  const Dialect d = make_dialect(DialectId::siemens);
+  EXPECT_EQ(first_resolution_line("N10 G0 X0 Y0\nN20 PART1\nM30\n", d), 2u);
+  EXPECT_EQ(first_resolution_line("G0 X0\nroughing(2, 0.5)\nM30\n", d), 2u);
+  EXPECT_EQ(first_resolution_line("N10 G0 X0 Y0 ; FACE MILLING\nN20 TRAORI\nN30 CYCLE800(1,\"TC1\",0)\nN40 SOFT G1 "
+                                  "X1 F100\nN50 MSG(\"DONE\")\nN60 ORIWKS\nM30\n",
+                                  d),
+            0u);
+  // Resolved, the bare name runs the file next to the program.
+  TempDir dir;
+  dir.write("PART1.SPF", "PROC PART1\nG1 X10 Y10 F100\nRET\n");
+  ResolveOptions opt;
+  opt.search_dirs = {dir.path.string()};
+  const Outcome run = resolve_text("N10 G0 X0 Y0\nN20 PART1\nM30\n", opt);
+  EXPECT_FALSE(run.sink.has_errors()) << run.errors();
+  EXPECT_EQ(run.r.text, "N10 G0 X0 Y0\nG1 X10 Y10 F100\nM30\n");
+}

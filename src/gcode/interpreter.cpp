@@ -10,6 +10,7 @@
 #include "src/gcode/block_words.hpp"
 #include "src/gcode/codes.hpp"
 #include "src/gcode/number_text.hpp"
+#include "src/gcode/siemens_keywords.hpp"
 #include "src/gcode/text.hpp"
 
 namespace postproc::gcode {
@@ -56,6 +57,12 @@ constexpr std::string_view kSiemensStateKeywords[] = {
 };
 
 }  // namespace
+
+bool siemens_state_keyword(std::string_view name) {
+  for (std::string_view k : kSiemensStateKeywords)
+    if (text::iequals(name, k)) return true;
+  return false;
+}
 
 Interpreter::Interpreter(const Dialect& dialect, std::string file, DiagnosticSink& sink, InterpreterOptions opt)
     : d_(dialect), file_(std::move(file)), sink_(sink), opt_(opt) {
@@ -318,8 +325,7 @@ void Interpreter::siemens_token(const Block& b, const Token& t, BlockWords& w) {
   } else {
     if (iequals(name, "ORIMKS")) s_.ori_mks = true;
     if (iequals(name, "ORIWKS")) s_.ori_mks = false;
-    for (std::string_view k : kSiemensStateKeywords)
-      if (iequals(name, k)) return;
+    if (siemens_state_keyword(name)) return;
     report(b, t.span, Severity::warning, codes::kSubprogramCall,
            fmt::format("'{}' is not a keyword this version knows; on a Sinumerik it would call the subprogram "
                        "{} — not followed",

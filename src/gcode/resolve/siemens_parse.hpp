@@ -15,6 +15,7 @@
 #include <vector>
 #include <fmt/format.h>
 #include <fmt/ranges.h>
+#include "src/gcode/siemens_keywords.hpp"
 #include "src/gcode/text.hpp"
 #include "support.hpp"
 
@@ -569,26 +570,7 @@ inline std::uint32_t value_end(std::string_view s, std::uint32_t v) {
 }
 
 /// Names the lexer reports as calls or keywords that are controller functions, never subprograms.
-inline bool builtin_name(std::string_view n) {
-  static const std::unordered_set<std::string_view> kNames = {
-      "MSG", "TRAORI", "TRAFOOF", "TRANSMIT", "TRACYL", "TRAANG", "SUPA", "STOPRE", "MCALL", "SETAL", "WAITM",
-      "WAITE", "WAITMC", "CFC", "CFTCP", "CFIN", "FFWON", "FFWOF", "SOFT", "BRISK", "DRIVE", "DIAMON", "DIAMOF",
-      "DIAM90", "TRANS", "ATRANS", "ROT", "AROT", "SCALE", "ASCALE", "MIRROR", "AMIRROR", "CTRANS", "CROT",
-      "ORIWKS", "ORIMKS", "ORIAXES", "ORIVECT", "ORICONO", "OST", "CUT2D", "CUT2DF", "CUT3DC", "CUT3DF",
-      "CUT3DFF", "CUT3DFS", "COMPOF", "COMPON", "COMPCURV", "COMPCAD", "TOFRAME", "TOROT", "TOROTOF",
-      "PAROT", "PAROTOF", "SPOS", "SPOSA", "FGROUP", "FGREF", "FL", "ACC", "VELOLIM", "JERKLIM", "G_GROUP",
-      "NORM", "KONT", "KONTC", "KONTT", "DISC", "DISR", "DISCL", "G17", "M", "TCARR", "TCOABS", "TCOFR",
-      "PTP", "CP", "STOPFIFO", "STARTFIFO", "FIFOCTRL", "ROTS", "AROTS", "CORROF", "DRFOF", "RESET", "GETT",
-      "WRTPR", "MSG", "ACN", "ACP", "DC", "CIC", "CAC", "CDC", "CACN", "CACP", "CLEARM", "SETM", "G4",
-      "RTLION", "RTLIOF", "FNORM", "FLIN", "FCUB", "SPATH", "UPATH", "CPRECON", "CPRECOF", "OFFN", "TRAFOOF",
-      "DYNNORM", "DYNPOS", "DYNROUGH", "DYNSEMIFIN", "DYNFINISH", "SOFTA", "BRISKA", "EXTCALL", "PCALL",
-      "MCALL", "CALL", "HOLES1", "HOLES2", "LONGHOLE", "SLOT1", "SLOT2", "POCKET1", "POCKET2", "SETMS",
-      "LIMS", "G0", "DEFAULT", "ENDPROC"};
-  if (kNames.count(n)) return true;
-  for (std::string_view p : {"CYCLE", "POCKET", "SLOT", "HOLES", "LONGHOLE", "E_", "F_", "_"})
-    if (n.substr(0, p.size()) == p) return true;
-  return false;
-}
+inline bool builtin_name(std::string_view n) { return siemens_builtin_name(n); }
 
 
 

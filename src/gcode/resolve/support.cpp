@@ -5,11 +5,13 @@
 #include <array>
 #include <cmath>
 #include <filesystem>
+#include <unordered_set>
 
 #include <fmt/format.h>
 
 #include "postproc/error.hpp"
 #include "postproc/io/input_file.hpp"
+#include "src/gcode/siemens_keywords.hpp"
 
 namespace postproc::gcode {
 namespace resolver {
@@ -204,6 +206,27 @@ SourceFile* FileSet::find(const std::vector<std::string>& candidates) {
 
 }  // namespace resolver
 
+bool siemens_builtin_name(std::string_view n) {
+  static const std::unordered_set<std::string_view> kNames = {
+      "MSG", "TRAORI", "TRAFOOF", "TRANSMIT", "TRACYL", "TRAANG", "SUPA", "STOPRE", "MCALL", "SETAL", "WAITM",
+      "WAITE", "WAITMC", "CFC", "CFTCP", "CFIN", "FFWON", "FFWOF", "SOFT", "BRISK", "DRIVE", "DIAMON", "DIAMOF",
+      "DIAM90", "TRANS", "ATRANS", "ROT", "AROT", "SCALE", "ASCALE", "MIRROR", "AMIRROR", "CTRANS", "CROT",
+      "ORIWKS", "ORIMKS", "ORIAXES", "ORIVECT", "ORICONO", "OST", "CUT2D", "CUT2DF", "CUT3DC", "CUT3DF",
+      "CUT3DFF", "CUT3DFS", "COMPOF", "COMPON", "COMPCURV", "COMPCAD", "TOFRAME", "TOROT", "TOROTOF",
+      "PAROT", "PAROTOF", "SPOS", "SPOSA", "FGROUP", "FGREF", "FL", "ACC", "VELOLIM", "JERKLIM", "G_GROUP",
+      "NORM", "KONT", "KONTC", "KONTT", "DISC", "DISR", "DISCL", "G17", "M", "TCARR", "TCOABS", "TCOFR",
+      "PTP", "CP", "STOPFIFO", "STARTFIFO", "FIFOCTRL", "ROTS", "AROTS", "CORROF", "DRFOF", "RESET", "GETT",
+      "WRTPR", "MSG", "ACN", "ACP", "DC", "CIC", "CAC", "CDC", "CACN", "CACP", "CLEARM", "SETM", "G4",
+      "RTLION", "RTLIOF", "FNORM", "FLIN", "FCUB", "SPATH", "UPATH", "CPRECON", "CPRECOF", "OFFN", "TRAFOOF",
+      "DYNNORM", "DYNPOS", "DYNROUGH", "DYNSEMIFIN", "DYNFINISH", "SOFTA", "BRISKA", "EXTCALL", "PCALL",
+      "MCALL", "CALL", "HOLES1", "HOLES2", "LONGHOLE", "SLOT1", "SLOT2", "POCKET1", "POCKET2", "SETMS",
+      "LIMS", "G0", "DEFAULT", "ENDPROC"};
+  if (kNames.count(n)) return true;
+  for (std::string_view p : {"CYCLE", "POCKET", "SLOT", "HOLES", "LONGHOLE", "E_", "F_", "_"})
+    if (n.substr(0, p.size()) == p) return true;
+  return false;
+}
+
 namespace {
 
 /// `w` (upper case) at raw[i], case-insensitively.
@@ -270,6 +293,13 @@ bool may_need(std::string_view raw, const Dialect& d) {
         }
     }
   }
+  if (!fanuc) {
+    // A bare subprogram name (PART1, PART1(2)) can start with any letter: two letters in a row
+    // send the line to the lexer (keywords, comments and names; the lexer decides).
+    const auto letter = [](char c) { return (c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z'); };
+    for (std::size_t i = 0; i + 1 < raw.size(); ++i)
+      if (letter(raw[i]) && letter(raw[i + 1])) return true;
+  }
   return false;
 }
 
@@ -297,6 +327,8 @@ bool line_needs(std::string_view raw, std::uint64_t line, const Dialect& d, Bloc
         if (un.find("CALL") != std::string::npos || un.find("RET") != std::string::npos ||
             un.find("SETAL") != std::string::npos)
           return true;
+        // A name that is no keyword or predefined procedure: a call of the user's subprogram.
+        if (!siemens_builtin_name(un) && !siemens_state_keyword(un)) return true;
       }
   }
   return false;
