@@ -405,7 +405,8 @@ TEST(ResolveFanuc, MissingTargets) {
   EXPECT_EQ(d.where.line, 2u);
   EXPECT_NE(d.message.find("N99"), std::string::npos) << d.message;
   EXPECT_EQ(first_error(run("M98 P4711\nM30\n")).code, "PP-E704");
-  EXPECT_EQ(first_error(run("G66 P9010 A1.\nM30\n")).code, "PP-E709");
+  EXPECT_EQ(first_error(run("G66.1 P9010 A1.\nM30\n")).code, "PP-E709");
+  EXPECT_EQ(first_error(run("G66 P9011 A1.\nG0 X1.\nM30\n")).code, "PP-E704");  // when the move calls it
 }
 
 TEST(ResolveFanuc, EndlessLoop) {
@@ -570,4 +571,26 @@ TEST(ResolveFanucSpeed, ThousandPassesOverThousandMoves) {
 #ifdef NDEBUG
   EXPECT_GE(rate, 1e6);
 #endif
+}
+
+// G66 modal call: every block with an axis word calls the macro after its move, with G66's
+// arguments, until G67; moves inside the macro do not call it again; L repeats each call.
+TEST(ResolveFanuc, G66ModalCall) {
+  const std::string program =
+      "%\nO1000\nG21 G90 G17 G54\n#100=2.\nG0 X0. Y0. Z10.\nG66 P9010 R2. Z-5. F100.\nG0 X10. Y10.\nX20.\nM05\n"
+      "G67\nG0 X30.\nM30\nO9010\nG0 Z#18\nG1 Z#26 F#9\nG0 Z#18\nM99\n%\n";
+  Result x = run(program);
+  ASSERT_FALSE(x.sink.has_errors()) << diags(x.sink);
+  EXPECT_EQ(x.r.text,
+            "%\nO1000\nG21 G90 G17 G54\nG0 X0. Y0. Z10.\nG0 X10. Y10.\nG0 Z2.\nG1 Z-5. F100.\nG0 Z2.\nX20.\n"
+            "G0 Z2.\nG1 Z-5. F100.\nG0 Z2.\nM05\nG0 X30.\nM30\n%\n");
+  // The macro's lines are reached through the G66 call at the move's line.
+  ASSERT_GE(x.r.stack.size(), 6u);
+  const auto& frames = x.r.stacks[x.r.stack[5]];
+  ASSERT_EQ(frames.size(), 1u);
+  EXPECT_EQ(frames[0].callee, "G66 P9010");
+  EXPECT_EQ(frames[0].line, 7u);
+  // L2: two calls after each move.
+  const std::string twice = literal("G66 P9010 L2 R1. Z-1.\nG0 X5.\nG67\nM30\nO9010\nG1 Z#26\nM99\n");
+  EXPECT_EQ(twice, "G0 X5.\nG1 Z-1.\nG1 Z-1.\nM30\n");
 }

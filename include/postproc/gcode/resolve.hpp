@@ -18,7 +18,7 @@
 ///   sub/endsub/call with arguments and return values, if/elseif/else, while, do/while, repeat,
 ///   break/continue, subroutine files `name.ngc` next to the program.
 /// - Fanuc macro B: #1–#33 locals, #100–#199 and #500–#999 common variables, arithmetic and
-///   functions, G65 calls, M98/M99 subprograms (same file, or O#### files in the folder),
+///   functions, G65 calls and G66/G67 modal calls, M98/M99 subprograms (same file, or O#### files in the folder),
 ///   IF [..] GOTO n, IF [..] THEN, WHILE [..] DO m … END m.
 /// - Siemens: R parameters, DEF variables and arrays, NAME=expr, IF/ELSE/ENDIF, WHILE, FOR,
 ///   REPEAT/UNTIL, LOOP, GOTOF/GOTOB/GOTO/GOTOC, IC()/AC() arguments evaluated.

@@ -18,6 +18,9 @@
 //   its argument (G65 argument values are taken as written, not in input increments).
 // - G65 arguments: specification I, and specification II for repeated I/J/K (I1 J1 K1 I2 …).
 //   G65 … L n repeats the call n times, each with fresh locals from the arguments.
+// - G66 P… L… <arguments> (modal call): from the next block on, every block with an axis word
+//   calls the macro after its move, with G66's arguments, until G67; moves inside the macro called
+//   that way do not call it again. G66.1 (a call after every block) is refused (PP-E709).
 // - Subprogram targets: O#### / :#### in the same file, else a file O#### (or O####.nc) in
 //   opt.search_dirs. M98 P<repeats 4 digits><program 4 digits> (packed form) is used when P has more
 //   than 4 digits, there is no L, and no program with the full number exists.
@@ -92,6 +95,7 @@ struct Frame {
   std::size_t ret_line = 0;     // the caller's call line
   int repeats_left = 0;
   bool macro = false;           // G65: own locals
+  bool modal = false;           // called by a G66 modal call
   Locals args{};                // G65: the arguments (re-set on each repetition)
   std::vector<Loop> loops;
 };
@@ -146,6 +150,14 @@ class Runner {
   std::vector<std::vector<std::unique_ptr<LinePlan>>> plans_;               // [file][line]
   std::vector<std::unique_ptr<std::unordered_map<std::uint64_t, std::size_t>>> programs_;  // [file] O number → line
   std::vector<Frame> frames_;
+  /// A G66 modal call in effect: the macro every block with a move calls after it.
+  struct ModalCall {
+    double program = 0;
+    int repeats = 1;
+    Locals args{};
+  };
+  std::optional<ModalCall> modal_;
+  std::string modal_callee_;
   std::vector<Locals> locals_;
   std::array<Var, 1000> common_{};  // #100–#999
   std::unordered_map<int, double> system_;  // system variables written by the program
@@ -715,7 +727,7 @@ void Runner::step() {
   const std::size_t line = pc_;
   LinePlan& p = *plan(f, line);
   if (p.error) throw *p.error;
-  if (p.plain) {
+  if (p.plain && !modal_) {  // (under G66 a plain move still calls the macro)
     static const std::vector<Edit> none;
     emit(f, line, none);
     ++pc_;
@@ -735,7 +747,8 @@ void Runner::step() {
   std::optional<double> ret_n;
   Span ret_span;
   // Word values as evaluated (for M/G/P/L).
-  std::optional<std::size_t> g65, m98, m99, p_word, l_word;
+  std::optional<std::size_t> g65, g66, g67, m98, m99, p_word, l_word;
+  bool moves = false;  // an axis word with a value (G66 calls after such a block)
   std::vector<double>& vals = vals_;
   vals.assign(p.items.size(), 0.0);
   for (std::size_t k = 0; k < p.items.size(); ++k) {
@@ -755,13 +768,15 @@ void Runner::step() {
           text_[k] = format_value(v, it.letter);
         }
         vals[k] = v;
-        if (it.letter == 'G' && (v == 66 || v == 67 || std::fabs(v - 66.1) < 1e-9))
+        if (it.letter == 'G' && std::fabs(v - 66.1) < 1e-9)
           throw Failure{"PP-E709",
-                        fmt::format("G{} modal macro calls are not supported by the resolver; call the macro with G65 "
-                                    "at each position instead",
-                                    format_value(v, 'G')),
+                        "G66.1 (a macro call after every block) is not supported by the resolver; call the macro with "
+                        "G65 where it is needed instead",
                         it.span};
         if (it.letter == 'G' && v == 65) g65 = k;
+        if (it.letter == 'G' && v == 66) g66 = k;
+        if (it.letter == 'G' && v == 67) g67 = k;
+        if (std::string_view("XYZABCUVW").find(it.letter) != std::string_view::npos) moves = true;
         if (it.letter == 'M' && v == 98) m98 = k;
         if (it.letter == 'M' && v == 99) m99 = k;
         if (it.letter == 'M' && (v == 30 || v == 2) && next == Next::advance) next = Next::end_run;
@@ -846,10 +861,17 @@ void Runner::step() {
   double program = 0;
   int repeats = 1;
   bool macro = false;
-  if (g65 || m98) {
-    const Item& at = p.items[g65 ? *g65 : *m98];
+  if (g67) {
+    action_[*g67] = 1;
+    modal_.reset();
+  }
+  const char* const call_code = g65 ? "G65" : g66 ? "G66" : "M98";
+  if ((g65 && g66) || ((g65 || g66) && m98))
+    throw Failure{"PP-E709", "a block with two calls (G65, G66, M98): write one per block", p.items[g66 ? *g66 : *m98].span};
+  if (g65 || g66 || m98) {
+    const Item& at = p.items[g65 ? *g65 : g66 ? *g66 : *m98];
     if (!p_word || std::isnan(vals[*p_word]))
-      throw Failure{"PP-E702", fmt::format("{} needs the program number: P####", g65 ? "G65" : "M98"), at.span};
+      throw Failure{"PP-E702", fmt::format("{} needs the program number: P####", call_code), at.span};
     program = vals[*p_word];
     if (l_word) {
       if (std::isnan(vals[*l_word])) repeats = 1;
@@ -864,9 +886,10 @@ void Runner::step() {
         if (repeats == 0) repeats = 1;
       }
     }
-    macro = static_cast<bool>(g65);
-    callee = fmt::format("{} P{}", g65 ? "G65" : "M98", format_value(program, 'P'));
-    if (g65) {
+    macro = g65 || g66;
+    callee = fmt::format("{} P{}", call_code, format_value(program, 'P'));
+    if (macro) {
+      const std::size_t head = g65 ? *g65 : *g66;
       // Argument specification I (II for repeated I/J/K); G L N O P are not arguments.
       static constexpr int kSpec1[26] = {1, 2, 3, 7, 8, 9, 0, 11, 4, 5, 6, 0, 13, 0, 0, 0, 17, 18, 19, 20, 21, 22, 23, 24, 25, 26};
       int ijk_group = -1;
@@ -875,13 +898,16 @@ void Runner::step() {
         const Item& it = p.items[k];
         if (it.kind != ItemKind::word) continue;
         action_[k] = 1;
-        if (k == *g65 || k == *p_word || (l_word && k == *l_word)) continue;
+        if (k == head || k == *p_word || (l_word && k == *l_word)) continue;
         const char L = it.letter;
         if (L < 'A' || L > 'Z' || kSpec1[L - 'A'] == 0) {
           if (L == 'G' || L == 'M')
-            throw Failure{"PP-E709", "G65 must be alone in its block with its arguments; put other codes in their own block",
+            throw Failure{"PP-E709",
+                          fmt::format("{} must be alone in its block with its arguments; put other codes in their own "
+                                      "block",
+                                      call_code),
                           it.span};
-          throw Failure{"PP-E702", fmt::format("{} is not a G65 argument address", L), it.span};
+          throw Failure{"PP-E702", fmt::format("{} is not a {} argument address", L, call_code), it.span};
         }
         int var = kSpec1[L - 'A'];
         if (L == 'I' || L == 'J' || L == 'K') {
@@ -899,7 +925,13 @@ void Runner::step() {
       if (l_word) action_[*l_word] = 1;
     }
     if (repeats < 1) repeats = 0;
-    next = Next::call;
+    if (g66) {
+      // The mode is set; the calls come after the moves of the blocks that follow.
+      modal_ = ModalCall{program, repeats, args};
+      modal_callee_ = callee;
+    } else {
+      next = Next::call;
+    }
   } else if (m99) {
     action_[*m99] = 1;
     if (p_word) {
@@ -955,6 +987,14 @@ void Runner::step() {
     }
   }
   emit(f, line, std::span<const Edit>(edits_.data(), ne));
+  if (next == Next::advance && modal_ && moves && !g66 && modal_->repeats > 0 &&
+      std::none_of(frames_.begin(), frames_.end(), [](const Frame& x) { return x.modal; })) {
+    // G66 in effect: the macro runs after this block's move (not from inside a macro it called).
+    const ModalCall mc = *modal_;
+    call(true, mc.program, mc.repeats, mc.args, p, p.items.front(), modal_callee_);
+    frames_.back().modal = true;
+    return;
+  }
   switch (next) {
     case Next::advance: ++pc_; break;
     case Next::jump: {
@@ -984,7 +1024,7 @@ void Runner::run() {
   plans_.resize(1);
   programs_.resize(1);
   locals_.emplace_back();
-  frames_.push_back(Frame{&m, 0, nullptr, 0, 1, false, {}, {}});
+  frames_.push_back(Frame{&m, 0, nullptr, 0, 1, false, false, {}, {}});
   file_ = &m;
   pc_ = 0;
   // Tape leader: text before the first '%' is not executed (when a program follows the '%').
