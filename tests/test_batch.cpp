@@ -193,3 +193,40 @@ TEST(Batch, MissingMachineFailsTheFileNotTheBatch) {
   EXPECT_NE(r.files[1].reason.find("m/machine.toml refused"), std::string::npos) << r.files[1].reason;
   EXPECT_FALSE(r.files[1].diagnostics.empty());
 }
+
+// Programs with parameters and control flow (issue 3): written back into their own lines when
+// that is exact, refused with the line otherwise, flattened with --flatten; the manifest says how.
+TEST(Batch, ResolvedProgramsAreWrittenBackOrRefused) {
+  TempDir t;
+  write(t.path / "jobs/literal.ngc",
+        "G21 G90 G94 G18 G8\nG54\n#<_feed> = 300\nG0 X60. Z10. B0. C0.\nG1 X45. Z2. F#<_feed>\n"
+        "o100 if [#<_feed> GT 100]\n  G1 X47.5 Z-5. B-4. C40.\no100 endif\nM30\n");
+  write(t.path / "jobs/computed.ngc",
+        "G21 G90 G94 G18 G8\nG54\n#<r> = 45\nG0 X60. Z10. B0. C0.\nG1 X[#<r> + 1] Z2. F300.\nM30\n");
+  batch::BatchOptions o;
+  o.job_dir = t.path / "jobs";
+  o.out_dir = t.path / "out";
+  o.machine = (kSamples / "machines/lathe_xzbc_doc004.toml").string();
+  o.compensate.tool_version = "test";
+  auto r = batch::run_batch(o);
+  ASSERT_EQ(r.files.size(), 2u);
+  const batch::FileResult& computed = r.files[0];
+  const batch::FileResult& literal = r.files[1];
+  EXPECT_EQ(computed.status, "refused");
+  EXPECT_NE(computed.reason.find("PP-E711"), std::string::npos) << computed.reason;
+  EXPECT_NE(computed.reason.find(":5:"), std::string::npos) << computed.reason;
+  EXPECT_FALSE(fs::exists(o.out_dir / "computed.ngc"));
+  ASSERT_EQ(literal.status, "written") << literal.reason;
+  EXPECT_EQ(literal.figures["resolution"]["written"], "in place");
+  EXPECT_EQ(literal.figures["resolution"]["source_lines_rewritten"], 3);
+  const std::string out = io::read_file((o.out_dir / "literal.ngc").string(), "output");
+  EXPECT_NE(out.find("\n#<_feed> = 300\n"), std::string::npos);
+  EXPECT_NE(out.find(" F#<_feed>\n"), std::string::npos);
+  // --flatten: both written as literal moves.
+  o.compensate.flatten = true;
+  o.out_dir = t.path / "flat";
+  r = batch::run_batch(o);
+  EXPECT_EQ(r.count("written"), 2u);
+  EXPECT_EQ(r.files[0].figures["resolution"]["written"], "flattened");
+  EXPECT_EQ(io::read_file((o.out_dir / "computed.ngc").string(), "output").find('#'), std::string::npos);
+}
