@@ -511,3 +511,32 @@ TEST(ResolveSiemens, BareSubprogramNamesNeedResolution) {
   EXPECT_FALSE(run.sink.has_errors()) << run.errors();
   EXPECT_EQ(run.r.text, "N10 G0 X0 Y0\nG1 X10 Y10 F100\nM30\n");
 }
+
+// CASE (expr) OF value GOTOx target … DEFAULT GOTOx target: the first equal value's jump, else
+// DEFAULT's, else on to the next line.
+TEST(ResolveSiemens, CaseOf) {
+  const std::string program =
+      "DEF INT K\n"
+      "FOR K=1 TO 4\n"
+      "CASE (K*2) OF 2 GOTOF ONE 4 GOTOF TWO DEFAULT GOTOF OTHER\n"
+      "ONE: G1 X1\n"
+      "GOTOF NEXT\n"
+      "TWO: G1 X2\n"
+      "GOTOF NEXT\n"
+      "OTHER: G1 X=K\n"
+      "NEXT:\n"
+      "ENDFOR\n"
+      "R1=7\n"
+      "CASE (R1) OF 1 GOTOF N90\n"
+      "G1 Y7\n"
+      "N90 M30\n";
+  const Outcome run = resolve_text(program);
+  EXPECT_FALSE(run.sink.has_errors()) << run.errors();
+  EXPECT_EQ(run.r.text, "G1 X1\nG1 X2\nG1 X=3.\nG1 X=4.\nG1 Y7\nN90 M30\n");
+  const Outcome bad = resolve_text("CASE (R1) OF 1 GOTOF A1 2\nA1: M30\n");
+  ASSERT_TRUE(bad.sink.has_errors());
+  EXPECT_EQ(bad.sink.stored().front().code, "PP-E702") << bad.errors();
+  const Outcome missing = resolve_text("R1=2\nCASE (R1) OF 1 GOTOF A1 2 GOTOF NOWHERE\nA1: M30\n");
+  ASSERT_TRUE(missing.sink.has_errors());
+  EXPECT_EQ(missing.sink.stored().front().code, "PP-E704") << missing.errors();
+}

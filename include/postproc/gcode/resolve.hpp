@@ -21,7 +21,7 @@
 ///   functions, G65 calls and G66/G67 modal calls, M98/M99 subprograms (same file, or O#### files in the folder),
 ///   IF [..] GOTO n, IF [..] THEN, WHILE [..] DO m … END m.
 /// - Siemens: R parameters, DEF variables and arrays, NAME=expr, IF/ELSE/ENDIF, WHILE, FOR,
-///   REPEAT/UNTIL, LOOP, GOTOF/GOTOB/GOTO/GOTOC, IC()/AC() arguments evaluated.
+///   REPEAT/UNTIL, LOOP, CASE … OF, GOTOF/GOTOB/GOTO/GOTOC, IC()/AC() arguments evaluated.
 
 #include <cstdint>
 #include <map>

@@ -1,6 +1,6 @@
 // Resolver for the siemens dialect (see include/postproc/gcode/resolve.hpp): runs a Sinumerik
 // 840D program — R parameters, DEF variables and arrays, NAME=expr, IF/ELSE/ENDIF, WHILE, FOR,
-// REPEAT/UNTIL, LOOP, GOTOF/GOTOB/GOTO/GOTOC, L/named/PROC subprograms — and emits the literal
+// REPEAT/UNTIL, LOOP, CASE … OF, GOTOF/GOTOB/GOTO/GOTOC, L/named/PROC subprograms — and emits the literal
 // program through the Emitter.
 //
 // Each source line is parsed once into a `Line` (statements, expressions compiled into a node
@@ -120,6 +120,7 @@ class Siemens {
   void parse_decl(Line& L, std::string_view raw, Span rest);
   void parse_proc(Line& L, std::string_view raw, Span rest);
   Target parse_target(Line& L, std::string_view raw, Span s);
+  void parse_case(Line& L, std::string_view raw, const Token& t);
   Jump parse_jump(std::string_view raw, std::uint32_t b, std::uint32_t e, std::string_view kw);
   void parse_args(Line& L, Call& c, std::string_view raw, std::uint32_t open, std::uint32_t close);
 
@@ -248,6 +249,47 @@ Target Siemens::parse_target(Line& L, std::string_view raw, Span s) {
   return t;
 }
 
+// CASE (expression) OF value GOTOF target value GOTOB target … DEFAULT GOTOF target
+void Siemens::parse_case(Line& L, std::string_view raw, const Token& t) {
+  const std::uint32_t b = t.name.end, e = t.span.end;
+  const std::uint32_t of = find_keyword(raw, b, e, {"OF"});
+  if (of == static_cast<std::uint32_t>(-1))
+    throw Fail{"PP-E702", t.span, "syntax error: write CASE (expression) OF value GOTOF label … DEFAULT GOTOF label"};
+  {
+    Parser p(raw, b, of, L.pool);
+    if (p.at_end()) p.fail_here("CASE needs an expression");
+    L.cond = p.expr();
+    p.expect_end("the CASE expression");
+  }
+  std::uint32_t pos = of + 2;
+  while (true) {
+    while (pos < e && (raw[pos] == ' ' || raw[pos] == '\t')) ++pos;
+    if (pos >= e) break;
+    std::string_view which;
+    const std::uint32_t g = find_keyword(raw, pos, e, {"GOTOF", "GOTOB", "GOTOC", "GOTO"}, &which);
+    if (g == static_cast<std::uint32_t>(-1))
+      throw Fail{"PP-E702", {pos, e}, "syntax error: each CASE value needs a jump: value GOTOF label"};
+    // The jump's target: one label or block number.
+    std::uint32_t q = g + static_cast<std::uint32_t>(which.size());
+    while (q < e && (raw[q] == ' ' || raw[q] == '\t')) ++q;
+    while (q < e && (is_ident(raw[q]))) ++q;
+    const Jump jump = parse_jump(raw, g + static_cast<std::uint32_t>(which.size()), q, which);
+    std::string_view value = raw.substr(pos, g - pos);
+    while (!value.empty() && (value.back() == ' ' || value.back() == '\t')) value.remove_suffix(1);
+    if (text::iequals(value, "DEFAULT")) {
+      L.case_default = jump;
+    } else {
+      Parser p(raw, pos, g, L.pool);
+      if (p.at_end()) p.fail_here("a CASE branch needs a value before its jump");
+      L.cases.emplace_back(p.expr(), jump);
+      p.expect_end("the CASE value");
+    }
+    pos = q;
+  }
+  if (L.cases.empty() && !L.case_default)
+    throw Fail{"PP-E702", t.span, "syntax error: CASE … OF has no branch (value GOTOF label)"};
+}
+
 Jump Siemens::parse_jump(std::string_view raw, std::uint32_t b, std::uint32_t e, std::string_view kw) {
   Jump j;
   const std::string k = upper(kw);
@@ -347,7 +389,8 @@ void Siemens::parse_control(Line& L, std::string_view raw, const Token& t) {
     if (!p.at_end()) throw Fail{"PP-E709", t.span, "RET with arguments (return to a label) is not supported; use RET alone"};
     L.ctl = Ctl::ret;
   } else if (kw == "CASE") {
-    throw Fail{"PP-E709", t.span, "CASE … OF … is not evaluated by the resolver; write it as IF/GOTOF"};
+    parse_case(L, raw, t);
+    L.ctl = Ctl::case_;
   } else if (kw == "TO") {
     throw Fail{"PP-E702", t.span, "syntax error: TO outside FOR"};
   } else {
@@ -1338,25 +1381,37 @@ bool Siemens::step(Frame& fr, Line& L) {
       return d;
     };
     auto partner = [&](FileData& d) { return static_cast<std::size_t>(d.match[i]); };
-    auto go = [&]() {
-      auto t = find_jump(f, i, L.jump);
+    auto go = [&](const Jump& jump) {
+      auto t = find_jump(f, i, jump);
       if (t) {
         next = *t;
-      } else if (L.jump.kind != GoKind::quiet) {
-        throw Fail{"PP-E704", L.jump.span,
+      } else if (jump.kind != GoKind::quiet) {
+        throw Fail{"PP-E704", jump.span,
                    fmt::format("jump target {} not found {}; add the label or block number, or check the spelling",
-                               L.jump.is_n ? fmt::format("N{}", format_value(L.jump.n, 'N')) : L.jump.label + ":",
-                               L.jump.kind == GoKind::forward ? "after this block (GOTOF searches forward)"
-                               : L.jump.kind == GoKind::backward ? "before this block (GOTOB searches backward)"
-                                                                 : "in this program")};
+                               jump.is_n ? fmt::format("N{}", format_value(jump.n, 'N')) : jump.label + ":",
+                               jump.kind == GoKind::forward ? "after this block (GOTOF searches forward)"
+                               : jump.kind == GoKind::backward ? "before this block (GOTOB searches backward)"
+                                                               : "in this program")};
       }
     };
     switch (L.ctl) {
       case Ctl::none: break;
       case Ctl::if_goto:
-        if (eval(L.pool, L.cond) != 0) go();
+        if (eval(L.pool, L.cond) != 0) go(L.jump);
         break;
-      case Ctl::go: go(); break;
+      case Ctl::go: go(L.jump); break;
+      case Ctl::case_: {
+        // The first branch whose value equals the expression, else DEFAULT, else the next line.
+        const double v = eval(L.pool, L.cond);
+        const Jump* to = L.case_default ? &*L.case_default : nullptr;
+        for (const auto& [value, jump] : L.cases)
+          if (eval(L.pool, value) == v) {
+            to = &jump;
+            break;
+          }
+        if (to != nullptr) go(*to);
+        break;
+      }
       case Ctl::if_block: {
         FileData& d = structure_of();
         if (eval(L.pool, L.cond) == 0) {

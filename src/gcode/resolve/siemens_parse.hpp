@@ -475,7 +475,7 @@ struct Call {
 };
 
 enum class Ctl : std::uint8_t {
-  none, if_block, if_goto, else_, endif, while_, endwhile, for_, endfor, repeat, until, loop, endloop, go, ret
+  none, if_block, if_goto, else_, endif, while_, endwhile, for_, endfor, repeat, until, loop, endloop, go, ret, case_
 };
 enum class GoKind : std::uint8_t { forward, backward, both, quiet };
 
@@ -509,6 +509,9 @@ struct Line {
   Span ctl_span;
   std::uint32_t cond = 0;
   Jump jump;
+  /// CASE (cond) OF value GOTOx target …: each value's expression and jump; DEFAULT's jump.
+  std::vector<std::pair<std::uint32_t, Jump>> cases;
+  std::optional<Jump> case_default;
   Target for_var;
   std::uint32_t for_from = 0, for_to = 0;
   std::string label;
