@@ -378,3 +378,36 @@ TEST(Diagnostics, FormatShowsCaretUnderTheSpan) {
 }
 
 }  // namespace
+
+// Statements the Sinumerik writes with brackets, strings or '$' are one token each, so a line that
+// holds them lexes (convert reads the program as written) and the pre-scan sees them.
+TEST(LexerSiemens, IndexedAssignmentsCallByNameAndSystemVariableWrites) {
+  const auto d = dialect("siemens");
+  const Lexed arr(d, "AR[1, R2]=5*R3 G1 X=AR[1] ; set");
+  ASSERT_TRUE(arr.ok);
+  EXPECT_EQ(arr.tokens(), (Strings{"AR[1, R2]=5*R3", "; set"}));
+  EXPECT_EQ(arr.block.tokens[0].kind, TokenKind::assignment);
+  EXPECT_EQ(arr.of(arr.block.tokens[0].name), "AR");
+  EXPECT_EQ(arr.words(), (Strings{"G1", "X=AR[1]"}));
+
+  const Lexed r(d, "R[R1+1] = 2");
+  ASSERT_TRUE(r.ok);
+  EXPECT_EQ(r.tokens(), (Strings{"R[R1+1] = 2"}));
+  EXPECT_EQ(r.block.tokens[0].kind, TokenKind::assignment);
+
+  const Lexed call(d, "N20 CALL \"PART2\" ; sub");
+  ASSERT_TRUE(call.ok);
+  EXPECT_EQ(call.tokens(), (Strings{"CALL \"PART2\"", "; sub"}));
+  EXPECT_EQ(call.block.tokens[0].kind, TokenKind::call);
+  EXPECT_EQ(call.of(call.block.tokens[0].name), "CALL");
+
+  const Lexed sys(d, "$P_UIFR[1,X,TR]=10");
+  ASSERT_TRUE(sys.ok);
+  EXPECT_EQ(sys.block.tokens[0].kind, TokenKind::assignment);
+  EXPECT_EQ(sys.of(sys.block.tokens[0].name), "$P_UIFR");
+
+  // Still refused: a read of a system variable where a statement should be, an open string.
+  EXPECT_FALSE(Lexed(d, "$AA_IM[X]").ok);
+  EXPECT_FALSE(Lexed(d, "CALL \"PART2").ok);
+  EXPECT_FALSE(Lexed(d, "AR[1]=").ok);
+}

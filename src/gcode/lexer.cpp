@@ -79,6 +79,8 @@ class Lexer {
         next = hash_assignment(i);
       } else if (is_alpha(c) || (c == '_' && d_.multi_letter_identifiers)) {
         next = d_.multi_letter_identifiers ? siemens_item(i, first_item) : letter_item(i, first_item);
+      } else if (c == '$' && d_.multi_letter_identifiers && i + 1 < n() && (is_alpha(s_[i + 1]) || s_[i + 1] == '_')) {
+        next = system_variable_write(i);
       } else {
         next = bad(i, "PP-E101", fmt::format("unexpected character '{}'", printable(c)),
                    "remove it or check the --dialect");
@@ -361,6 +363,26 @@ class Lexer {
       return d + 1;
     }
     const std::string_view ident = s_.substr(i, d - i);
+    if (d < n() && s_[d] == '[') {
+      // An indexed assignment: an array element (AR[1,2]=…) or a computed R parameter (R[R1]=…).
+      const std::uint32_t m = match_bracket(d, '[', ']');
+      const std::uint32_t eq = m == 0 ? m : skip_space(m);
+      if (m != 0 && eq < n() && s_[eq] == '=' && !(eq + 1 < n() && s_[eq + 1] == '=')) {
+        const std::uint32_t v = skip_space(eq + 1);
+        const std::uint32_t end = siemens_expression_end(v);
+        if (end == v) return bad(i, "PP-E109", fmt::format("'{}[…]=' without a value", ident), "write a value after '='");
+        push_token(TokenKind::assignment, {i, end}, {i, d});
+        return end;
+      }
+    }
+    if (iequals(ident, "CALL") && after < n() && s_[after] == '"') {
+      // CALL "NAME": a subprogram call by name.
+      const auto close = s_.find('"', after + 1);
+      if (close == std::string_view::npos)
+        return bad(after, "PP-E108", "the subprogram name after CALL is not closed", "close it with '\"'");
+      push_token(TokenKind::call, {i, static_cast<std::uint32_t>(close + 1)}, {i, d});
+      return static_cast<std::uint32_t>(close + 1);
+    }
     for (std::string_view kw : kSiemensDeclarations)
       if (iequals(ident, kw)) {
         const std::uint32_t end = rest_of_statement(d);
@@ -433,6 +455,26 @@ class Lexer {
     }
     b_.words.push_back(w);
     return v_end;
+  }
+
+  /// Siemens `$NAME=…` / `$NAME[…]=…`: a system variable written (an assignment token).
+  std::uint32_t system_variable_write(std::uint32_t i) {
+    std::uint32_t d = i + 1;
+    while (d < n() && (is_ident(s_[d]) || s_[d] == '_')) ++d;
+    std::uint32_t q = d;
+    if (q < n() && s_[q] == '[') {
+      q = match_bracket(q, '[', ']');
+      if (q == 0) return bad(i, "PP-E108", "'[' is not closed", "close the index with ']'", d - i + 1);
+    }
+    const std::uint32_t eq = skip_space(q);
+    if (!(eq < n() && s_[eq] == '=' && !(eq + 1 < n() && s_[eq + 1] == '=')))
+      return bad(i, "PP-E101", "unexpected character '$'", "a system variable can only be written here: $NAME=value",
+                 q - i);
+    const std::uint32_t v = skip_space(eq + 1);
+    const std::uint32_t end = siemens_expression_end(v);
+    if (end == v) return bad(i, "PP-E109", "a system variable write without a value", "write a value after '='");
+    push_token(TokenKind::assignment, {i, end}, {i, d});
+    return end;
   }
 
   /// True when only an N word (and blanks) precede position i.
