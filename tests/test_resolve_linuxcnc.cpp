@@ -191,3 +191,17 @@ TEST(ResolveLinuxcnc, ParseSetting) {
   EXPECT_THROW((void)parse_setting("#5061"), postproc::Error);
   EXPECT_THROW((void)parse_setting("#5061=abc"), postproc::Error);
 }
+
+// A program that opens with '%' keeps its closing '%' when M2 ends the run before it (LinuxCNC
+// refuses a file opened with '%' that does not close with one); without the opening one, nothing
+// after M2 is written.
+TEST(ResolveLinuxcnc, ClosingPercentAfterTheProgramEnd) {
+  auto run = resolve_text("%\n#1 = 2\nG0 X#1\nM2\no100 sub\nG0 X9\no100 endsub\n%\n\n");
+  EXPECT_FALSE(run.sink.has_errors()) << codes(run.sink);
+  EXPECT_EQ(run.r.text, "%\nG0 X2.\nM2\n%\n");
+  EXPECT_EQ(run.r.source_line.back(), 8u);
+  run = resolve_text("#1 = 2\nG0 X#1\nM2\n%\n");
+  EXPECT_EQ(run.r.text, "G0 X2.\nM2\n");
+  run = resolve_text("%\n#1 = 2\nG0 X#1\n%\n");  // no M2: the closing '%' ends it
+  EXPECT_EQ(run.r.text, "%\nG0 X2.\n%\n");
+}

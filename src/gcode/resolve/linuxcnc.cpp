@@ -116,6 +116,7 @@ class Machine {
     try {
       execute(main, 0, main.lines(), false);
     } catch (const Stop&) {
+      if (!sink_.has_errors() && out_.emitted() > 0) close_tape(main);
       if (out_.emitted() > 0 || sink_.has_errors()) throw;
     }
     if (out_.emitted() == 0 && !subs_.empty()) {
@@ -600,6 +601,23 @@ class Machine {
   }
 
   static constexpr std::size_t kReturn = static_cast<std::size_t>(-1);
+
+  /// The program ended (M2/M30) before its closing '%': a file that opens with '%' must close with
+  /// one, so the closing line is written too (LinuxCNC ignores what lies between).
+  void close_tape(SourceFile& main) {
+    const auto percent = [&](std::size_t i) {
+      const std::string_view l = main.raw(i);
+      const std::size_t q = l.find_first_not_of(" \t");
+      return q != std::string_view::npos && l[q] == '%';
+    };
+    const auto blank = [&](std::size_t i) { return main.raw(i).find_first_not_of(" \t") == std::string_view::npos; };
+    std::size_t first = 0, last = main.lines();
+    while (first < main.lines() && blank(first)) ++first;
+    while (last > first + 1 && blank(last - 1)) --last;
+    if (first >= main.lines() || last <= first + 1 || !percent(first) || !percent(last - 1)) return;
+    const bool written = !r_.source_line.empty() && r_.source_file.back() == main.index() && r_.source_line.back() == last;
+    if (!written) (void)out_.emit(main, last - 1, {});
+  }
 
   [[noreturn]] void runaway(SourceFile& f, std::size_t i) {
     f.report(i, Span{0, static_cast<std::uint32_t>(f.raw(i).size())}, Severity::error, "PP-E705",
