@@ -66,11 +66,16 @@ void add_resolve_options(CLI::App& cmd, ResolveArgs& a) {
   cmd.add_option("--set", a.set,
                  "value of a variable the control fills at run time, for programs with parameters (repeatable): "
                  "'#5061=1.25', '#<_probe_z>=-3', 'R10=2', '$AA_IM[X]=10'; the report records it");
+  cmd.add_option("--subprogram-dir", a.subprogram_dirs,
+                 "folder searched for subprogram files (LinuxCNC name.ngc, Fanuc O####, Siemens NAME.SPF) after the "
+                 "program's own folder (repeatable, in order)")
+      ->check(CLI::ExistingDirectory);
 }
 
 gcode::ResolveOptions make_resolve_options(const ResolveArgs& a) {
   gcode::ResolveOptions o;
   for (const std::string& s : a.set) o.set.insert(gcode::parse_setting(s));
+  o.search_dirs = a.subprogram_dirs;
   return o;
 }
 

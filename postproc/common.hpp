@@ -30,6 +30,7 @@ gcode::Dialect make_dialect(const DialectArgs& a);
 /// --set NAME=VALUE… : values of run-time variables for programs with parameters (issue 3).
 struct ResolveArgs {
   std::vector<std::string> set;
+  std::vector<std::string> subprogram_dirs;
 };
 void add_resolve_options(CLI::App& cmd, ResolveArgs& a);
 /// Parses the --set values; throws Error(usage) on a malformed one.

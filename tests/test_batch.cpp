@@ -230,3 +230,41 @@ TEST(Batch, ResolvedProgramsAreWrittenBackOrRefused) {
   EXPECT_EQ(r.files[0].figures["resolution"]["written"], "flattened");
   EXPECT_EQ(io::read_file((o.out_dir / "computed.ngc").string(), "output").find('#'), std::string::npos);
 }
+
+// A program that calls a subprogram file: the manifest records the file and its hash, and a re-run
+// redoes the program when the subprogram changed (its output depends on it). The subprogram is
+// found in a folder given like --subprogram-dir.
+TEST(Batch, SubprogramFilesDecideReruns) {
+  TempDir t;
+  write(t.path / "jobs/part.nc",
+        "%\nO1000\nG21 G90 G17 G54\nG43 H1\nG0 X0. Y0. Z50. A0. C0.\nM98 P9010\nG0 Z50.\nM30\n%\n");
+  const fs::path lib = t.path / "lib";
+  write(lib / "O9010", "O9010\nG1 X10. Y20. Z5. A10. C30. F500.\nM99\n");
+  batch::BatchOptions o;
+  o.job_dir = t.path / "jobs";
+  o.out_dir = t.path / "out";
+  o.machine = (kSamples / "machines/trunnion_ac_fanuc.toml").string();
+  o.compensate.tool_version = "test";
+  o.compensate.flatten = true;  // the subprogram's move needs a correction: written as literal moves
+  o.compensate.resolve.search_dirs = {lib.string()};
+  auto r = batch::run_batch(o);
+  ASSERT_EQ(r.files.size(), 1u);
+  ASSERT_EQ(r.files[0].status, "written") << r.files[0].reason;
+  ASSERT_EQ(r.files[0].subprograms.size(), 1u);
+  EXPECT_EQ(fs::path(r.files[0].subprograms[0].first).filename(), "O9010");
+  const std::string first = io::read_file((o.out_dir / "part.nc").string(), "output");
+  EXPECT_NE(first.find("X10."), std::string::npos);
+  r = batch::run_batch(o);
+  EXPECT_EQ(r.files[0].status, "unchanged");
+  EXPECT_EQ(r.files[0].subprograms.size(), 1u);
+  write(lib / "O9010", "O9010\nG1 X12. Y20. Z5. A10. C30. F500.\nM99\n");
+  r = batch::run_batch(o);
+  EXPECT_EQ(r.files[0].status, "written");
+  EXPECT_NE(io::read_file((o.out_dir / "part.nc").string(), "output"), first);
+  // Without --flatten the move in the subprogram file cannot be written back: refused, naming it.
+  o.compensate.flatten = false;
+  o.out_dir = t.path / "in_place";
+  r = batch::run_batch(o);
+  EXPECT_EQ(r.files[0].status, "refused");
+  EXPECT_NE(r.files[0].reason.find("O9010"), std::string::npos) << r.files[0].reason;
+}

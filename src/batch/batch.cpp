@@ -87,6 +87,7 @@ std::string settings_of(const BatchOptions& o) {
   if (c.mode != "geometric") s += fmt::format(";iterations={}", o.precompensate.max_iterations);
   if (c.flatten) s += ";flatten=1";
   for (const auto& [name, value] : c.resolve.set) s += fmt::format(";set {}={:.17g}", name, value);
+  for (const std::string& dir : c.resolve.search_dirs) s += fmt::format(";subprogram-dir {}", dir);
   return s;
 }
 
@@ -230,6 +231,8 @@ class Runner {
       return;
     }
     fr.figures = comp::result_json(r, o_.compensate.mode, &details);
+    for (const std::string& sub : r.subprogram_files)
+      fr.subprograms.emplace_back(sub, machine::sha256_hex(io::read_file(sub, "subprogram")));
     const std::string bytes = mem.take();
     fr.output_sha256 = machine::sha256_hex(bytes);
     std::error_code ec;
@@ -255,6 +258,20 @@ class Runner {
     if (str_or_empty(e, "input_sha256") != fr.input_sha256 || str_or_empty(*machine, "sha256") != fr.machine_sha256 ||
         str_or_empty(e, "tool_version") != fr.tool_version || str_or_empty(e, "settings") != fr.settings)
       return false;
+    // The subprogram files the resolution read must be as they were.
+    std::vector<std::pair<std::string, std::string>> subs;
+    if (const auto sp = e.find("subprograms"); sp != e.end()) {
+      if (!sp->is_array()) return false;
+      for (const nlohmann::json& x : *sp) {
+        const std::string file = str_or_empty(x, "file"), sha = str_or_empty(x, "sha256");
+        try {
+          if (file.empty() || machine::sha256_hex(io::read_file(file, "subprogram")) != sha) return false;
+        } catch (const Error&) {
+          return false;
+        }
+        subs.emplace_back(file, sha);
+      }
+    }
     const std::string out_sha = str_or_empty(e, "output_sha256");
     std::error_code ec;
     if (out_sha.empty() || !fs::is_regular_file(out, ec)) return false;
@@ -265,6 +282,7 @@ class Runner {
     }
     fr.status = "unchanged";
     fr.output_sha256 = out_sha;
+    fr.subprograms = std::move(subs);
     if (const auto f = e.find("figures"); f != e.end()) fr.figures = *f;
     if (const auto d = e.find("diagnostics"); d != e.end()) fr.diagnostics = *d;
     return true;
@@ -306,6 +324,11 @@ nlohmann::json entry_json(const FileResult& f) {
   e["seconds"] = f.seconds;
   if (!f.reason.empty()) e["reason"] = f.reason;
   if (f.removed_stale_output) e["removed_stale_output"] = true;
+  if (!f.subprograms.empty()) {
+    nlohmann::json subs = nlohmann::json::array();
+    for (const auto& [file, sha] : f.subprograms) subs.push_back({{"file", file}, {"sha256", sha}});
+    e["subprograms"] = subs;
+  }
   e["figures"] = f.figures.is_null() ? nlohmann::json::object() : f.figures;
   e["diagnostics"] = f.diagnostics;
   return e;

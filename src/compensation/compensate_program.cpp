@@ -79,6 +79,7 @@ CompensateResult compensate_program(std::string_view text, std::string_view file
     }
     r.resolved_lines = resolved.source_line.size();
     r.used_settings = resolved.used_settings;
+    r.subprogram_files.assign(resolved.files.begin() + (resolved.files.empty() ? 0 : 1), resolved.files.end());
     // The worst lines are lines of the program as written.
     for (std::uint64_t* l : {&r.worst_line, &r.contour_worst_line})
       if (*l >= 1 && *l <= resolved.source_line.size()) *l = resolved.source_line[*l - 1];

@@ -79,6 +79,9 @@ struct FileResult {
   double seconds = 0;          ///< time spent on this file (0 for a carried-over entry's own time)
   std::string reason;          ///< refused / failed: one line saying why
   bool removed_stale_output = false;  ///< an earlier run's output was removed
+  /// Subprogram files the program's resolution read (path as found, SHA-256): a re-run redoes the
+  /// file when one of them changed.
+  std::vector<std::pair<std::string, std::string>> subprograms;
   nlohmann::json figures;      ///< result_json() of the run: counts, figures, contour
   nlohmann::json diagnostics = nlohmann::json::array();
 };

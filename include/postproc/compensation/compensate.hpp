@@ -88,6 +88,7 @@ struct CompensateResult {
   std::uint64_t resolved_lines = 0;      ///< lines of the resolved program (0: not resolved)
   std::uint64_t source_lines_rewritten = 0;  ///< resolved without --flatten: program lines rewritten
   bool flattened = false;                 ///< written as the resolved literal program (--flatten)
+  std::vector<std::string> subprogram_files;  ///< files the resolution read besides the program
   std::map<std::string, double> used_settings;  ///< --set values the program read
 };
 

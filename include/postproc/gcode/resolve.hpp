@@ -109,8 +109,7 @@ ProgramStats run_program_file(const std::string& path, const Dialect& d, std::st
 ProgramStats run_program_text(std::string_view text, const Dialect& d, std::string_view file, DiagnosticSink& sink,
                               BlockVisitor& visitor, const ResolveOptions& opt, ResolvedProgram* resolved = nullptr);
 
-/// `opt` with the folder of `file` as the subprogram folder when it names none ("-": the current
-/// folder).
+/// `opt` with the folder of `file` ("-": the current folder) first among the subprogram folders.
 [[nodiscard]] ResolveOptions with_program_folder(ResolveOptions opt, std::string_view file);
 
 /// run_program on a resolved program's text, with blocks, motions and diagnostics mapped to the

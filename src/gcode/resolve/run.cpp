@@ -1,4 +1,5 @@
 // Running the interpreter on a program that may need resolution (resolve.hpp).
+#include <algorithm>
 #include <filesystem>
 
 #include "postproc/gcode/resolve.hpp"
@@ -43,11 +44,11 @@ ProgramStats run_resolved(const ResolvedProgram& r, const Dialect& d, std::strin
 }
 
 ResolveOptions with_program_folder(ResolveOptions opt, std::string_view file) {
-  if (opt.search_dirs.empty()) {
-    const std::filesystem::path dir =
-        file == "-" ? std::filesystem::current_path() : std::filesystem::path(file).parent_path();
-    opt.search_dirs.push_back(dir.empty() ? std::string(".") : dir.string());
-  }
+  const std::filesystem::path dir =
+      file == "-" ? std::filesystem::current_path() : std::filesystem::path(file).parent_path();
+  const std::string own = dir.empty() ? std::string(".") : dir.string();
+  if (std::find(opt.search_dirs.begin(), opt.search_dirs.end(), own) == opt.search_dirs.end())
+    opt.search_dirs.insert(opt.search_dirs.begin(), own);
   return opt;
 }
 
