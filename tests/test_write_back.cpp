@@ -3,7 +3,11 @@
 // program; what needs no change stays byte for byte; what cannot be written back exactly is
 // refused at its line and word.
 #include <algorithm>
+#include <cstdio>
 #include <cstring>
+#include <random>
+
+#include <fmt/format.h>
 #include <fstream>
 #include <sstream>
 
@@ -473,6 +477,73 @@ TEST(ConvertResolved, TextOptionsKeepStatementsWithoutWarnings) {
   EXPECT_EQ(sink.stored().size(), 0u) << (sink.stored().empty() ? "" : gc::format(sink.stored().front()));
   EXPECT_TRUE(has_line(out, "  G3 X20. Y0 I5. J0"));  // the comment of a line not executed goes too
   EXPECT_TRUE(has_line(out, "o100 else"));
+}
+
+}  // namespace
+
+namespace {
+
+// Property: over random LinuxCNC programs (literal moves, parameters in feeds, assignments on move
+// lines, branches, subroutines called once or twice, now and then an axis expression), compensate
+// either writes the program back so that, resolved again, it is exactly the flattened program, or
+// refuses with PP-E711 only, in which case --flatten writes it.
+TEST(WriteBackProperty, RandomProgramsResolveToTheFlattenedProgramOrAreRefused) {
+  const mc::Machine m = load("lathe_xzbc_doc004.toml");
+  const gc::Dialect d = *gc::make_dialect(m.dialect_name, m.dialect_options);
+  std::mt19937 rng(20261122);
+  std::uniform_real_distribution<double> x(30, 60), z(-20, 5), b(-10, 10), c(-90, 90);
+  const auto move = [&](const char* g = "G1", bool expression = false) {
+    return fmt::format("{} X{}{:.3f}{} Z{:.3f} B{:.3f} C{:.3f}", g, expression ? "[" : "", x(rng), expression ? " + 0]" : "",
+                       z(rng), b(rng), c(rng));
+  };
+  int written = 0, refused = 0;
+  for (int trial = 0; trial < 60; ++trial) {
+    std::string p = "G21 G90 G94 G18 G8\nG54\n#<_f> = 300\n#<_t> = 1\n";
+    std::string subs;
+    std::vector<std::string> calls;
+    const int items = 4 + static_cast<int>(rng() % 8);
+    for (int k = 0; k < items; ++k) {
+      switch (rng() % 6) {
+        case 0: p += move() + " F#<_f>\n"; break;
+        case 1: p += move() + fmt::format(" #<_t> = [#<_t> + {}]\n", k); break;
+        case 2:
+          p += fmt::format("o{0} if [#<_t> GT {1}]\n  {2}\no{0} else\n  {3}\no{0} endif\n", 100 + k, rng() % 4, move(),
+                           move("G0"));
+          break;
+        case 3: {
+          subs += fmt::format("o{0} sub\n  {1} F[#<_f> * 2]\no{0} endsub\n", 200 + k, move());
+          const int times = 1 + static_cast<int>(rng() % 2);
+          for (int t = 0; t < times; ++t) calls.push_back(fmt::format("o{} call\n", 200 + k));
+          break;
+        }
+        case 4: p += move("G0") + "\n"; break;
+        default:
+          if (rng() % 4 == 0) p += move("G1", true) + " F300\n";
+          else p += move() + " F300\n";
+      }
+    }
+    for (const std::string& call : calls) p += call;
+    p = subs + p + "M2\n";
+    Outcome in_place, flat;
+    run(m, p, in_place, false);
+    run(m, p, flat, true);
+    ASSERT_TRUE(flat.ok()) << flat.errors() << p;
+    if (in_place.ok()) {
+      ++written;
+      gc::DiagnosticSink sink;
+      const gc::ResolvedProgram again = gc::resolve(in_place.out, "out.ngc", d, {}, sink);
+      ASSERT_FALSE(sink.has_errors()) << p;
+      EXPECT_EQ(lines_without_header(again.text), lines_without_header(flat.out)) << p << "\n---\n" << in_place.out;
+    } else {
+      ++refused;
+      for (const gc::Diagnostic& diag : in_place.sink.stored()) EXPECT_EQ(diag.code, "PP-E711") << gc::format(diag);
+      EXPECT_TRUE(in_place.out.empty());
+    }
+  }
+  std::printf("[ property ] %d random programs written back in place, %d refused\n", written, refused);
+  // Both outcomes occur (the test exercises each).
+  EXPECT_GT(written, 10);
+  EXPECT_GT(refused, 5);
 }
 
 }  // namespace

@@ -98,16 +98,16 @@ class LineMapper {
   std::optional<std::string> map(std::string_view s, std::string_view r, const std::vector<std::string_view>& out,
                                  std::string_view eol, Refusal& why) {
     std::string joined;
+    if (out.empty()) {
+      why.why = "the rewritten program drops this block, which cannot be carried back onto its source line";
+      return std::nullopt;
+    }
     if (s == r) {  // the line was not substituted: the compensated lines replace it as they are
       for (std::size_t k = 0; k < out.size(); ++k) {
         if (k > 0) joined += eol;
         joined += out[k];
       }
       return joined;
-    }
-    if (out.empty()) {
-      why.why = "the compensated block has no line to write back";
-      return std::nullopt;
     }
     const bool lexed = lex(d_, s, 1, bs_) && lex(d_, r, 1, br_) && lex(d_, out[0], 1, bo_);
     if (!lexed) {
@@ -197,7 +197,6 @@ class LineMapper {
 struct LineState {
   std::uint64_t runs = 0;       // executions seen so far
   std::uint64_t total = 0;      // executions in all
-  std::uint64_t first = 0;      // resolved line (0-based) of the first execution
   bool unchanged = true;        // every execution so far left the line as it is
   bool refused = false;
   std::int64_t rep = -1;        // index into replacements (changed lines)
@@ -287,7 +286,6 @@ WriteBackResult write_back(std::string_view source, std::string_view file, const
     const SourceLine& s = src[line - 1];
     if (st.refused) continue;
     const std::uint64_t run = ++st.runs;
-    if (run == 1) st.first = i;
     const auto conflict = [&](std::string_view what) {
       st.refused = true;
       ok = false;
