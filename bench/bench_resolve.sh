@@ -6,6 +6,9 @@
 # and checks that both dumps give the same motions.
 #
 #   bench/bench_resolve.sh [BUILD_DIR] [PASSES] [MOVES]      defaults: build/release 1000 1000
+#
+# POSTPROC_BENCH_CALLGRIND=1 counts instructions with valgrind's callgrind instead of timing (the
+# same figure on a loaded machine; use fewer passes, e.g. 100, as it runs ~50x slower).
 set -u -o pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 build="${1:-build/release}"
@@ -48,9 +51,23 @@ best() {
   done
   echo "$b"
 }
+blocks=$((passes * moves))
+if [[ "${POSTPROC_BENCH_CALLGRIND:-0}" == 1 ]]; then
+  command -v valgrind > /dev/null || { echo "bench_resolve: valgrind not found" >&2; exit 2; }
+  instr() {
+    valgrind --tool=callgrind --callgrind-out-file="$tmp/cg.out" "$cli" dump "$1" --dialect linuxcnc --format csv \
+      -o "$tmp/out.csv" 2>&1 | sed -n 's/.*Collected : \([0-9]*\).*/\1/p'
+  }
+  inf=$(instr "$tmp/flat.ngc")
+  inl=$(instr "$tmp/looped.ngc")
+  awk -v f="$inf" -v l="$inl" -v n="$blocks" 'BEGIN {
+    printf "dump, %d motions: flat program %.0f M instructions (%.0f per block), looped program %.0f M (%.0f per block)\n", n, f / 1e6, f / n, l / 1e6, l / n
+    printf "looped / flat speed by instructions: %.0f %% (target >= 50 %%)\n", 100 * f / l
+  }'
+  exit 0
+fi
 tf=$(best "$tmp/flat.ngc")
 tl=$(best "$tmp/looped.ngc")
-blocks=$((passes * moves))
 awk -v tf="$tf" -v tl="$tl" -v n="$blocks" 'BEGIN {
   printf "dump, %d motions: flat program %.2f s (%.0f k blocks/s), looped program %.2f s (%.0f k blocks/s)\n", n, tf, n / tf / 1e3, tl, n / tl / 1e3
   printf "looped / flat speed: %.0f %% (target >= 50 %%)\n", 100 * tf / tl
