@@ -13,6 +13,7 @@
 #include <random>
 
 #include "postproc/gcode/convert.hpp"
+#include "postproc/gcode/resolve.hpp"
 #include "support.hpp"
 
 namespace {
@@ -362,6 +363,23 @@ void run_everything(const std::string& bytes, const TempDir& dir) {
       postproc::io::OutputFile o(dir.file("garbage.out"));
       gc::DiagnosticSink sink;
       gc::convert(reader, "g.nc", d, opt, o, sink);
+      // Resolution (parameters, loops, calls; bounded) and the write-back of --linearize.
+      gc::ResolveOptions ro;
+      ro.max_blocks = 20000;
+      ro.search_dirs = {dir.path().string()};
+      gc::DiagnosticSink rsink;
+      const gc::ResolvedProgram r = gc::resolve(bytes, "g.nc", d, ro, rsink);
+      EXPECT_EQ(r.source_line.size(), r.source_file.size());
+      for (gc::Diagnostic diag : rsink.stored()) {
+        gc::map_to_source(r, diag);
+        EXPECT_FALSE(gc::format(diag).empty());
+      }
+      gc::ConvertOptions lin;
+      lin.linearize_tolerance_mm = 0.01;
+      lin.resolve = ro;
+      auto held = postproc::io::OutputFile::memory();
+      gc::DiagnosticSink csink;
+      (void)gc::convert_program(bytes, "g.nc", d, lin, held, csink);
     }
   }
 }
@@ -377,6 +395,30 @@ TEST(PropertyGarbage, RandomBytesNeverCrash) {
     for (auto& c : bytes) c = raw ? static_cast<char>(rng() & 0xFF) : nc[rng() % nc.size()];
     SCOPED_TRACE(::testing::Message() << "garbage #" << i << ": " << ::testing::PrintToString(bytes));
     run_everything(bytes, dir);
+    if (HasFailure()) return;
+  }
+}
+
+// Random sequences of the dialects' statement words (parameters, loops, calls, jumps, labels):
+// the resolvers and the write-back never crash or hang (blocks and call depth are bounded).
+TEST(PropertyGarbage, StatementSoupNeverCrashes) {
+  std::mt19937_64 rng(kSeed + 3);
+  TempDir dir;
+  static const char* const kWords[] = {
+      "#1=", "#2=", "#<a>=", "#<_g>=", "#1", "#<a>", "##1", "[", "]", "o100 ", "o101 ", "o<s> ", "sub", "endsub",
+      "call", "return", "while", "endwhile", "do", "repeat", "endrepeat", "if", "elseif", "else", "endif", "break",
+      "continue", "GOTO", "IF", "THEN", "WHILE", "DO1", "END1", "M98 P", "M99", "G65 P", "G66 P", "G67", "O9010",
+      "N10 ", "R1=", "R[R1]=", "DEF REAL A", "DEF INT B[3]", "A=", "B[1]=", "FOR R2=1 TO ", "ENDFOR", "GOTOF ",
+      "GOTOB ", "LBL:", "LBL", "CASE (R1) OF 1 GOTOF LBL DEFAULT GOTOB LBL", "REPEAT", "UNTIL ", "LOOP", "ENDLOOP",
+      "PROC P1", "P1", "RET", "CALL \"P1\"", "G1 X", "Z", "F", "1", "2.5", "-3", "0", " ", " ", "\n", "\n", "+",
+      "*", "/", "MOD", "SIN[", "SQRT[", "EQ", "LT", "GT", "AND", "L", "P", "M30", "M2", "%", "(c)", "; c", "$AA_IM[X]",
+      "=", "(", ")", ",", "\""};
+  const int count = property_count() * 2;
+  for (int i = 0; i < count; ++i) {
+    std::string text;
+    for (int k = static_cast<int>(rng() % 80); k > 0; --k) text += kWords[rng() % std::size(kWords)];
+    SCOPED_TRACE(::testing::Message() << "soup #" << i << ": " << ::testing::PrintToString(text));
+    run_everything(text, dir);
     if (HasFailure()) return;
   }
 }
