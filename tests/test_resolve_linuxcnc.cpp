@@ -192,9 +192,9 @@ TEST(ResolveLinuxcnc, ParseSetting) {
   EXPECT_THROW((void)parse_setting("#5061=abc"), postproc::Error);
 }
 
-// A program that opens with '%' keeps its closing '%' when M2 ends the run before it (LinuxCNC
-// refuses a file opened with '%' that does not close with one); without the opening one, nothing
-// after M2 is written.
+// A program that opens with '%' keeps its closing '%' when M2 ends the run before it (without it,
+// rs274 reports "percent sign missing from end of file"); without the opening one, nothing after
+// M2 is written.
 TEST(ResolveLinuxcnc, ClosingPercentAfterTheProgramEnd) {
   auto run = resolve_text("%\n#1 = 2\nG0 X#1\nM2\no100 sub\nG0 X9\no100 endsub\n%\n\n");
   EXPECT_FALSE(run.sink.has_errors()) << codes(run.sink);
