@@ -12,6 +12,7 @@
 #include "postproc/compensation/program_map.hpp"
 #include "postproc/compensation/verify.hpp"
 #include "postproc/machine/machine.hpp"
+#include "sample_machine.hpp"
 #include "support.hpp"
 
 namespace {
@@ -29,13 +30,7 @@ std::string read_file(const std::string& path) {
 
 const std::string kSamples = std::string(POSTPROC_SOURCE_DIR) + "/samples/";
 
-mc::Machine load(const std::string& name) {
-  gc::DiagnosticSink sink;
-  auto m = mc::load_machine(kSamples + "machines/" + name, sink);
-  for (const auto& d : sink.stored()) ADD_FAILURE() << gc::format(d);
-  if (!m) throw std::runtime_error("machine file refused: " + name);
-  return *m;
-}
+mc::Machine load(const std::string& name) { return pptest::sample_machine(name); }
 
 struct Comp {
   std::string out;

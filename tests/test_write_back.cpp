@@ -18,6 +18,7 @@
 #include "postproc/gcode/convert.hpp"
 #include "postproc/gcode/resolve.hpp"
 #include "postproc/machine/machine.hpp"
+#include "sample_machine.hpp"
 #include "support.hpp"
 
 namespace {
@@ -26,15 +27,7 @@ namespace gc = postproc::gcode;
 namespace cp = postproc::comp;
 using pptest::TempDir;
 
-const std::string kSamples = std::string(POSTPROC_SOURCE_DIR) + "/samples/";
-
-mc::Machine load(const std::string& name) {
-  gc::DiagnosticSink sink;
-  auto m = mc::load_machine(kSamples + "machines/" + name, sink);
-  for (const auto& d : sink.stored()) ADD_FAILURE() << gc::format(d);
-  if (!m) throw std::runtime_error("machine file refused: " + name);
-  return *m;
-}
+mc::Machine load(const std::string& name) { return pptest::sample_machine(name); }
 
 struct Outcome {
   std::string out;
