@@ -199,8 +199,7 @@ struct LineState {
   std::uint64_t total = 0;      // executions in all
   bool unchanged = true;        // every execution so far left the line as it is
   bool refused = false;
-  std::int64_t rep = -1;        // index into replacements (changed lines)
-  std::int64_t key = -1;        // index into keys: the resolved and compensated text that gave it
+  std::int64_t rep = -1;        // changed lines: index into replacements (and keys, added)
 };
 
 /// A replacement for a message: its lines joined by " | ", at most about 100 characters.
@@ -260,8 +259,10 @@ WriteBackResult write_back(std::string_view source, std::string_view file, const
   for (std::size_t i = 0; i < n; ++i)
     if (r.source_file[i] == 0 && r.source_line[i] >= 1 && r.source_line[i] <= src.size())
       ++state[r.source_line[i] - 1].total;
+  // Per changed source line: its replacement, the resolved and rewritten text that gave it, and
+  // the lines it adds after the source line.
   std::vector<std::string> replacements, keys;
-  std::vector<std::uint64_t> added;  // per replacement: lines added after the source line
+  std::vector<std::uint64_t> added;
   std::set<std::pair<std::uint32_t, std::uint64_t>> refused_elsewhere;
   LineMapper mapper(d);
   std::vector<std::string_view> outs;
@@ -276,8 +277,8 @@ WriteBackResult write_back(std::string_view source, std::string_view file, const
       ok = false;
       const std::string& name = r.source_file[i] < r.files.size() ? r.files[r.source_file[i]] : std::string(file);
       refuse(line, resolved[i],
-             {1, 1, fmt::format("this block of the subprogram file {} needs a correction, but compensate writes only "
-                                "the program itself (corrected: '{}')",
+             {1, 1, fmt::format("this block of the subprogram file {} needs a change, but only the program itself is "
+                                "written (the block becomes '{}')",
                                 name, shorten(outs.empty() ? std::string_view() : outs.front()))},
              name);
       continue;
@@ -309,7 +310,7 @@ WriteBackResult write_back(std::string_view source, std::string_view file, const
       key += o;
       key += '\n';
     }
-    if (!st.unchanged && keys[static_cast<std::size_t>(st.key)] == key) continue;  // the same as before
+    if (!st.unchanged && keys[static_cast<std::size_t>(st.rep)] == key) continue;  // the same as before
     Refusal why;
     const std::optional<std::string> rep = mapper.map(s.text, resolved[i], outs, s.eol.empty() ? "\n" : s.eol, why);
     if (!rep) {
@@ -332,7 +333,6 @@ WriteBackResult write_back(std::string_view source, std::string_view file, const
     st.rep = static_cast<std::int64_t>(replacements.size());
     replacements.push_back(*rep);
     added.push_back(outs.size() - 1);
-    st.key = static_cast<std::int64_t>(keys.size());
     keys.push_back(key);
   }
   if (!ok) return res;
