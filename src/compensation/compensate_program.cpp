@@ -45,12 +45,7 @@ CompensateResult compensate_program(std::string_view text, std::string_view file
     const std::size_t errors = sink.count(gcode::Severity::error);
     const gcode::ResolvedProgram resolved = gcode::resolve(text, file, dialect, ro, sink);
     if (sink.count(gcode::Severity::error) > errors) return {};
-    gcode::DiagnosticSink mapped(0);
-    mapped.on_report = [&](const gcode::Diagnostic& diag) {
-      gcode::Diagnostic m2 = diag;
-      gcode::map_to_source(resolved, m2);
-      sink.report(std::move(m2));
-    };
+    gcode::DiagnosticSink mapped = gcode::source_mapped(resolved, sink);
     opt.input_bytes = resolved.text.size();
     CompensateResult r;
     if (opt.flatten) {

@@ -21,12 +21,7 @@ std::vector<const CollectedMotion*> motions_of(std::string_view text, std::strin
     const std::size_t errors = sink.count(gcode::Severity::error);
     const gcode::ResolvedProgram r = gcode::resolve(text, file, d, gcode::with_program_folder(resolve, file), sink);
     if (sink.count(gcode::Severity::error) > errors) return out;
-    gcode::DiagnosticSink mapped(0);
-    mapped.on_report = [&](const gcode::Diagnostic& diag) {
-      gcode::Diagnostic m = diag;
-      gcode::map_to_source(r, m);
-      sink.report(std::move(m));
-    };
+    gcode::DiagnosticSink mapped = gcode::source_mapped(r, sink);
     gcode::LineReader in{std::string_view(r.text)};
     gcode::run_program(in, d, file, mapped, c);
     for (auto& [line, m] : c.by_line)

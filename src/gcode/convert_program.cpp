@@ -56,12 +56,7 @@ ConvertResult convert_program(std::string_view text, std::string_view file, cons
   const std::size_t errors = sink.count(Severity::error);
   const ResolvedProgram r = resolve(text, file, dialect, with_program_folder(opt.resolve, file), sink);
   if (sink.count(Severity::error) > errors) return result;
-  DiagnosticSink mapped(0);
-  mapped.on_report = [&](const Diagnostic& diag) {
-    Diagnostic m = diag;
-    map_to_source(r, m);
-    sink.report(std::move(m));
-  };
+  DiagnosticSink mapped = source_mapped(r, sink);
   if (opt.flatten) {
     LineReader in{std::string_view(r.text)};
     ConvertOptions o = opt;

@@ -95,6 +95,10 @@ struct ResolvedProgram {
 /// line was not substituted), file, and "(reached through …)" appended to the message.
 void map_to_source(const ResolvedProgram& r, Diagnostic& d);
 
+/// A sink that forwards every diagnostic reported on `r`'s resolved text to `to`, mapped to the
+/// source (map_to_source). Both must outlive it.
+[[nodiscard]] DiagnosticSink source_mapped(const ResolvedProgram& r, DiagnosticSink& to);
+
 /// run_program (program.hpp) on the file `path` ("-" = stdin): a program without parameters or
 /// control flow streams from the file as before; one with them is read, resolved (subprogram
 /// files are looked for in `opt.search_dirs`, else next to the program) and the interpreter reads

@@ -30,14 +30,19 @@ class SourceLines final : public BlockVisitor {
 
 }  // namespace
 
-ProgramStats run_resolved(const ResolvedProgram& r, const Dialect& d, std::string_view file, DiagnosticSink& sink,
-                          BlockVisitor& visitor) {
+DiagnosticSink source_mapped(const ResolvedProgram& r, DiagnosticSink& to) {
   DiagnosticSink mapped(0);
-  mapped.on_report = [&](const Diagnostic& diag) {
+  mapped.on_report = [&r, &to](const Diagnostic& diag) {
     Diagnostic m = diag;
     map_to_source(r, m);
-    sink.report(std::move(m));
+    to.report(std::move(m));
   };
+  return mapped;
+}
+
+ProgramStats run_resolved(const ResolvedProgram& r, const Dialect& d, std::string_view file, DiagnosticSink& sink,
+                          BlockVisitor& visitor) {
+  DiagnosticSink mapped = source_mapped(r, sink);
   SourceLines lines(r, visitor);
   LineReader reader{std::string_view(r.text)};
   return run_program(reader, d, file, mapped, lines);
