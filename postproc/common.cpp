@@ -3,6 +3,7 @@
 
 #include <fmt/format.h>
 
+#include "postproc/gcode/tool_table.hpp"
 #include "postproc/io/output_file.hpp"
 
 namespace postproc::cli {
@@ -26,6 +27,10 @@ void add_dialect_options(CLI::App& cmd, DialectArgs& a, bool required) {
       ->check(CLI::IsMember({"increment", "calculator"}));
   cmd.add_option("--diameter-axis", a.diameter_axis, "axis programmed as a diameter from the start (X), or 'none'")
       ->check(CLI::IsMember({"X", "x", "none"}));
+  cmd.add_option("--tool-table", a.tool_table,
+                 "LinuxCNC tool table file (T<n> Z<length> D<diameter>, mm): resolves G43 H / G43 / G41 / G42; "
+                 "without it a tool-length change leaves Z unknown until the program states it")
+      ->check(CLI::ExistingFile);
 }
 
 gcode::Dialect make_dialect(const DialectArgs& a) {
@@ -35,6 +40,13 @@ gcode::Dialect make_dialect(const DialectArgs& a) {
   if (a.integer_input == "calculator") o.integer_input = gcode::Dialect::IntegerInput::calculator;
   o.gcode_system = a.gcode_system.empty() ? 'A' : a.gcode_system[0];
   if (a.diameter_axis == "X" || a.diameter_axis == "x") o.diameter_axis = 'X';
+  if (!a.tool_table.empty()) {
+    gcode::DiagnosticSink sink;
+    DiagnosticPrinter printer(sink, 20);
+    const bool ok = gcode::read_linuxcnc_tool_table(a.tool_table, o, sink);
+    printer.finish();
+    if (!ok) throw Error(ExitCode::refused, fmt::format("{}: tool table refused", a.tool_table));
+  }
   auto d = gcode::make_dialect(a.dialect, o);
   if (!d) throw Error(ExitCode::usage, fmt::format("unknown dialect '{}'; use {}", a.dialect, gcode::dialect_names()));
   if (a.diameter_axis == "none") d->diameter_axis = 0;
@@ -65,10 +77,16 @@ void DiagnosticPrinter::finish() const {
 void add_resolve_options(CLI::App& cmd, ResolveArgs& a) {
   cmd.add_option("--set", a.set,
                  "value of a variable the control fills at run time, for programs with parameters (repeatable): "
-                 "'#5061=1.25', '#<_probe_z>=-3', 'R10=2', '$AA_IM[X]=10'; the report records it");
+                 "'#5061=1.25', '#<_probe_z>=-3', 'R10=2', '$AA_IM[X]=10'; the report records it")
+      ->expected(1)
+      ->allow_extra_args(false)
+      ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
   cmd.add_option("--subprogram-dir", a.subprogram_dirs,
                  "folder searched for subprogram files (LinuxCNC name.ngc, Fanuc O####, Siemens NAME.SPF) after the "
                  "program's own folder (repeatable, in order)")
+      ->expected(1)  // one folder per occurrence: the program argument after it is not swallowed
+      ->allow_extra_args(false)
+      ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll)
       ->check(CLI::ExistingDirectory);
 }
 

@@ -20,6 +20,7 @@ struct DialectArgs {
   std::string gcode_system = "A";
   std::string diameter_axis; ///< "X" or empty
   std::string integer_input; ///< "", "increment" or "calculator" (Fanuc)
+  std::string tool_table;    ///< LinuxCNC tool table file (lengths and diameters by tool number), "" = none
 };
 
 /// Adds --dialect, --lathe, --diameter-axis to `cmd`.

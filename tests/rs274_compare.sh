@@ -12,7 +12,7 @@ command -v rs274 > /dev/null || { echo "FAIL: rs274 missing (scripts/install-dep
 T=$(mktemp -d)
 trap 'rm -rf "$T"' EXIT
 fails=0
-for prog in control_flow expressions subroutines; do
+for prog in control_flow expressions subroutines reader_dwell reader_modal_state; do
   (cd "$D" && timeout 60 rs274 -g "$prog.ngc") > "$T/$prog.rs274" 2>&1
   (cd "$D" && "$P" dump "$prog.ngc" --dialect linuxcnc --format csv) > "$T/$prog.csv" 2> "$T/$prog.err" ||
     { echo "FAIL: $prog: dump failed: $(cat "$T/$prog.err")"; fails=$((fails + 1)); continue; }

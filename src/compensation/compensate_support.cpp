@@ -42,12 +42,9 @@ double program_units(int a, double v, const Motion& m) {
 std::optional<ProgramMap> map_of(const machine::Machine& m, ToolLengthModels& models, const gcode::Motion& mo) {
   const auto offset = program_offset(m, mo);
   if (!offset) return std::nullopt;
-  double length = m.tool_length;
-  if (mo.tool_length_active && mo.tool_length_h != 0) {
-    const auto it = m.tool_lengths.find(mo.tool_length_h);
-    if (it == m.tool_lengths.end()) return std::nullopt;
-    length = it->second;
-  }
+  const auto tool = machine::tool_length_of(m, mo);
+  if (!tool) return std::nullopt;
+  const double length = *tool;
   const Form f = form_of(m, mo);
   const auto& [nom, act] = models.with_tool_length(length);
   return ProgramMap(m, nom, act, f, *offset, f == Form::axes && mo.tool_length_active, length);
@@ -107,6 +104,14 @@ WordWriter::Outcome WordWriter::rewrite(const Block& b, const Motion& m, gcode::
                                         gcode::AxisMask start_known, const Command& target, gcode::BlockEditor& ed,
                                         std::uint64_t g93_segments) {
   Outcome o;
+  for (const Word& w : b.words)
+    if (w.letter == '@' || w.letter == '^') {
+      // LinuxCNC polar words: the corrected point would need X Y, which LinuxCNC refuses beside @ ^.
+      return {false, column_of(w),
+              "the block is programmed in polar words (@ ^); a corrected point cannot be written in them exactly — "
+              "program this move with X and Y",
+              0, 0};
+    }
   gcode::Span anchor{};
   for (const Word& w : b.words)
     if (track_.axis_of(w) >= 0) anchor.end = std::max(anchor.end, w.span.end);

@@ -179,17 +179,14 @@ class Builder final : public gcode::BlockVisitor {
                         machine::work_offset_name(m.work_offset), m_.file));
       return -1;
     }
-    double length = m_.tool_length;
-    if (m.tool_length_active && m.tool_length_h != 0) {
-      const auto it = m_.tool_lengths.find(m.tool_length_h);
-      if (it == m_.tool_lengths.end()) {
-        error(b, m, kMachineData,
-              fmt::format("tool length H{} is not in machine file {}; add [tool.lengths] {} = \"<length> mm\"",
-                          m.tool_length_h, m_.file, m.tool_length_h));
-        return -1;
-      }
-      length = it->second;
+    const auto tool = machine::tool_length_of(m_, m);
+    if (!tool) {
+      error(b, m, kMachineData,
+            fmt::format("tool length H{} is not in machine file {}; add [tool.lengths] {} = \"<length> mm\"",
+                        m.tool_length_h, m_.file, m.tool_length_h));
+      return -1;
     }
+    const double length = *tool;
     const bool on_z = form == comp::Form::axes && m.tool_length_active;
     if (map_index_ >= 0 && form == key_form_ && *offset == key_offset_ && on_z == key_on_z_ && length == key_length_)
       return map_index_;

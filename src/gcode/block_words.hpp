@@ -38,6 +38,9 @@ struct Interpreter::BlockWords {
   Eigen::Vector3d vector = Eigen::Vector3d::Zero();  ///< Siemens A3/B3/C3 components (program values)
   std::uint8_t vector_present = 0;        ///< bits 0..2 = A3 B3 C3 given literally
   bool polar = false;                     ///< Siemens AP=/RP= polar coordinates in this block
+  double polar_distance = 0, polar_angle = 0;  ///< LinuxCNC @ (program units) and ^ (degrees)
+  std::uint8_t polar_words = 0;           ///< bit 0 = @, bit 1 = ^ given; bit 2 = one is unresolved
+  std::int16_t polar_word = -1;           ///< index of the first of them
   bool siemens_motion_keyword = false;    ///< CIP, CT, BSPLINE, … in this block
   bool machine_frame = false;             ///< G53 / SUPA / G153 in this block
   bool axes_consumed = false;             ///< axis words were data for G10/G52/G92/… (no motion)

@@ -67,6 +67,7 @@ void fanuc(std::vector<GCodeDef>& t, bool lathe, char system) {
   iso_mill_common(t);
   set(t, {
       {g(43.4), M::tcp_on, Gr::tool_length}, {g(43.5), M::tcp_vector_on, Gr::tool_length},
+      {g(44), M::tool_length_on, Gr::tool_length},  // negative offset: refused at its line (interpreter)
       {g(68.2), M::tilted_plane_on, Gr::tilted_plane}, {g(53.1), M::tilted_plane_tool_axis, Gr::non_modal},
       {g(54.1), M::work_offset, Gr::work_offset},
       {g(5.1), M::nurbs_or_ai_contour, Gr::non_modal}, {g(5), M::state_only, Gr::non_modal},
@@ -246,6 +247,8 @@ Dialect make_dialect(DialectId id, const DialectOptions& opt) {
       break;
   }
   if (opt.diameter_axis != 0) d.diameter_axis = opt.diameter_axis;
+  d.tool_lengths = opt.tool_lengths;
+  d.tool_radii = opt.tool_radii;
   return d;
 }
 

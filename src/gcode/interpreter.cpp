@@ -68,6 +68,8 @@ Interpreter::Interpreter(const Dialect& dialect, std::string file, DiagnosticSin
     : d_(dialect), file_(std::move(file)), sink_(sink), opt_(opt) {
   s_.diameter_mode = d_.diameter_axis != 0;
   if (d_.lathe) s_.plane = Plane::zx;  // lathes power up in G18
+  // LinuxCNC's interpreter starts in G99 (retract to the R plane; rs274 agrees); Fanuc powers on in G98.
+  if (d_.id == DialectId::linuxcnc) s_.return_to_r = true;
 }
 
 void Interpreter::report(const Block& b, Span at, Severity sev, std::string_view code, std::string msg) {
@@ -212,6 +214,18 @@ bool Interpreter::collect(const Block& b, BlockWords& w) {
         w.m[static_cast<std::size_t>(w.m_count)] = v;
         w.m_word[static_cast<std::size_t>(w.m_count++)] = wi;
       }
+      continue;
+    }
+    if (L == '@' || L == '^') {
+      const std::uint8_t bitv = L == '@' ? 1 : 2;
+      if (w.polar_words & bitv) {
+        report(b, word.span, Severity::error, codes::kRepeatedWord, fmt::format("'{}' is given twice in one block; keep one", L));
+        ok = false;
+        continue;
+      }
+      (L == '@' ? w.polar_distance : w.polar_angle) = v;
+      w.polar_words = static_cast<std::uint8_t>(w.polar_words | bitv | (resolved ? 0 : 4));
+      if (w.polar_word < 0) w.polar_word = wi;
       continue;
     }
     int axis = axis_index(L);
@@ -364,6 +378,7 @@ void Interpreter::apply_tokens(const Block& b, BlockWords& w) {
 
 void Interpreter::apply_modes(const Block& b, BlockWords& w) {
   // Order follows RS274/NGC: feed mode, feed, units, plane, distance modes, offsets, tool length.
+  const FeedMode feed_mode_before = s_.feed_mode;
   for (int k = 0; k < w.ng; ++k) {
     const auto& g = w.g[static_cast<std::size_t>(k)];
     switch (g.def->meaning) {
@@ -375,6 +390,15 @@ void Interpreter::apply_modes(const Block& b, BlockWords& w) {
       default: break;
     }
   }
+  if (s_.feed_mode != feed_mode_before && (feed_mode_before == FeedMode::inverse_time ||
+                                           s_.feed_mode == FeedMode::inverse_time)) {
+    // Leaving or entering inverse time leaves no feed rate (LinuxCNC and Fanuc: the rate is 0 until
+    // an F is programmed; a feed move before it is refused by the controller).
+    s_.feed = 0;
+    s_.feed_known = false;
+    s_.feed_undefined = true;
+  }
+  if (w.has('F')) s_.feed_undefined = false;
   if (w.has('F') && !w.unresolved('F')) {
     const double f = w.get('F');
     s_.feed = s_.feed_mode == FeedMode::inverse_time ? f : (s_.inch ? f * 25.4 : f);
@@ -412,24 +436,6 @@ void Interpreter::apply_modes(const Block& b, BlockWords& w) {
         s_.work_offset = wo;
         break;
       }
-      case GMeaning::tool_length_on:
-      case GMeaning::tcp_on:
-      case GMeaning::tcp_vector_on:
-        s_.tool_length_active = true;
-        s_.tool_length_h = static_cast<std::uint16_t>(w.whole_or('H', 0, 9999, 0));
-        s_.tcp = g.def->meaning == GMeaning::tcp_on          ? TcpMode::fanuc_g43_4
-                 : g.def->meaning == GMeaning::tcp_vector_on ? TcpMode::fanuc_g43_5
-                                                              : s_.tcp;
-        if (g.def->meaning == GMeaning::tool_length_on && s_.tcp != TcpMode::siemens_traori &&
-            s_.tcp != TcpMode::heidenhain_m128)
-          s_.tcp = TcpMode::off;
-        break;
-      case GMeaning::tool_length_dynamic: s_.tool_length_active = true; break;
-      case GMeaning::tool_length_off:
-        s_.tool_length_active = false;
-        s_.tool_length_h = 0;
-        if (s_.tcp == TcpMode::fanuc_g43_4 || s_.tcp == TcpMode::fanuc_g43_5) s_.tcp = TcpMode::off;
-        break;
       case GMeaning::tilted_plane_on:
         s_.tilted_plane = true;
         w.axes_consumed = true;  // X Y Z I J K of G68.2 define the plane, they do not move
@@ -460,6 +466,8 @@ void Interpreter::apply_modes(const Block& b, BlockWords& w) {
       default: break;
     }
   }
+  tool_offsets(b, w);
+  modal_save_restore(b, w);
   if (d_.id == DialectId::heidenhain_iso) {
     // Heidenhain ISO: I J K set the modal circle centre / pole (absolute, or from the current point
     // in G91); the tool does not move to it.

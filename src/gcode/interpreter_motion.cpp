@@ -28,6 +28,8 @@ void Interpreter::fill_state(Motion& m) const {
   m.position_offset = s_.position_offset;
   m.tool_length_active = s_.tool_length_active;
   m.tool_length_h = s_.tool_length_h;
+  m.tool_length = s_.tool_length;
+  m.tool_length_known = s_.tool_length_known;
   m.tcp = s_.tcp;
   m.tilted_plane = s_.tilted_plane;
   m.orientation_machine_frame = s_.ori_mks;
@@ -75,15 +77,24 @@ void Interpreter::non_modal(const Block& b, BlockWords& w, MotionSink& out) {
       s_.position -= s_.local_offset - old;
     }
   }
-  if (w.has_meaning(GMeaning::machine_coords)) w.machine_frame = true;
+  if (w.has_meaning(GMeaning::machine_coords)) {
+    w.machine_frame = true;
+    if (!s_.absolute && w.axis_present != 0) {
+      // LinuxCNC refuses G53 in G91; Fanuc ignores G91 for G53 on some series and not on others:
+      // the move is ambiguous, so it is refused rather than guessed.
+      report(b, b.words[static_cast<std::size_t>(w.find(GMeaning::machine_coords)->word)].span, Severity::error,
+             codes::kControllerRefuses,
+             "G53 (machine coordinates) under G91: LinuxCNC refuses it and controllers disagree on its meaning; "
+             "program G90 in this block or before it");
+      s_.known &= static_cast<AxisMask>(~w.axis_present);
+      w.axes_consumed = true;
+    }
+  }
   for (int k = 0; k < w.ng; ++k) {
     const auto& g = w.g[static_cast<std::size_t>(k)];
     const Span at = b.words[static_cast<std::size_t>(g.word)].span;
     switch (g.def->meaning) {
-      case GMeaning::dwell:
-        w.axes_consumed = w.axes_consumed || (w.axis_present & ~bit(Axis::x)) == 0;  // Fanuc G4 X = seconds
-        if (w.axis_present & bit(Axis::x)) w.axis_present = static_cast<AxisMask>(w.axis_present & ~bit(Axis::x));
-        break;
+      case GMeaning::dwell: dwell(b, w); break;
       case GMeaning::set_offsets_g10: {
         w.axes_consumed = true;
         const long l = w.whole_or('L', 0, 1000, 0);
@@ -120,6 +131,12 @@ void Interpreter::non_modal(const Block& b, BlockWords& w, MotionSink& out) {
             if (s_.known & m) s_.position_offset[a] += s_.position[a] - v;
             s_.position[a] = v;
             s_.known |= m;
+          } else if (d_.id == DialectId::linuxcnc && g.def->meaning == GMeaning::local_offset) {
+            // LinuxCNC G52 writes the G92 offset itself (G-code reference "G52"): it replaces a G92
+            // shift instead of adding to it, and G92.1 clears both.
+            const double old = s_.position_offset[a];
+            s_.position_offset[a] = v;
+            s_.position[a] -= v - old;
           } else {
             const double old = s_.local_offset[a];
             s_.local_offset[a] = v;
@@ -151,6 +168,7 @@ void Interpreter::non_modal(const Block& b, BlockWords& w, MotionSink& out) {
           if (target(b, w, m)) out.motion(m, b);
         }
         s_.known &= static_cast<AxisMask>(~(named == 0 ? kAllAxes : named));
+        if (named == 0 || (named & bit(Axis::z))) s_.tool_z_pending = 0;  // Z goes home: known by no one
         w.axes_consumed = true;
         break;
       }
@@ -200,6 +218,28 @@ void Interpreter::non_modal(const Block& b, BlockWords& w, MotionSink& out) {
   }
 }
 
+void Interpreter::dwell(const Block& b, BlockWords& w) {
+  // LinuxCNC (RS274/NGC, G-code reference "G4 Dwell"): G4 takes its time from P only; axis words in
+  // the block belong to the active motion mode, which runs after the dwell (rs274 agrees).
+  if (d_.id == DialectId::linuxcnc) return;
+  // Fanuc (Series 0i/30i operator's manual, "Dwell (G04)"): the time is X (seconds, lathe U too,
+  // which collect() has turned into an incremental X) or P (ms); X is never a position here.
+  if (d_.id == DialectId::fanuc) w.axis_present = static_cast<AxisMask>(w.axis_present & ~bit(Axis::x));
+  // Any other axis word shares a block with a dwell that takes no axis: Fanuc and Sinumerik (G4 in a
+  // block of its own, "Dwell time (G4)") do not move there, so the word is refused, not guessed.
+  for (int a = 0; a < kAxisCount; ++a) {
+    if (!(w.axis_present & (1u << a))) continue;
+    const Span at = b.words[static_cast<std::size_t>(w.axis_word[static_cast<std::size_t>(a)])].span;
+    report(b, at, Severity::error, codes::kWordNotAllowed,
+           fmt::format("'{}' in a G4 (dwell) block: the {} dwell takes only its time ({}), so this axis word is "
+                       "not a move there; program the move in a block of its own",
+                       b.text(at), d_.name, d_.id == DialectId::fanuc ? "X, U or P" : "F or S"));
+    s_.known &= static_cast<AxisMask>(~(1u << a));
+    break;
+  }
+  w.axes_consumed = true;
+}
+
 void Interpreter::tool_vector(const BlockWords& w, Motion& m) const {
   // Siemens TRAORI: A3 B3 C3 (missing components are 0); Fanuc G43.5: I J K on linear moves.
   Eigen::Vector3d v = Eigen::Vector3d::Zero();
@@ -224,9 +264,12 @@ void Interpreter::do_motion(const Block& b, BlockWords& w, MotionSink& out) {
                         : w.motion.def                                  ? w.motion.def->meaning
                                                                         : s_.motion;
   if (w.motion.def) {
+    const bool was_cycle = s_.motion == GMeaning::drill_cycle;
     s_.motion = mode;
     s_.motion_code10 = w.motion.def->code10;
-    if (mode == GMeaning::drill_cycle && !d_.lathe) {
+    // LinuxCNC keeps the initial level (old_z) while one cycle follows another (G81 … G98 G82 retracts
+    // to the level before the first; rs274 agrees); elsewhere a cycle code sets it anew.
+    if (mode == GMeaning::drill_cycle && !d_.lathe && !(was_cycle && d_.id == DialectId::linuxcnc)) {
       const int normal = plane_axes(s_.plane).n;
       s_.cycle_bottom_known = false;
       s_.cycle_initial = s_.position[normal];
@@ -238,8 +281,16 @@ void Interpreter::do_motion(const Block& b, BlockWords& w, MotionSink& out) {
     s_.known &= static_cast<AxisMask>(~(bit(Axis::x) | bit(Axis::y) | bit(Axis::z)));
     return;
   }
+  if (w.polar_words != 0 && !polar_to_xy(b, w)) return;
+  // A full circle may be given by its centre alone (no end words: the end is the start): LinuxCNC
+  // (rs274 cuts it) and Fanuc ("Circular interpolation": X Y omitted with I J K = a 360° arc).
+  const PlaneAxes pa = plane_axes(s_.plane);
+  const bool centre_only_circle =
+      w.axis_present == 0 && (mode == GMeaning::arc_cw || mode == GMeaning::arc_ccw) &&
+      (d_.id == DialectId::linuxcnc || d_.id == DialectId::fanuc) &&
+      (w.has(static_cast<char>('I' + pa.u)) || w.has(static_cast<char>('I' + pa.v))) && !w.has('R');
   // Axis words (or R/Z for cycles) make a motion; a motion G alone does not.
-  if (w.axis_present == 0) {
+  if (w.axis_present == 0 && !centre_only_circle) {
     if (w.motion.def && (mode == GMeaning::turning_cycle || mode == GMeaning::threading || mode == GMeaning::spline)) {
       const auto code = mode == GMeaning::turning_cycle ? codes::kTurningCycle
                         : mode == GMeaning::threading   ? codes::kThreading
@@ -264,6 +315,38 @@ void Interpreter::do_motion(const Block& b, BlockWords& w, MotionSink& out) {
   }();
   m.column = b.words[static_cast<std::size_t>(first_word)].span.begin + 1;
   fill_state(m);
+  const Span motion_at = b.words[static_cast<std::size_t>(first_word)].span;
+  if (mode != GMeaning::rapid) cutter_comp_motion(b, motion_at);
+  if (mode != GMeaning::rapid && (d_.id == DialectId::linuxcnc || d_.id == DialectId::fanuc) && !w.has('F') &&
+      (s_.feed_undefined || s_.feed_mode == FeedMode::inverse_time)) {
+    report(b, motion_at, Severity::error, codes::kControllerRefuses,
+           s_.feed_mode == FeedMode::inverse_time
+               ? "a feed move in inverse time (G93) without F: LinuxCNC and Fanuc need F in every such block "
+                 "and stop here; add the F word"
+               : "a feed move without F after leaving inverse time (G93): the feed rate is 0 and the controller "
+                 "stops here; program F in this block or before it");
+    s_.known &= static_cast<AxisMask>(~w.axis_present);
+    return;
+  }
+  if (s_.tool_z_pending) {
+    const bool z_absolute = (w.axis_present & bit(Axis::z)) && !(w.axis_unresolved & bit(Axis::z)) &&
+                            !(w.axis_incremental & bit(Axis::z)) && (s_.absolute || (w.axis_absolute & bit(Axis::z)));
+    const bool settled = s_.tool_z_pending == 1 ? (s_.known & bit(Axis::z)) != 0 : mode == GMeaning::rapid;
+    if (z_absolute || settled) {
+      s_.tool_z_pending = 0;
+    } else if (mode != GMeaning::rapid) {
+      s_.tool_z_pending = 0;
+      report(b, motion_at, Severity::warning, codes::kToolLengthZ,
+             fmt::format("this move's Z depends on the tool-length offset change at line {}, which the program "
+                         "does not resolve ({}); program Z absolutely in that block (e.g. G43 H1 Z50.) or before "
+                         "this move, or give the length in the machine file's [tool.lengths]",
+                         s_.tool_length_line,
+                         d_.id == DialectId::linuxcnc ? "the tool table does not give the length"
+                         : d_.id == DialectId::fanuc  ? "Fanuc moves Z in that block (parameter 5006#6 = 0), not "
+                                                        "along this feed move"
+                                                      : "the control applies it with the next Z travel"));
+    }
+  }
   if (mode == GMeaning::rapid || mode == GMeaning::linear) tool_vector(w, m);  // arcs use I J K as centre
   switch (mode) {
     case GMeaning::rapid:
@@ -310,6 +393,56 @@ void Interpreter::do_motion(const Block& b, BlockWords& w, MotionSink& out) {
       break;
   }
   if (mcall_active_ && !w.machine_frame) s_.known &= static_cast<AxisMask>(~bit(Axis::z));
+}
+
+bool Interpreter::polar_to_xy(const Block& b, BlockWords& w) {
+  // LinuxCNC polar words (G-code reference "Polar Coordinates", checked against rs274): @ distance
+  // and ^ angle (degrees, counter-clockwise from +X) always give X and Y; absolute from the origin,
+  // a missing one keeps the current point's; under G91 both add to the current point's.
+  const Span at = b.words[static_cast<std::size_t>(w.polar_word)].span;
+  const AxisMask xy = bit(Axis::x) | bit(Axis::y);
+  if (w.axis_present & xy) {
+    report(b, at, Severity::error, codes::kControllerRefuses,
+           "polar words (@ ^) together with X or Y: LinuxCNC refuses the block; give the point one way");
+    s_.known &= static_cast<AxisMask>(~xy);
+    return false;
+  }
+  if (w.polar_words & 4u) {
+    unresolved_motion(b, w, codes::kPolar, "a polar move whose @ or ^ is an expression");
+    s_.known &= static_cast<AxisMask>(~xy);
+    return false;
+  }
+  const bool both = (w.polar_words & 3u) == 3u;
+  if ((!both || !s_.absolute) && (s_.known & xy) != xy) {
+    unresolved_motion(b, w, codes::kPolar, "a polar move relative to an unknown current point");
+    s_.known &= static_cast<AxisMask>(~xy);
+    return false;
+  }
+  const double k = s_.inch ? 25.4 : 1.0;
+  const double x0 = s_.position[0] / k, y0 = s_.position[1] / k;
+  double r = std::hypot(x0, y0);
+  double a = std::atan2(y0, x0) * 180.0 / std::numbers::pi;
+  if (!s_.absolute && r == 0) {
+    report(b, at, Severity::error, codes::kControllerRefuses,
+           "incremental polar move from the origin: its direction is undefined and LinuxCNC refuses it");
+    return false;
+  }
+  const double dr = (w.polar_words & 1u) ? w.polar_distance : 0.0;
+  const double da = (w.polar_words & 2u) ? w.polar_angle : 0.0;
+  if (s_.absolute) {
+    if (w.polar_words & 1u) r = w.polar_distance;
+    if (w.polar_words & 2u) a = w.polar_angle;
+  } else {
+    r += dr;
+    a += da;
+  }
+  const double rad = a * std::numbers::pi / 180.0;
+  w.axis[0] = r * std::cos(rad);
+  w.axis[1] = r * std::sin(rad);
+  w.axis_present |= xy;
+  w.axis_absolute |= xy;
+  w.axis_incremental &= static_cast<AxisMask>(~xy);
+  return true;
 }
 
 bool Interpreter::target(const Block&, const BlockWords& w, Motion& m) {

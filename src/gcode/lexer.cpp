@@ -33,7 +33,10 @@ class Lexer {
   Lexer(const Dialect& d, Block& b, const LexContext& ctx) : d_(d), b_(b), ctx_(ctx), s_(b.raw) {}
 
   bool run() {
-    std::uint32_t i = skip_space(0);
+    // A UTF-8 byte-order mark before the first line is not part of the program (the controllers'
+    // editors write and skip it); the bytes stay in the line, so output keeps them.
+    const bool bom = b_.line <= 1 && s_.size() >= 3 && s_.substr(0, 3) == "\xEF\xBB\xBF";
+    std::uint32_t i = skip_space(bom ? 3 : 0);
     // '%' starts a line of its own kind: "%", "%_N_NAME_MPF", "%O1200(TITLE)".
     if (i < n() && s_[i] == '%') {
       std::uint32_t j = i + 1;
@@ -79,6 +82,8 @@ class Lexer {
         next = hash_assignment(i);
       } else if (is_alpha(c) || (c == '_' && d_.multi_letter_identifiers)) {
         next = d_.multi_letter_identifiers ? siemens_item(i, first_item) : letter_item(i, first_item);
+      } else if ((c == '@' || c == '^') && d_.id == DialectId::linuxcnc) {
+        next = letter_item(i, first_item);  // LinuxCNC polar words: @ distance, ^ angle (degrees)
       } else if (c == '$' && d_.multi_letter_identifiers && i + 1 < n() && (is_alpha(s_[i + 1]) || s_[i + 1] == '_')) {
         next = system_variable_write(i);
       } else {

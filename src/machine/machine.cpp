@@ -62,25 +62,31 @@ void read_work_offsets(TomlDoc& doc, const toml::table& t, Machine& m) {
   }
 }
 
+/// [tool.lengths] / [tool.radii]: N = "<value> mm" by H/D offset number (LinuxCNC: tool number).
+void read_tool_numbers(TomlDoc& doc, Fields& f, const char* name, std::map<std::uint32_t, double>& out) {
+  const toml::table* t = f.table(name, false);
+  if (t == nullptr) return;
+  const std::string section = fmt::format("tool.{}", name);
+  Fields lf(doc, *t, section);
+  for (const auto& [k, v] : *t) {
+    const std::string key(k.str());
+    if (key.empty() || key.size() > 5 || key.find_first_not_of("0123456789") != std::string::npos) {
+      doc.error(k.source(), codes::kUnknownKey,
+                fmt::format("[{}] key '{}' is not a tool offset number; write e.g. 3 = \"12.5 mm\" for number 3",
+                            section, key));
+      lf.known(key);
+      continue;
+    }
+    const auto n = static_cast<std::uint32_t>(std::stoul(key));
+    if (auto l = lf.quantity(key, Dim::length, "mm", true, {0, 2000})) out[n] = *l;
+  }
+  lf.finish();
+}
+
 void read_tool(TomlDoc& doc, Fields& f, Machine& m) {
   if (auto l = f.quantity("length", Dim::length, "mm", true, {0, 2000})) m.tool_length = *l;
-  if (const toml::table* t = f.table("lengths", false)) {
-    Fields lf(doc, *t, "tool.lengths");
-    for (const auto& [k, v] : *t) {
-      std::uint32_t h = 0;
-      const std::string key(k.str());
-      if (key.empty() || key.size() > 4 || key.find_first_not_of("0123456789") != std::string::npos) {
-        doc.error(k.source(), codes::kUnknownKey,
-                  fmt::format("[tool.lengths] key '{}' is not a tool length number; write e.g. 3 = \"125.4 mm\" for H3",
-                              key));
-        lf.known(key);
-        continue;
-      }
-      h = static_cast<std::uint32_t>(std::stoul(key));
-      if (auto l = lf.quantity(key, Dim::length, "mm", true, {0, 2000})) m.tool_lengths[h] = *l;
-    }
-    lf.finish();
-  }
+  read_tool_numbers(doc, f, "lengths", m.tool_lengths);
+  read_tool_numbers(doc, f, "radii", m.tool_radii);
   f.finish();
 }
 
@@ -190,6 +196,15 @@ kin::ModelPtr apply_map(TomlDoc& doc, Fields& f, kin::ModelPtr base) {
 
 }  // namespace
 
+std::optional<double> tool_length_of(const Machine& m, const gcode::Motion& mo) {
+  if (!mo.tool_length_active) return m.tool_length;
+  if (mo.tool_length_known && mo.tool_length != 0) return mo.tool_length;
+  if (mo.tool_length_h == 0) return m.tool_length;
+  const auto it = m.tool_lengths.find(mo.tool_length_h);
+  if (it == m.tool_lengths.end()) return std::nullopt;
+  return it->second;
+}
+
 std::string work_offset_name(const gcode::WorkOffset& w) {
   if (w.code10 == 541) return fmt::format("G54.1P{}", w.p);
   if (w.code10 % 10 == 0) return fmt::format("G{}", w.code10 / 10);
@@ -242,6 +257,9 @@ std::optional<Machine> parse_machine(std::string file, std::string text, gcode::
     Fields f(doc, *t, "tool");
     read_tool(doc, f, m);
   }
+  // The interpreter resolves the offsets the program selects from the same table.
+  m.dialect_options.tool_lengths = m.tool_lengths;
+  m.dialect_options.tool_radii = m.tool_radii;
   if (const toml::table* t = top.table("work_offsets", false)) read_work_offsets(doc, *t, m);
 
   // The model section named by [machine] model.

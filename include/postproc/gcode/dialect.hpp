@@ -6,6 +6,7 @@
 
 #include <array>
 #include <cstdint>
+#include <map>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -103,6 +104,11 @@ struct Dialect {
   char gcode_system = 'A';           ///< Fanuc lathe G-code system, 'A' or 'B'
   char diameter_axis = 0;            ///< axis programmed as diameter from the start ('X' on lathes)
   AssignmentTiming assignment_timing = AssignmentTiming::immediate;
+  /// The controller's tool table, where the machine file (or a tool table file) gives it: tool length
+  /// offsets and cutter radii in mm, by H/D offset number (Fanuc, Siemens D) or tool number
+  /// (LinuxCNC). A number missing here is unknown: a block whose position depends on it is refused.
+  std::map<std::uint32_t, double> tool_lengths;
+  std::map<std::uint32_t, double> tool_radii;
   /// Table indexed by code10; GMeaning::unknown where the dialect has no such code.
   std::vector<GCodeDef> gcodes;
 
@@ -118,6 +124,8 @@ struct DialectOptions {
   char diameter_axis = 0;       ///< 0 = dialect default
   /// Fanuc only: how whole numbers without a point are read; unknown = warn once (PP-U218).
   Dialect::IntegerInput integer_input = Dialect::IntegerInput::unknown;
+  std::map<std::uint32_t, double> tool_lengths;  ///< mm, see Dialect::tool_lengths
+  std::map<std::uint32_t, double> tool_radii;    ///< mm, see Dialect::tool_radii
 };
 
 /// Builds the dialect named `name` (fanuc, siemens, linuxcnc, heidenhain-iso); nullopt if unknown.

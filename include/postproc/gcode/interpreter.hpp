@@ -30,6 +30,7 @@ struct ModalState {
   FeedMode feed_mode = FeedMode::per_minute;
   double feed = 0;                  ///< in program units (mm or inch per min/rev; 1/min inverse time)
   bool feed_known = false;
+  bool feed_undefined = false;      ///< the feed mode changed to or from G93 and no F followed
   bool diameter_mode = false;
   bool return_to_r = false;         ///< G99 (mills)
   double cycle_r = 0;               ///< retract plane of the active drilling cycle, mm along the normal
@@ -44,6 +45,20 @@ struct ModalState {
   AxisVector saved_position_offset = AxisVector::Zero();
   bool tool_length_active = false;
   std::uint16_t tool_length_h = 0;
+  double tool_length = 0;           ///< mm, the applied tool length offset (0 at power-on, G49)
+  bool tool_length_known = true;
+  std::uint64_t tool_length_line = 0;   ///< line of the last offset change that left Z unknown
+  /// 1: Z unknown since that change and not programmed yet; 2: Z moved in the change's own block
+  /// (Fanuc), so a feed move without Z right after it is not what the program reads as.
+  std::uint8_t tool_z_pending = 0;
+  int selected_tool = -1;           ///< T word (LinuxCNC: selected, loaded by M6), -1 = none
+  int current_tool = -1;            ///< tool in the spindle (LinuxCNC M6 / M61 Q), -1 = unknown
+  int siemens_d = -1;               ///< Sinumerik active D (cutting edge), -1 = none programmed
+  int cutter_comp = 0;              ///< 0 = G40, 1 = left (G41), 2 = right (G42)
+  double cutter_radius = 0;         ///< mm, when cutter_radius_known
+  bool cutter_radius_known = true;
+  bool cutter_comp_reported = false;  ///< the refusal of this activation was reported
+  std::uint64_t cutter_comp_line = 0;
   TcpMode tcp = TcpMode::off;
   bool tilted_plane = false;
   bool ori_mks = false;             ///< Siemens ORIMKS: orientation vectors in the machine frame
@@ -83,6 +98,13 @@ class Interpreter {
   void drill(const Block& b, const BlockWords& w, Motion& m, MotionSink& out);
   void fill_state(Motion& m) const;
   void tool_vector(const BlockWords& w, Motion& m) const;
+  void dwell(const Block& b, BlockWords& w);
+  void tool_offsets(const Block& b, BlockWords& w);
+  void tool_length_change(const Block& b, const BlockWords& w, Span at, double mm, bool known);
+  [[nodiscard]] bool table_length(long number, double& mm) const;
+  void cutter_comp_motion(const Block& b, Span at);
+  void modal_save_restore(const Block& b, BlockWords& w);
+  bool polar_to_xy(const Block& b, BlockWords& w);
   void siemens_token(const Block& b, const Token& t, BlockWords& w);
   void non_modal(const Block& b, BlockWords& w, MotionSink& out);
   void unresolved_motion(const Block& b, const BlockWords& w, std::string_view code, std::string what);
@@ -93,6 +115,8 @@ class Interpreter {
   DiagnosticSink& sink_;
   InterpreterOptions opt_;
   ModalState s_;
+  ModalState saved_;           ///< LinuxCNC M70 saved state, valid when saved_valid_
+  bool saved_valid_ = false;
   bool warned_integer_input_ = false;
   bool mcall_active_ = false;  ///< Siemens modal cycle call
   bool mcall_pending_ = false; ///< MCALL seen in this block

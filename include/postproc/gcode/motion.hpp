@@ -92,7 +92,11 @@ struct Motion {
   AxisVector local_offset = AxisVector::Zero();     ///< G52 / TRANS shift, mm / degrees
   AxisVector position_offset = AxisVector::Zero();  ///< G92 shift, mm / degrees
   bool tool_length_active = false;
-  std::uint16_t tool_length_h = 0;
+  std::uint16_t tool_length_h = 0;  ///< H number (Fanuc), tool number (LinuxCNC G43 / G43 H)
+  /// The tool length offset the controller applies, mm, when the program states it exactly (G43.1
+  /// Z, H0, G49, or a tool table that knows the number); else compensation looks tool_length_h up.
+  double tool_length = 0;
+  bool tool_length_known = false;
   TcpMode tcp = TcpMode::off;
   bool tilted_plane = false;     ///< G68.2 / CYCLE800 / PLANE active
   /// Tool-axis direction programmed as a vector in this block (Siemens A3/B3/C3 under TRAORI,

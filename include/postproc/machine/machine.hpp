@@ -71,6 +71,7 @@ struct Machine {
   std::map<std::string, gcode::AxisVector> work_offsets;
   double tool_length = 0;                     ///< mm, when no H/D number names another
   std::map<std::uint32_t, double> tool_lengths;  ///< by H (or D) number, mm
+  std::map<std::uint32_t, double> tool_radii;    ///< cutter radius by D number (LinuxCNC: tool number), mm
   /// For serial machines: the joint index of each program axis, -1 if the machine has none.
   std::array<int, gcode::kAxisCount> joint_of_axis{};
 
@@ -81,6 +82,11 @@ struct Machine {
 };
 
 /// Name of a work offset as machine files write it: "G54", "G54.1P3", "G59.2".
+/// The tool length (mm) a motion runs with: the offset the program itself states (LinuxCNC G43.1 /
+/// G43.2 Z, or a length the interpreter took from the tool table), else the machine file's
+/// [tool.lengths] entry of its H/D number, else [tool] length when no number is active. nullopt: the
+/// motion names a number the machine file does not give.
+[[nodiscard]] std::optional<double> tool_length_of(const Machine& m, const gcode::Motion& mo);
 [[nodiscard]] std::string work_offset_name(const gcode::WorkOffset& w);
 
 /// Parses and validates a machine file's text; nullopt when any error was reported to `sink`.

@@ -243,12 +243,14 @@ class Machine {
       const auto e = text.find('>', p);
       p = e == std::string_view::npos ? text.size() : e + 1;
     } else {
-      while (p < text.size() && (std::isdigit(static_cast<unsigned char>(text[p])) || text[p] == ' ')) ++p;
+      // LinuxCNC ignores blanks (spaces and tabs) inside the o-word and before its keyword.
+      while (p < text.size() && (std::isdigit(static_cast<unsigned char>(text[p])) || text[p] == ' ' || text[p] == '\t'))
+        ++p;
     }
     std::string on = lower(text.substr(0, p));
-    on.erase(std::remove(on.begin(), on.end(), ' '), on.end());
+    on.erase(std::remove_if(on.begin(), on.end(), [](char c) { return c == ' ' || c == '\t'; }), on.end());
     l.oname = on;
-    while (p < text.size() && text[p] == ' ') ++p;
+    while (p < text.size() && (text[p] == ' ' || text[p] == '\t')) ++p;
     std::size_t k = p;
     while (k < text.size() && std::isalpha(static_cast<unsigned char>(text[k]))) ++k;
     const std::string kw = lower(text.substr(p, k - p));

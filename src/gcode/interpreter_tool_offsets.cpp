@@ -1,0 +1,212 @@
+// Modal interpreter, part 3: what the controller adds to the programmed point for the tool — tool
+// length offsets (G43/G43.1/G43.2/G49, Fanuc G43.4/G43.5 H, Sinumerik T/D) and cutter radius
+// compensation (G41/G42) — and when that leaves a position the program does not state.
+#include <cmath>
+
+#include <fmt/format.h>
+
+#include "postproc/gcode/interpreter.hpp"
+#include "src/gcode/block_words.hpp"
+#include "src/gcode/codes.hpp"
+
+namespace postproc::gcode {
+namespace {
+
+constexpr AxisMask kZ = bit(Axis::z);
+
+
+}  // namespace
+
+bool Interpreter::table_length(long number, double& mm) const {
+  if (number == 0) {  // H0 / tool 0: no offset (Fanuc H00 is always 0; LinuxCNC "an offset value of zero")
+    mm = 0;
+    return true;
+  }
+  const auto it = d_.tool_lengths.find(static_cast<std::uint32_t>(number));
+  if (it == d_.tool_lengths.end()) return false;
+  mm = it->second;
+  return true;
+}
+
+void Interpreter::tool_length_change(const Block& b, const BlockWords& w, Span at, double mm, bool known) {
+  const bool was_known = s_.tool_length_known;
+  const double old = s_.tool_length;
+  s_.tool_length = mm;
+  s_.tool_length_known = known;
+  if (was_known && known && old == mm) return;  // the same offset again: nothing changes
+  if (d_.id == DialectId::linuxcnc && was_known && known) {
+    // LinuxCNC applies an offset change without moving: the current point's program Z changes by
+    // the difference (rs274: the next canonical Z is the old one minus the change).
+    s_.position[2] -= mm - old;
+    return;
+  }
+  const bool z_absolute = (w.axis_present & kZ) && !w.axes_consumed && !(w.axis_unresolved & kZ) &&
+                          !(w.axis_incremental & kZ) && (s_.absolute || (w.axis_absolute & kZ));
+  if (z_absolute) return;
+  // Where Z was already unknown (e.g. after G28 Z) the change adds nothing the program could state.
+  if (!(s_.known & kZ)) return;
+  if (d_.id == DialectId::fanuc) {
+    // Fanuc with the factory setting of parameter 5006#6 (TOS = 0, "Tool length compensation"):
+    // the change is carried out by a Z movement in its own block, so the tip stays at the program
+    // Z. A feed move right after it would be read with that Z travel blended in: refused there.
+    s_.tool_z_pending = 2;
+    s_.tool_length_line = b.line;
+    return;
+  }
+  // Elsewhere (or with a length the tool table does not give) the tip's program Z after the change
+  // is not stated (LinuxCNC: shifted by a length the tool table does not give; Sinumerik applies a
+  // new D with the next Z travel): Z is known again only where the program states it absolutely.
+  s_.known &= static_cast<AxisMask>(~kZ);
+  s_.tool_z_pending = 1;
+  s_.tool_length_line = b.line;
+  (void)at;
+}
+
+void Interpreter::tool_offsets(const Block& b, BlockWords& w) {
+  // Tool numbers (LinuxCNC): T selects, M6 loads the selected tool, M61 Q sets the tool in the spindle.
+  if (w.has('T') && !w.unresolved('T') && d_.id != DialectId::siemens) s_.selected_tool = static_cast<int>(w.whole_or('T', 0, 99999, -1));
+  for (int i = 0; i < w.m_count; ++i) {
+    const double m = w.m[static_cast<std::size_t>(i)];
+    if (m == 6 && s_.selected_tool >= 0) s_.current_tool = s_.selected_tool;
+    if (m == 61 && d_.id == DialectId::linuxcnc) s_.current_tool = static_cast<int>(w.whole_or('Q', 0, 99999, -1));
+  }
+  if (d_.id == DialectId::siemens) {
+    // Sinumerik (Fundamentals, "Tool offsets"): D selects the cutting edge whose length and radius
+    // apply (D0: none); a new T brings the default edge of the new tool. Their values live in the
+    // control's tool management: the change is exact only for D0 or a D the tool table gives.
+    const long d = w.has('D') ? (w.unresolved('D') ? -2 : w.whole_or('D', 0, 99999, -1)) : -1;
+    const bool new_tool = w.has('T');
+    if (d != -1 || new_tool) {
+      const Span at = b.words[static_cast<std::size_t>(w.letter_word[(d != -1 ? 'D' : 'T') - 'A'])].span;
+      double mm = 0;
+      const bool known = d >= 0 && table_length(d, mm);
+      if (d >= 0) s_.siemens_d = static_cast<int>(d);
+      else if (new_tool) s_.siemens_d = -1;
+      if (!(d >= 0 && d == s_.siemens_d && !new_tool && s_.tool_length_known && known && mm == s_.tool_length))
+        tool_length_change(b, w, at, mm, known);
+    }
+  }
+  for (int k = 0; k < w.ng; ++k) {
+    const auto& g = w.g[static_cast<std::size_t>(k)];
+    const Span at = b.words[static_cast<std::size_t>(g.word)].span;
+    if (g.def->group == GGroup::cutter_comp) {
+      const std::uint16_t c = g.def->code10;
+      if (c == 400) {
+        s_.cutter_comp = 0;
+        continue;
+      }
+      s_.cutter_comp = (c == 420 || c == 421 || c == 422) ? 2 : 1;
+      s_.cutter_comp_reported = false;
+      s_.cutter_comp_line = b.line;
+      double r = 0;
+      bool known = false;
+      if (c == 412 || c == 422) {
+        known = false;  // Fanuc G41.2/G42.2: 3-D cutter compensation along the tool vector
+      } else if (d_.id == DialectId::linuxcnc && (c == 411 || c == 421)) {
+        // LinuxCNC G41.1/G42.1 D: the diameter is in the block.
+        known = w.has('D') && !w.unresolved('D');
+        r = known ? to_mm(0, w.get('D')) / 2 : 0;
+      } else {
+        long n = -1;
+        if (d_.id == DialectId::siemens) n = s_.siemens_d;
+        else if (w.has('D')) n = w.whole_or('D', 0, 99999, -1);
+        else if (d_.id == DialectId::linuxcnc) n = s_.current_tool;
+        if (n == 0) known = true;  // D0 / tool 0: radius 0
+        else if (n > 0) {
+          const auto it = d_.tool_radii.find(static_cast<std::uint32_t>(n));
+          known = it != d_.tool_radii.end();
+          r = known ? it->second : 0;
+        }
+      }
+      s_.cutter_radius = r;
+      s_.cutter_radius_known = known;
+      continue;
+    }
+    switch (g.def->meaning) {
+      case GMeaning::tool_length_on:
+        if (g.def->code10 == 440) {
+          // Fanuc G44 subtracts the offset: postproc's machine model has no negative tool.
+          report(b, at, Severity::warning, codes::kToolLengthZ,
+                 "G44 (negative tool length offset) is not resolved by this version; Z after it is unknown — "
+                 "use G43 with a positive length");
+          s_.tool_length_active = true;
+          s_.tool_length_h = 0;
+          s_.tool_length_known = false;
+          s_.known &= static_cast<AxisMask>(~kZ);
+          break;
+        }
+        [[fallthrough]];
+      case GMeaning::tcp_on:
+      case GMeaning::tcp_vector_on: {
+        const bool additional = d_.id == DialectId::linuxcnc && g.def->code10 == 432;  // G43.2
+        long h = -1;
+        if (w.has('H')) h = w.whole_or('H', 0, 99999, -1);
+        else if (d_.id == DialectId::linuxcnc && !additional) h = s_.current_tool;  // G43: the loaded tool
+        else if (s_.tool_length_active && !additional) h = s_.tool_length_h;      // Fanuc: H stays modal
+        double mm = 0;
+        bool known = h >= 0 && table_length(h, mm);
+        if (additional) {
+          // LinuxCNC G43.2 H n or G43.2 Z v: adds to the offset in effect.
+          if (w.axis_present & kZ) {
+            w.axes_consumed = true;
+            known = !(w.axis_unresolved & kZ);
+            mm = to_mm(2, w.axis[2]);
+          }
+          known = known && s_.tool_length_known;
+          mm += s_.tool_length;
+        }
+        s_.tool_length_active = true;
+        if (!additional) s_.tool_length_h = static_cast<std::uint16_t>(h > 0 ? h : 0);
+        s_.tcp = g.def->meaning == GMeaning::tcp_on          ? TcpMode::fanuc_g43_4
+                 : g.def->meaning == GMeaning::tcp_vector_on ? TcpMode::fanuc_g43_5
+                                                              : s_.tcp;
+        if (g.def->meaning == GMeaning::tool_length_on && s_.tcp != TcpMode::siemens_traori &&
+            s_.tcp != TcpMode::heidenhain_m128)
+          s_.tcp = TcpMode::off;
+        tool_length_change(b, w, at, mm, known);
+        break;
+      }
+      case GMeaning::tool_length_dynamic: {
+        // LinuxCNC G43.1: the axis words are the offsets themselves, never a move.
+        w.axes_consumed = true;
+        s_.tool_length_active = true;
+        s_.tool_length_h = 0;
+        for (int a = 0; a < kAxisCount; ++a)
+          if (a != 2 && (w.axis_present & (1u << a))) {
+            const Span ws = b.words[static_cast<std::size_t>(w.axis_word[static_cast<std::size_t>(a)])].span;
+            report(b, ws, Severity::warning, codes::kToolOffsetAxis,
+                   fmt::format("G43.1 offset along {} ('{}') is not resolved by this version (only Z is); the "
+                               "position of {} after it is unknown",
+                               kAxisLetters[static_cast<std::size_t>(a)], b.text(ws), kAxisLetters[static_cast<std::size_t>(a)]));
+            s_.known &= static_cast<AxisMask>(~(1u << a));
+          }
+        const bool z = (w.axis_present & kZ) != 0;
+        tool_length_change(b, w, at, z ? to_mm(2, w.axis[2]) : 0.0, !(w.axis_unresolved & kZ));
+        break;
+      }
+      case GMeaning::tool_length_off:
+        s_.tool_length_active = false;
+        s_.tool_length_h = 0;
+        if (s_.tcp == TcpMode::fanuc_g43_4 || s_.tcp == TcpMode::fanuc_g43_5) s_.tcp = TcpMode::off;
+        tool_length_change(b, w, at, 0.0, true);
+        break;
+      default: break;
+    }
+  }
+}
+
+void Interpreter::cutter_comp_motion(const Block& b, Span at) {
+  if (s_.cutter_comp == 0 || s_.cutter_comp_reported) return;
+  if (s_.cutter_radius_known && s_.cutter_radius == 0) return;  // D0 / a zero radius: the path is the program
+  s_.cutter_comp_reported = true;
+  report(b, at, Severity::warning, codes::kCutterComp,
+         fmt::format("cutter radius compensation ({} since line {}) with {}: the tool centre runs offset from the "
+                     "programmed contour, which this version does not compute; give the radius 0 (D0, or the "
+                     "machine file's [tool.radii]) when the CAM path is already the tool centre, or compensate "
+                     "a program without G41/G42",
+                     s_.cutter_comp == 1 ? "G41" : "G42", s_.cutter_comp_line,
+                     s_.cutter_radius_known ? fmt::format("a radius of {:g} mm", s_.cutter_radius)
+                                            : std::string("a radius the tool table does not give")));
+}
+
+}  // namespace postproc::gcode
