@@ -35,6 +35,10 @@ inline constexpr std::string_view kUnknownKeyword = "PP-U215";
 inline constexpr std::string_view kMacroCall = "PP-U216";
 inline constexpr std::string_view kCycleRepeat = "PP-U217";
 inline constexpr std::string_view kIntegerInput = "PP-U218";
+// Lathe cycles (docs/lathe-cycles.md): PP-E250…259, PP-U250…259.
+inline constexpr std::string_view kLatheCycleRejected = "PP-E250";  ///< the controller rejects the cycle
+inline constexpr std::string_view kLatheProfileStatement = "PP-E251";  ///< statement inside a cycle's profile
+inline constexpr std::string_view kLatheCycleUnresolved = "PP-U250";  ///< cycle word / profile form not followed
 // Notes.
 inline constexpr std::string_view kDialectGuess = "PP-N001";
 inline constexpr std::string_view kDialectMismatch = "PP-N002";

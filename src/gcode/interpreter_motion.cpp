@@ -37,6 +37,7 @@ void Interpreter::fill_state(Motion& m) const {
 
 void Interpreter::execute(const Block& b, MotionSink& out) {
   if (b.empty()) return;
+  if (d_.id == DialectId::linuxcnc && lathe_profile_line(b)) return;
   BlockWords w;
   const bool ok = collect(b, w);
   apply_tokens(b, w);
@@ -232,6 +233,10 @@ void Interpreter::do_motion(const Block& b, BlockWords& w, MotionSink& out) {
       s_.cycle_initial = s_.position[normal];
       s_.cycle_initial_known = (s_.known >> normal) & 1u;
     }
+  }
+  if (w.motion.def && mode == GMeaning::turning_cycle && d_.id == DialectId::linuxcnc) {
+    lathe_cycle(b, w, out);
+    return;
   }
   if (w.polar) {
     unresolved_motion(b, w, codes::kPolar, "motion in polar coordinates (AP=/RP=)");
