@@ -102,7 +102,6 @@ void join(Segment& prev, Segment& next) {
     next.a = prev.b = std::abs(next.a - s1) < std::abs(next.a - s2) ? s1 : s2;
     return;
   }
-  if (next.ccw != prev.ccw) return;
   const double ra = std::abs(next.a - next.c), rb = std::abs(prev.a - prev.c), dc = std::abs(next.c - prev.c);
   const double cos_b = (dc * dc + ra * ra - rb * rb) / 2.0 / ra / dc;
   const double cos2 = std::min(cos_b * cos_b, 1.0);
@@ -443,9 +442,10 @@ void finish(const CycleWords& w, Profile& prof, std::vector<Move>& out) {
 
 void rough(const CycleWords& w, Profile& prof, std::vector<Move>& out) {
   if (w.cycle == 72) prof.turn();
-  prof.offset(w.d);
   prof.normalise();
   straighten_entry(prof);
+  prof.offset(w.d);
+  prof.normalise();
   prof.rapid(out, prof.segs.front().a);
   const Segment last = prof.segs.back();
   if (last.b.imag() < prof.segs.front().a.imag()) {
