@@ -146,6 +146,17 @@ TEST(LatheCyclesLinuxcnc, G72KeepsDistanceDFromAFacingProfile) {
   EXPECT_NEAR(ms[6]->arc.centre[2], -4, kEps);
 }
 
+TEST(LatheCyclesLinuxcnc, CycleUnderG91IsNotFollowed) {
+  // rs274 (LinuxCNC 2.9) runs G71 under G91, reading the profile as increments; this version does
+  // not reproduce that and refuses the block instead (a warning: the controller runs it).
+  LatheRun r(std::string(kProfile) + "G91\nG71 Q100\nM2\n");
+  const gc::Diagnostic* d = r.find("PP-U250");
+  ASSERT_NE(d, nullptr);
+  EXPECT_EQ(d->where.line, 11u);
+  EXPECT_EQ(d->where.column, 1u);
+  EXPECT_EQ(r.sink.count(gc::Severity::error), 0u);
+}
+
 TEST(LatheCyclesLinuxcnc, G71PocketOnlyVariantIsRefusedAtItsWord) {
   LatheRun r(std::string(kProfile) + "G0 X40 Z5\nG71.2 Q100 D0.2\nM2\n");
   const gc::Diagnostic* d = r.find("PP-U250");
@@ -156,14 +167,8 @@ TEST(LatheCyclesLinuxcnc, G71PocketOnlyVariantIsRefusedAtItsWord) {
 }
 
 TEST(LatheCyclesLinuxcnc, RefusedWhereRs274RefusesIt) {
-  // rs274: "G71.0 will only work in absolute distance mode"; docs: error if the ZX plane is not
-  // selected, if Q names no subroutine, if the profile is not monotonic.
-  {
-    LatheRun r(std::string(kProfile) + "G91\nG71 Q100\nM2\n");
-    const gc::Diagnostic* d = r.find("PP-E250");
-    ASSERT_NE(d, nullptr);
-    EXPECT_EQ(d->where.line, 11u);
-  }
+  // LinuxCNC docs, G71-G72 "It is an error if": the ZX plane is not selected, Q names no
+  // subroutine, the profile is not monotonic.
   {
     LatheRun r(std::string(kProfile) + "G17\nG71 Q100\nM2\n");
     const gc::Diagnostic* d = r.find("PP-E250");

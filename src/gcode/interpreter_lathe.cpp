@@ -23,7 +23,6 @@ namespace postproc::gcode {
 struct ProfileStep {
   std::uint64_t line = 0;
   int motion = -1;           ///< 0 1 2 3: the profile's motion mode for this block, -1 none yet
-  bool arc_g_on_line = false;///< G2/G3 written on this line (rs274 takes the arc direction from it)
   bool has_x = false, has_z = false, has_u = false, has_w = false;
   double x = 0, z = 0, u = 0, w = 0;
   bool has_i = false, has_k = false, has_r = false;
@@ -89,7 +88,6 @@ bool Interpreter::lathe_profile_line(const Block& b) {
     const int code10 = w.motion.def->code10;
     if (code10 == 0 || code10 == 10 || code10 == 20 || code10 == 30) {
       p.motion = code10 / 10;
-      st.arc_g_on_line = code10 >= 20;
     } else {
       report(b, b.words[static_cast<std::size_t>(w.motion.word)].span, Severity::warning, codes::kLatheCycleUnresolved,
              fmt::format("'{}' in the profile of a lathe cycle: only G0, G1, G2 and G3 make the profile; not followed",
@@ -152,8 +150,11 @@ void Interpreter::lathe_cycle(const Block& b, const BlockWords& w, MotionSink& o
     return;
   }
   if (!s_.absolute) {
-    refuse(codes::kLatheCycleRejected,
-           fmt::format("{} only works in absolute distance mode (rs274 refuses it under G91); program G90", name));
+    // rs274 2.9 runs the cycle under G91 (profile words read as increments); not reproduced here.
+    refuse(codes::kLatheCycleUnresolved,
+           fmt::format("{} under G91 (incremental distance mode) is not expanded by this version; program G90 "
+                       "before the cycle",
+                       name));
     return;
   }
   const AxisMask others = static_cast<AxisMask>(w.axis_present & ~(bit(Axis::x) | bit(Axis::z)));
@@ -219,20 +220,14 @@ void Interpreter::lathe_cycle(const Block& b, const BlockWords& w, MotionSink& o
     const auto step_refuse = [&](std::string why) {
       refuse(codes::kLatheCycleUnresolved, fmt::format("{}: profile o{} line {}: {}; the cycle is not followed", name, q, st.line, why));
     };
-    if (st.motion < 0) {
-      step_refuse("move before any G0/G1/G2/G3 in the profile (rs274 would take the motion mode from outside it)");
-      return;
-    }
+    // Before any G0-G3 in the profile the cycle's own rapid has left G0: a straight element.
+    const int motion = st.motion < 0 ? 0 : st.motion;
     turning::Segment s;
     s.a = prev;
     s.b = p;
-    if (st.motion >= 2) {
-      if (!st.arc_g_on_line) {
-        step_refuse("arc without G2/G3 on its own line (rs274 takes the arc's direction from the line)");
-        return;
-      }
+    if (motion >= 2) {
       s.arc = true;
-      s.ccw = st.motion == 3;
+      s.ccw = motion == 3;  // the profile's motion mode (rs274 2.9: also when G2/G3 is modal)
       if (st.has_r) {
         if (s_.arc_absolute) {
           step_refuse("arc by radius R under G90.1");
