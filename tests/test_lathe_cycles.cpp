@@ -4,6 +4,7 @@
 // g-code.html, sections "G70 Lathe finishing cycle" and "G71 G72 Lathe roughing cycles"); whole
 // programs are also compared move for move with rs274 by tests/rs274_compare.sh (lathe_*.ngc).
 #include <cmath>
+#include <numbers>
 #include <string>
 #include <vector>
 
@@ -207,6 +208,47 @@ TEST(LatheCyclesLinuxcnc, ProfileValuesFromParametersAreSubstituted) {
   EXPECT_NEAR(ms[2]->end[0], 7, kEps);
   EXPECT_NEAR(ms[3]->end[0], 7, kEps);
   EXPECT_NEAR(ms[3]->end[2], -10, kEps);
+}
+
+TEST(LatheCyclesLinuxcnc, ProfileFormsNotReproducedAreRefusedAtTheCycle) {
+  // LinuxCNC docs, G71-G72: "Each motion command may also include an optional A- or C- number"
+  // (corner fillet / chamfer) — not reproduced; an R arc under G90.1 neither.
+  {
+    LatheRun r("G18 G21 G90 G8\nG0 X20 Z5\nF100\nO100 sub\nG1 X5 Z0\nG1 Z-10 A1\nG1 X10 Z-12\nO100 endsub\n"
+               "G70 Q100\nM2\n");
+    // at the profile's line, then at the cycle
+    std::vector<std::uint64_t> lines;
+    for (const auto& d : r.sink.stored())
+      if (d.code == "PP-U250") lines.push_back(d.where.line);
+    EXPECT_EQ(lines, (std::vector<std::uint64_t>{6, 9}));
+    EXPECT_TRUE(r.of_line(9).empty());
+  }
+  {
+    LatheRun r("G18 G21 G90 G8 G90.1\nG0 X20 Z5\nF100\nO100 sub\nG1 X5 Z0\nG3 X10 Z-5 R5\nO100 endsub\n"
+               "G70 Q100\nM2\n");
+    const gc::Diagnostic* d = r.find("PP-U250");
+    ASSERT_NE(d, nullptr);
+    EXPECT_EQ(d->where.line, 8u);
+    EXPECT_NE(d->message.find("G90.1"), std::string::npos) << d->message;
+  }
+}
+
+TEST(LatheCyclesLinuxcnc, ArcsOfTheProfileAreFollowedWithTheirCentres) {
+  // G70 with D = 0 draws the profile's arcs as written: G3 X20 Z-15 K-5 from X10 Z-10 (G7:
+  // radius 5 → 10) turns counter-clockwise about X5 Z-15 (K incremental, G91.1).
+  LatheRun r("G18 G21 G90 G7\nG0 X40 Z5\nF100\nO100 sub\nG1 X10 Z0\nG1 Z-10\nG3 X20 Z-15 K-5\nG1 Z-25\n"
+             "O100 endsub\nG70 Q100\nM2\n");
+  ASSERT_EQ(r.sink.count(gc::Severity::error), 0u) << r.sink.stored().front().message;
+  const auto ms = r.of_line(10);
+  ASSERT_EQ(ms.size(), 6u);
+  const gc::Motion& arc = *ms[4];
+  EXPECT_EQ(arc.type, gc::MotionType::arc_ccw);
+  EXPECT_NEAR(arc.arc.centre[0], 5, kEps);
+  EXPECT_NEAR(arc.arc.centre[2], -15, kEps);
+  EXPECT_NEAR(arc.arc.radius, 5, kEps);
+  EXPECT_NEAR(arc.arc.sweep, std::numbers::pi / 2, 1e-9);
+  EXPECT_NEAR(arc.end[0], 10, kEps);
+  EXPECT_NEAR(arc.end[2], -15, kEps);
 }
 
 }  // namespace

@@ -715,7 +715,7 @@ class Machine {
     if (it == subs_.end()) return;  // … and without its subroutine
     const Sub s = it->second;
     SourceFile& sf = *s.file;
-    out_.push_call(CallFrame{f.name(), pc + 1, fmt::format("profile o{} of", std::lround(q))});
+    out_.push_call(CallFrame{f.name(), pc + 1, fmt::format("o{} profile", std::lround(q))});
     if (!out_.emit(sf, s.begin, {})) runaway(sf, s.begin);
     std::vector<Edit> edits;
     for (std::size_t i = s.begin + 1; i < s.end; ++i) {
