@@ -12,9 +12,9 @@ command -v rs274 > /dev/null || { echo "FAIL: rs274 missing (scripts/install-dep
 T=$(mktemp -d)
 trap 'rm -rf "$T"' EXIT
 fails=0
-# lathe_*: LinuxCNC G70/G71/G72 turning cycles (docs/lathe-cycles.md); their arcs (G18: ARC_FEED
+# lathe_*: LinuxCNC G70/G71/G72 turning cycles and G33 (docs/lathe-cycles.md); their arcs (G18: ARC_FEED
 # first axis Z, second X) are compared too: end point, centre and direction.
-for prog in control_flow expressions subroutines lathe_g70 lathe_g71 lathe_g72 lathe_pocket; do
+for prog in control_flow expressions subroutines lathe_g70 lathe_g71 lathe_g72 lathe_pocket lathe_g33; do
   (cd "$D" && timeout 60 rs274 -g "$prog.ngc") > "$T/$prog.rs274" 2>&1
   (cd "$D" && "$P" dump "$prog.ngc" --dialect linuxcnc --format csv) > "$T/$prog.csv" 2> "$T/$prog.err" ||
     { echo "FAIL: $prog: dump failed: $(cat "$T/$prog.err")"; fails=$((fails + 1)); continue; }

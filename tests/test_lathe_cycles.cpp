@@ -251,4 +251,30 @@ TEST(LatheCyclesLinuxcnc, ArcsOfTheProfileAreFollowedWithTheirCentres) {
   EXPECT_NEAR(arc.end[2], -15, kEps);
 }
 
+TEST(LatheCyclesLinuxcnc, G33IsAStraightMoveWithKPerRevolution) {
+  // LinuxCNC docs, G33 "Spindle Synchronized Motion": G33 X- Z- K-, K = distance per revolution;
+  // rs274 refuses it without K (on every G33 block, modal repeats too) and with the spindle
+  // stopped. X is a diameter under G7.
+  LatheRun r("G18 G21 G90 G7\nG0 X20 Z5\nM3 S300\nG33 Z-10 K1.5\nX18 Z-12 K1\nZ-14\nM2\n");
+  const auto a = r.of_line(4), b = r.of_line(5);
+  ASSERT_EQ(a.size(), 1u);
+  ASSERT_EQ(b.size(), 1u);
+  EXPECT_EQ(a[0]->type, gc::MotionType::linear);
+  EXPECT_EQ(a[0]->feed_mode, gc::FeedMode::per_rev);
+  EXPECT_DOUBLE_EQ(a[0]->feed, 1.5);
+  EXPECT_NEAR(a[0]->end[0], 10, kEps);
+  EXPECT_NEAR(a[0]->end[2], -10, kEps);
+  EXPECT_DOUBLE_EQ(b[0]->feed, 1.0);
+  EXPECT_NEAR(b[0]->end[0], 9, kEps);
+  EXPECT_NEAR(b[0]->end[2], -12, kEps);
+  const gc::Diagnostic* d = r.find("PP-E250");
+  ASSERT_NE(d, nullptr);
+  EXPECT_EQ(d->where.line, 6u);
+  LatheRun stopped("G18 G21 G90\nG0 X20 Z5\nG33 Z-10 K1.5\nM2\n");
+  const gc::Diagnostic* s = stopped.find("PP-E250");
+  ASSERT_NE(s, nullptr);
+  EXPECT_EQ(s->where.line, 3u);
+  EXPECT_TRUE(stopped.of_line(3).empty());
+}
+
 }  // namespace

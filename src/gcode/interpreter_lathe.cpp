@@ -316,4 +316,35 @@ void Interpreter::lathe_cycle(const Block& b, const BlockWords& w, MotionSink& o
   }
 }
 
+void Interpreter::spindle_synced_move(const Block& b, const BlockWords& w, Motion& m, MotionSink& out) {
+  // LinuxCNC docs, G33 "Spindle Synchronized Motion": a straight move from the current point to
+  // the axis words, K = distance per revolution; rs274 refuses it without K ("K word missing with
+  // g33/g33.1", also on a modal repeat) and when the spindle is not turning.
+  const Span at = b.words[static_cast<std::size_t>(w.motion.word >= 0 ? w.motion.word : w.axis_word[0] >= 0 ? w.axis_word[0] : 0)].span;
+  const AxisMask named = w.axis_present;
+  if (!w.has('K')) {
+    report(b, at, Severity::error, codes::kLatheCycleRejected, "G33 needs K (distance per revolution) on every G33 block");
+    s_.known &= static_cast<AxisMask>(~named);
+    return;
+  }
+  if (w.unresolved('K')) {
+    report(b, b.words[static_cast<std::size_t>(w.letter_word['K' - 'A'])].span, Severity::warning,
+           codes::kLatheCycleUnresolved, "G33 with a K that is not known; not followed");
+    s_.known &= static_cast<AxisMask>(~named);
+    return;
+  }
+  if (!spindle_turning_) {
+    report(b, at, Severity::error, codes::kLatheCycleRejected,
+           "G33 while the spindle is not turning (rs274: \"Spindle not turning in G33\"); program M3 or M4 before it");
+    s_.known &= static_cast<AxisMask>(~named);
+    return;
+  }
+  m.type = MotionType::linear;
+  if (!target(b, w, m)) return;
+  m.feed = w.get('K');
+  m.feed_mode = FeedMode::per_rev;
+  m.feed_known = true;
+  out.motion(m, b);
+}
+
 }  // namespace postproc::gcode

@@ -48,6 +48,12 @@ void Interpreter::execute(const Block& b, MotionSink& out) {
     return;
   }
   non_modal(b, w, out);
+  if (d_.id == DialectId::linuxcnc)
+    for (int k = 0; k < w.m_count; ++k) {
+      const double mc = w.m[static_cast<std::size_t>(k)];
+      if (mc == 3 || mc == 4) spindle_turning_ = true;
+      if (mc == 5) spindle_turning_ = false;
+    }
   if (!w.axes_consumed) do_motion(b, w, out);
 }
 
@@ -291,8 +297,13 @@ void Interpreter::do_motion(const Block& b, BlockWords& w, MotionSink& out) {
         drill(b, w, m, out);
       }
       break;
-    case GMeaning::turning_cycle:
     case GMeaning::threading:
+      if (d_.id == DialectId::linuxcnc && s_.motion_code10 == 330) {
+        spindle_synced_move(b, w, m, out);
+        break;
+      }
+      [[fallthrough]];
+    case GMeaning::turning_cycle:
     case GMeaning::spline: {
       const auto code = mode == GMeaning::turning_cycle ? codes::kTurningCycle
                         : mode == GMeaning::threading   ? codes::kThreading

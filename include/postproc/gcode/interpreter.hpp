@@ -93,6 +93,7 @@ class Interpreter {
   struct LatheProfile;
   bool lathe_profile_line(const Block& b);
   void lathe_cycle(const Block& b, const BlockWords& w, MotionSink& out);
+  void spindle_synced_move(const Block& b, const BlockWords& w, Motion& m, MotionSink& out);
 
   Dialect d_;
   std::string file_;
@@ -105,6 +106,7 @@ class Interpreter {
   Span frame_span_;            ///< where that frame keyword is
   int frame_keyword_ = 0;      ///< Siemens frame keyword in this block: 1 TRANS, 2 ATRANS, 3 ROT/SCALE/…
   std::shared_ptr<LatheProfile> lathe_profile_;  ///< the last profile subroutine read (LinuxCNC)
+  bool spindle_turning_ = false;  ///< LinuxCNC: M3/M4 given and not stopped by M5 (G33 needs it)
 };
 
 }  // namespace postproc::gcode
