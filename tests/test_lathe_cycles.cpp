@@ -277,4 +277,15 @@ TEST(LatheCyclesLinuxcnc, G33IsAStraightMoveWithKPerRevolution) {
   EXPECT_TRUE(stopped.of_line(3).empty());
 }
 
+TEST(LatheCyclesLinuxcnc, SubroutineSkippedWithoutResolvingIsReported) {
+  // Read without the resolver (library use of run_program), a definition that no cycle reads is
+  // skipped — not silently: PP-U212 at the block after it names the subroutine.
+  const pptest::Program r(dialect("linuxcnc"), "G0 X0 Z0\nO100 sub\nG1 X5 Z-5 F100\nO100 endsub\nG0 X10\n");
+  const gc::Diagnostic* d = r.find("PP-U212");
+  ASSERT_NE(d, nullptr);
+  EXPECT_EQ(d->where.line, 5u);
+  EXPECT_NE(d->message.find("o100"), std::string::npos) << d->message;
+  EXPECT_EQ(r.at_line(3), nullptr);
+}
+
 }  // namespace

@@ -33,6 +33,7 @@ struct Interpreter::LatheProfile {
   long number = -1;          ///< N of "oN sub"
   bool open = false;         ///< between sub and endsub
   bool usable = true;        ///< false when one of its blocks was refused (already reported)
+  bool awaiting = false;     ///< just closed: the next block must be the cycle that reads it
   int motion = -1;
   std::uint64_t line = 0;    ///< the sub line
   std::vector<ProfileStep> steps;
@@ -70,8 +71,24 @@ bool Interpreter::lathe_profile_line(const Block& b) {
     }
     if (kind == 2 && lathe_profile_ && lathe_profile_->open) {
       lathe_profile_->open = false;
+      lathe_profile_->awaiting = true;
       return true;
     }
+  }
+  if (lathe_profile_ && lathe_profile_->awaiting) {
+    // The resolver passes a subroutine on only right before the G70–G72 that reads it; anywhere
+    // else (a program read without resolving) the definition was skipped and is reported.
+    lathe_profile_->awaiting = false;
+    bool cycle = false, same_q = false;
+    for (const Word& wd : b.words) {
+      if (wd.letter == 'G' && wd.kind == ValueKind::number && wd.number >= 70 && wd.number < 73) cycle = true;
+      if (wd.letter == 'Q' && wd.kind == ValueKind::number && std::lround(wd.number) == lathe_profile_->number) same_q = true;
+    }
+    if (!(cycle && same_q))
+      report(b, Span{0, static_cast<std::uint32_t>(b.raw.size())}, Severity::warning, codes::kControlFlow,
+             fmt::format("the subroutine o{} defined at line {} was skipped here; subroutines are followed only when "
+                         "the program is resolved",
+                         lathe_profile_->number, lathe_profile_->line));
   }
   if (!lathe_profile_ || !lathe_profile_->open) return false;
   // A block of the profile: its moves are data for the cycle (LinuxCNC docs, G71-G72: "This
