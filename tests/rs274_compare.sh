@@ -12,33 +12,45 @@ command -v rs274 > /dev/null || { echo "FAIL: rs274 missing (scripts/install-dep
 T=$(mktemp -d)
 trap 'rm -rf "$T"' EXIT
 fails=0
-for prog in control_flow expressions subroutines reader_dwell reader_modal_state; do
+# lathe_*: LinuxCNC G70/G71/G72 turning cycles and G33 (docs/lathe-cycles.md); their arcs (G18: ARC_FEED
+# first axis Z, second X) are compared too: end point, centre and direction.
+for prog in control_flow expressions subroutines lathe_g70 lathe_g71 lathe_g72 lathe_pocket lathe_g33 reader_dwell reader_modal_state; do
   (cd "$D" && timeout 60 rs274 -g "$prog.ngc") > "$T/$prog.rs274" 2>&1
   (cd "$D" && "$P" dump "$prog.ngc" --dialect linuxcnc --format csv) > "$T/$prog.csv" 2> "$T/$prog.err" ||
     { echo "FAIL: $prog: dump failed: $(cat "$T/$prog.err")"; fails=$((fails + 1)); continue; }
   python3 - "$T/$prog.rs274" "$T/$prog.csv" "$prog" <<'PY' || fails=$((fails + 1))
 import csv, re, sys
+name = sys.argv[3]
+arcs = name.startswith("lathe_")
 ref = []
 for line in open(sys.argv[1]):
     m = re.search(r"STRAIGHT_(FEED|TRAVERSE)\(([^)]*)\)", line)
     if m:
         ref.append([float(v) for v in m.group(2).split(",")[:6]])
+        continue
+    m = re.search(r"ARC_FEED\(([^)]*)\)", line)
+    if m and arcs:
+        v = [float(x) for x in m.group(1).split(",")]
+        pos = list(ref[-1][:6]) if ref else [0.0] * 6
+        pos[0], pos[2] = v[1], v[0]
+        ref.append(pos + [v[3], v[2], 1.0 if v[4] > 0 else -1.0])
 rows = list(csv.DictReader(open(sys.argv[2])))
 got, last = [], [0.0] * 6
 for r in rows:
-    if r["motion"] not in ("rapid", "linear"):
+    arc = r["motion"] in ("cw", "ccw")
+    if r["motion"] not in ("rapid", "linear") and not (arcs and arc):
         continue
     for k, a in enumerate("xyzabc"):
         if r.get(a) not in (None, "", "null"):
             last[k] = float(r[a])
-    got.append((int(r["line"]), list(last)))
-name = sys.argv[3]
+    extra = [float(r["centre_x"]), float(r["centre_z"]), 1.0 if float(r["sweep_deg"]) > 0 else -1.0] if arc else []
+    got.append((int(r["line"]), list(last) + extra))
 if not ref:
     print(f"FAIL: {name}: rs274 gave no moves"); sys.exit(1)
 if len(ref) != len(got):
     print(f"FAIL: {name}: rs274 {len(ref)} moves, postproc {len(got)}"); sys.exit(1)
 for i, (a, (line, b)) in enumerate(zip(ref, got)):
-    if any(abs(x - y) > 6e-5 for x, y in zip(a, b)):
+    if len(a) != len(b) or any(abs(x - y) > 6e-5 for x, y in zip(a, b)):
         print(f"FAIL: {name}: move {i + 1} (source line {line}): rs274 {a}, postproc {b}"); sys.exit(1)
 print(f"{name}: {len(ref)} moves agree with rs274")
 PY

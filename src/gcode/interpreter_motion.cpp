@@ -39,6 +39,7 @@ void Interpreter::fill_state(Motion& m) const {
 
 void Interpreter::execute(const Block& b, MotionSink& out) {
   if (b.empty()) return;
+  if (d_.id == DialectId::linuxcnc && lathe_profile_line(b)) return;
   BlockWords w;
   const bool ok = collect(b, w);
   apply_tokens(b, w);
@@ -49,6 +50,12 @@ void Interpreter::execute(const Block& b, MotionSink& out) {
     return;
   }
   non_modal(b, w, out);
+  if (d_.id == DialectId::linuxcnc)
+    for (int k = 0; k < w.m_count; ++k) {
+      const double mc = w.m[static_cast<std::size_t>(k)];
+      if (mc == 3 || mc == 4) spindle_turning_ = true;
+      if (mc == 5) spindle_turning_ = false;
+    }
   if (!w.axes_consumed) do_motion(b, w, out);
 }
 
@@ -276,6 +283,10 @@ void Interpreter::do_motion(const Block& b, BlockWords& w, MotionSink& out) {
       s_.cycle_initial_known = (s_.known >> normal) & 1u;
     }
   }
+  if (w.motion.def && mode == GMeaning::turning_cycle && d_.id == DialectId::linuxcnc) {
+    lathe_cycle(b, w, out);
+    return;
+  }
   if (w.polar) {
     unresolved_motion(b, w, codes::kPolar, "motion in polar coordinates (AP=/RP=)");
     s_.known &= static_cast<AxisMask>(~(bit(Axis::x) | bit(Axis::y) | bit(Axis::z)));
@@ -369,8 +380,13 @@ void Interpreter::do_motion(const Block& b, BlockWords& w, MotionSink& out) {
         drill(b, w, m, out);
       }
       break;
-    case GMeaning::turning_cycle:
     case GMeaning::threading:
+      if (d_.id == DialectId::linuxcnc && s_.motion_code10 == 330) {
+        spindle_synced_move(b, w, m, out);
+        break;
+      }
+      [[fallthrough]];
+    case GMeaning::turning_cycle:
     case GMeaning::spline: {
       const auto code = mode == GMeaning::turning_cycle ? codes::kTurningCycle
                         : mode == GMeaning::threading   ? codes::kThreading

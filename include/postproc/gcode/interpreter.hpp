@@ -3,6 +3,7 @@
 /// Modal interpreter: turns lexed blocks into resolved motions (absolute mm / degrees in the active
 /// work coordinate system) and reports every construct it cannot resolve with a stable code.
 
+#include <memory>
 #include <string>
 #include <string_view>
 
@@ -109,6 +110,12 @@ class Interpreter {
   void non_modal(const Block& b, BlockWords& w, MotionSink& out);
   void unresolved_motion(const Block& b, const BlockWords& w, std::string_view code, std::string what);
   [[nodiscard]] double to_mm(int axis, double v) const;
+  // LinuxCNC lathe profile cycles G70–G72 (src/gcode/interpreter_lathe.cpp): the resolver hands
+  // the Q subroutine over as "oN sub" … "oN endsub" lines just before the cycle's block.
+  struct LatheProfile;
+  bool lathe_profile_line(const Block& b);
+  void lathe_cycle(const Block& b, const BlockWords& w, MotionSink& out);
+  void spindle_synced_move(const Block& b, const BlockWords& w, Motion& m, MotionSink& out);
 
   Dialect d_;
   std::string file_;
@@ -122,6 +129,8 @@ class Interpreter {
   bool mcall_pending_ = false; ///< MCALL seen in this block
   Span frame_span_;            ///< where that frame keyword is
   int frame_keyword_ = 0;      ///< Siemens frame keyword in this block: 1 TRANS, 2 ATRANS, 3 ROT/SCALE/…
+  std::shared_ptr<LatheProfile> lathe_profile_;  ///< the last profile subroutine read (LinuxCNC)
+  bool spindle_turning_ = false;  ///< LinuxCNC: M3/M4 given and not stopped by M5 (G33 needs it)
 };
 
 }  // namespace postproc::gcode

@@ -84,6 +84,8 @@ struct Line {
   bool abort = false;           // (abort, …)
   bool cycle_profile = false;   // G70–G72: profile in a subroutine
   Span cycle_span;
+  bool cycle_q_literal = false; // the Q word is a plain number (cycle_q)
+  double cycle_q = 0;
   std::string abort_text;
   std::size_t match = 0;        // structure: see Structure
 };
@@ -217,6 +219,10 @@ class Machine {
         l.cycle_profile = true;
         l.cycle_span = w.span;
         l.plain = false;
+      }
+      if (w.letter == 'Q' && w.kind == ValueKind::number) {
+        l.cycle_q_literal = true;
+        l.cycle_q = w.number;
       }
       if (w.kind != ValueKind::expression && w.kind != ValueKind::parameter) continue;
       l.plain = false;
@@ -576,12 +582,7 @@ class Machine {
         pc = next;
         continue;
       }
-      if (l.cycle_profile) {
-        f.report(pc, l.cycle_span, Severity::error, "PP-E709",
-                 fmt::format("this lathe cycle takes its profile from a subroutine (Q), which the resolved program "
-                             "would no longer contain; such programs cannot be resolved{}", context()));
-        throw Stop{};
-      }
+      if (l.cycle_profile) cycle_profile(f, pc, l);
       if (l.abort) {
         f.report(pc, Span{0, static_cast<std::uint32_t>(f.raw(pc).size())}, Severity::error, "PP-E710",
                  fmt::format("the program aborts here: {}{}", l.abort_text, context()));
@@ -697,6 +698,49 @@ class Machine {
       }
       default: return i + 1;
     }
+  }
+
+  /// G70–G72 read their profile from the subroutine numbered Q (LinuxCNC docs, G70 and G71-G72):
+  /// its lines are passed on, values substituted, as "oN sub" … "oN endsub" right before the
+  /// cycle's line, where the interpreter reads them as the profile. rs274 reads those lines
+  /// without executing them, so statements inside the profile are refused.
+  void cycle_profile(SourceFile& f, std::size_t pc, const Line& l) {
+    double q = l.cycle_q;
+    bool have_q = l.cycle_q_literal;
+    for (const WordValue& v : l.words)
+      if (v.letter == 'Q') {
+        q = value(f, pc, v.span, v.code);
+        have_q = true;
+      }
+    if (!have_q) return;  // the interpreter refuses the cycle without Q
+    const auto it = subs_.find(fmt::format("o{}", std::lround(q)));
+    if (it == subs_.end()) return;  // … and without its subroutine
+    const Sub s = it->second;
+    SourceFile& sf = *s.file;
+    out_.push_call(CallFrame{f.name(), pc + 1, fmt::format("o{} profile", std::lround(q))});
+    if (!out_.emit(sf, s.begin, {})) runaway(sf, s.begin);
+    std::vector<Edit> edits;
+    for (std::size_t i = s.begin + 1; i < s.end; ++i) {
+      Line& bl = line(sf, i);
+      if (!bl.ok) throw Stop{};
+      if (bl.kw != Kw::none || !bl.assigns.empty() || bl.abort || bl.cycle_profile || bl.ends_program) {
+        const Span at = bl.kw != Kw::none ? bl.control_span
+                        : !bl.assigns.empty() ? bl.assigns.front().span
+                        : bl.cycle_profile ? bl.cycle_span
+                                           : Span{0, static_cast<std::uint32_t>(sf.raw(i).size())};
+        sf.report(i, at, Severity::error, "PP-E251",
+                  fmt::format("the profile of a lathe cycle (o{} sub, used by the G7x at line {}) holds a statement "
+                              "or cycle; rs274 reads the profile's moves without executing statements, so this "
+                              "cannot be followed: keep only G0/G1/G2/G3 moves in the profile{}",
+                              std::lround(q), pc + 1, context()));
+        throw Stop{};
+      }
+      edits.clear();
+      for (const WordValue& v : bl.words) edits.push_back({v.span, format_value(value(sf, i, v.span, v.code), v.letter)});
+      if (!out_.emit(sf, i, edits)) runaway(sf, i);
+    }
+    if (!out_.emit(sf, s.end, {})) runaway(sf, s.end);
+    out_.pop_call();
   }
 
   std::size_t enclosing_loop(SourceFile& f, FileInfo& fi, std::size_t i, const Line& l) {

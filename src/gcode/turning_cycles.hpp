@@ -1,0 +1,47 @@
+#pragma once
+// Lathe profile cycles: the moves a controller cuts for a turning cycle whose finished shape is a
+// profile (LinuxCNC G70 finishing, G71/G72 roughing with G7x.1 / G7x.2 variants).
+//
+// Points are complex numbers z + i·x in program units with x as a radius (the plane G18 with Z as
+// the first axis, so a counter-clockwise turn goes from +Z towards +X, as G3 does there).
+#include <complex>
+#include <string>
+#include <vector>
+
+namespace postproc::gcode::turning {
+
+using Point = std::complex<double>;  ///< real = Z, imag = X (radius)
+
+/// One element of the profile, or of the tool path cut from it.
+struct Segment {
+  bool arc = false;
+  bool ccw = false;   ///< arcs: G3
+  Point a, b;         ///< start, end
+  Point c;            ///< arcs: centre
+};
+
+/// One move of the expanded cycle.
+struct Move {
+  enum class Kind { rapid, line, arc_cw, arc_ccw } kind = Kind::rapid;
+  Point end;
+  Point centre;  ///< arcs
+};
+
+struct CycleWords {
+  int cycle = 71;     ///< 70, 71 or 72
+  int variant = 0;    ///< 0 (whole profile with pockets), 1 (G7x.1: no pockets), 2 (G7x.2: pockets only)
+  Point start;        ///< X/Z of the cycle block, else the current point
+  double d = 0;       ///< G71/G72: distance left to the profile; G70: first pass distance
+  double e = 0;       ///< G70: last pass distance
+  double passes = 1;  ///< G70: P
+  double increment = 1;  ///< G71/G72: I (depth of cut)
+  double retract = 0.5;  ///< G71/G72: R
+};
+
+/// Expands LinuxCNC's G70/G71/G72 (linuxcnc.org/docs/html/gcode/g-code.html#gcode:g70,
+/// #gcode:g71-g72) over `profile` (the moves of the Q subroutine, the first starting at
+/// `w.start`) into `out`. Returns an empty string, or the reason the controller rejects the
+/// cycle (the message rs274 gives: "Not monotonic", "Cannot intersect parallel lines", …).
+std::string expand_linuxcnc(const CycleWords& w, std::vector<Segment> profile, std::vector<Move>& out);
+
+}  // namespace postproc::gcode::turning

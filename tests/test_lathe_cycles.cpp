@@ -1,0 +1,291 @@
+// Lathe turning cycles (issue 16, area "lathe"): LinuxCNC G70 / G71 / G72 (.1) expanded into the
+// moves rs274 makes; what is not reproduced is refused at its line (docs/lathe-cycles.md).
+// The expected moves follow the LinuxCNC G-code reference (linuxcnc.org/docs/html/gcode/
+// g-code.html, sections "G70 Lathe finishing cycle" and "G71 G72 Lathe roughing cycles"); whole
+// programs are also compared move for move with rs274 by tests/rs274_compare.sh (lathe_*.ngc).
+#include <cmath>
+#include <numbers>
+#include <string>
+#include <vector>
+
+#include "postproc/gcode/resolve.hpp"
+#include "support.hpp"
+
+namespace {
+
+namespace gc = postproc::gcode;
+using pptest::dialect;
+
+/// A LinuxCNC program run as the CLI runs it (resolved first: the profile is an O-word sub).
+struct LatheRun : gc::BlockVisitor {
+  explicit LatheRun(std::string program) : text(std::move(program)) {
+    gc::ResolveOptions opt;
+    gc::run_program_text(text, dialect("linuxcnc"), "t.ngc", sink, *this, opt);
+  }
+  void block(const gc::Block&, std::span<const gc::Motion> ms, bool) override {
+    for (const auto& m : ms) motions.push_back(m);
+  }
+  [[nodiscard]] std::vector<const gc::Motion*> of_line(std::uint64_t line) const {
+    std::vector<const gc::Motion*> out;
+    for (const auto& m : motions)
+      if (m.line == line) out.push_back(&m);
+    return out;
+  }
+  [[nodiscard]] const gc::Diagnostic* find(std::string_view code) const {
+    for (const auto& d : sink.stored())
+      if (d.code == code) return &d;
+    return nullptr;
+  }
+  std::string text;
+  gc::DiagnosticSink sink;
+  std::vector<gc::Motion> motions;
+};
+
+constexpr double kEps = 1e-6;
+
+// Profile used below (diameter mode): X10 Z0 → Z-10 → X20 Z-20 → X30 Z-30, approached from X40 Z5.
+const char* kProfile =
+    "G18 G21 G90 G7\n"   // 1
+    "G0 X40 Z5\n"        // 2
+    "F200\n"             // 3
+    "O100 sub\n"         // 4
+    "G1 X10 Z0\n"        // 5
+    "G1 Z-10\n"          // 6
+    "G1 X20 Z-20\n"      // 7
+    "G1 X30 Z-30\n"      // 8
+    "O100 endsub\n";     // 9
+
+TEST(LatheCyclesLinuxcnc, G70FollowsTheProfileAfterRapidsToTheStartAndTheProfileStart) {
+  // LinuxCNC docs, G70: a rapid to X/Z, a rapid to the start of the profile, then the path of Q
+  // with G1/G2/G3; the tool is left at the end of the profile. X is a diameter under G7
+  // (Motion::end holds the radius).
+  LatheRun r(std::string(kProfile) + "G70 Q100 X44 Z6\nX50\nM2\n");
+  ASSERT_EQ(r.sink.count(gc::Severity::error), 0u) << r.sink.stored().front().message;
+  const auto ms = r.of_line(10);
+  ASSERT_EQ(ms.size(), 6u);
+  const double want[6][2] = {{22, 6}, {22, 6}, {5, 0}, {5, -10}, {10, -20}, {15, -30}};
+  const gc::MotionType type[6] = {gc::MotionType::rapid,  gc::MotionType::rapid,  gc::MotionType::rapid,
+                                  gc::MotionType::linear, gc::MotionType::linear, gc::MotionType::linear};
+  for (std::size_t i = 0; i < 6; ++i) {
+    EXPECT_EQ(ms[i]->type, type[i]) << i;
+    EXPECT_NEAR(ms[i]->end[0], want[i][0], kEps) << i;
+    EXPECT_NEAR(ms[i]->end[2], want[i][1], kEps) << i;
+    EXPECT_EQ(ms[i]->line, 10u);
+    EXPECT_EQ(ms[i]->column, 1u);
+  }
+  // rs274 leaves G1 active: the following "X50" is a feed move to radius 25.
+  const auto next = r.of_line(11);
+  ASSERT_EQ(next.size(), 1u);
+  EXPECT_EQ(next[0]->type, gc::MotionType::linear);
+  EXPECT_NEAR(next[0]->end[0], 25, kEps);
+  EXPECT_NEAR(next[0]->end[2], -30, kEps);
+}
+
+TEST(LatheCyclesLinuxcnc, G71CutsLayersAlongZStepIRetractRKeepingDFromTheProfile) {
+  // LinuxCNC docs, G71: layers along Z, I = cutting increment, R = retract distance, D = the
+  // distance kept from the profile. The first layer is at the start X (radius 20): it ends where
+  // the last element offset by D = 2 ends, Z = -30 + 2·sin(atan(1/2))·… = -30 + 2/√5, then
+  // retracts R = 1 at 45° (+X, +Z), returns along Z and steps I = 0.5 down.
+  LatheRun r(std::string(kProfile) + "G71 Q100 D2 I0.5 R1\nM2\n");
+  ASSERT_EQ(r.sink.count(gc::Severity::error), 0u) << r.sink.stored().front().message;
+  const auto ms = r.of_line(10);
+  ASSERT_GE(ms.size(), 8u);
+  // preliminary rapid, rapid to the profile start, rapid into the first layer
+  for (int i = 0; i < 3; ++i) {
+    EXPECT_EQ(ms[i]->type, gc::MotionType::rapid);
+    EXPECT_NEAR(ms[i]->end[0], 20, kEps);
+    EXPECT_NEAR(ms[i]->end[2], 5, kEps);
+  }
+  const double z_end = -30 + 2 / std::sqrt(5.0);
+  EXPECT_EQ(ms[3]->type, gc::MotionType::linear);
+  EXPECT_NEAR(ms[3]->end[0], 20, kEps);
+  EXPECT_NEAR(ms[3]->end[2], z_end, kEps);
+  EXPECT_EQ(ms[4]->type, gc::MotionType::rapid);
+  EXPECT_NEAR(ms[4]->end[0], 21, kEps);
+  EXPECT_NEAR(ms[4]->end[2], z_end + 1, kEps);
+  EXPECT_NEAR(ms[5]->end[0], 21, kEps);
+  EXPECT_NEAR(ms[5]->end[2], 4, kEps);
+  EXPECT_NEAR(ms[6]->end[0], 20, kEps);
+  EXPECT_NEAR(ms[6]->end[2], 5, kEps);
+  // Next layer at 19.5, entered on the offset approach line (from X20 Z5 to X5 Z0, offset by 2).
+  EXPECT_NEAR(ms[7]->end[0], 19.5, kEps);
+  // Every feed move stays at or outside the profile offset: the last move ends on the offset
+  // profile's end, lifted to the start X (docs: "the tool stops at the end of the profile,
+  // including the distance specified in D").
+  EXPECT_EQ(ms.back()->type, gc::MotionType::linear);
+  EXPECT_NEAR(ms.back()->end[0], 20, kEps);
+  EXPECT_NEAR(ms.back()->end[2], z_end, kEps);
+}
+
+TEST(LatheCyclesLinuxcnc, G72KeepsDistanceDFromAFacingProfile) {
+  // LinuxCNC docs, G72: the facing cycle, profile monotonic in X; "The D number is used to keep a
+  // distance from the final profile". Here the start lies beyond the face, so the cycle follows
+  // the profile at distance D (as rs274 does; lathe_g72.ngc is compared move for move). Radius
+  // mode (G8): X as written.
+  LatheRun r(
+      "G18 G21 G90 G8\nG0 X32 Z2\nF150\n"
+      "O200 sub\nG1 X30 Z0\nG1 X20 Z-1\nG1 X10 Z-4\nG1 X0 Z-8\nO200 endsub\n"
+      "G72 Q200 D0.3 I0.8 R0.4\nM2\n");
+  ASSERT_EQ(r.sink.count(gc::Severity::error), 0u) << r.sink.stored().front().message;
+  const auto ms = r.of_line(10);
+  ASSERT_EQ(ms.size(), 8u);  // preliminary rapid, rapid to the start, then the offset profile
+  // The first feed move ends at the profile's first point moved 0.3 along the normal of the first
+  // element (from X30 Z0 to X20 Z-1) towards +Z.
+  const Eigen::Vector2d dir = Eigen::Vector2d(20 - 30, -1 - 0).normalized();  // (x, z)
+  const Eigen::Vector2d normal(-dir.y(), dir.x());                              // towards +Z
+  const Eigen::Vector2d want = Eigen::Vector2d(30, 0) + 0.3 * (normal.y() > 0 ? normal : -normal);
+  EXPECT_EQ(ms[2]->type, gc::MotionType::linear);
+  EXPECT_NEAR(ms[2]->end[0], want.x(), kEps);
+  EXPECT_NEAR(ms[2]->end[2], want.y(), kEps);
+  // Convex corners are rounded with arcs of radius D about the profile's corners (X20 Z-1, X10 Z-4).
+  EXPECT_EQ(ms[4]->type, gc::MotionType::arc_cw);
+  EXPECT_NEAR(ms[4]->arc.radius, 0.3, 1e-6);
+  EXPECT_NEAR(ms[4]->arc.centre[0], 20, kEps);
+  EXPECT_NEAR(ms[4]->arc.centre[2], -1, kEps);
+  EXPECT_EQ(ms[6]->type, gc::MotionType::arc_cw);
+  EXPECT_NEAR(ms[6]->arc.centre[0], 10, kEps);
+  EXPECT_NEAR(ms[6]->arc.centre[2], -4, kEps);
+}
+
+TEST(LatheCyclesLinuxcnc, CycleUnderG91IsNotFollowed) {
+  // rs274 (LinuxCNC 2.9) runs G71 under G91, reading the profile as increments; this version does
+  // not reproduce that and refuses the block instead (a warning: the controller runs it).
+  LatheRun r(std::string(kProfile) + "G91\nG71 Q100\nM2\n");
+  const gc::Diagnostic* d = r.find("PP-U250");
+  ASSERT_NE(d, nullptr);
+  EXPECT_EQ(d->where.line, 11u);
+  EXPECT_EQ(d->where.column, 1u);
+  EXPECT_EQ(r.sink.count(gc::Severity::error), 0u);
+}
+
+TEST(LatheCyclesLinuxcnc, G71PocketOnlyVariantIsRefusedAtItsWord) {
+  LatheRun r(std::string(kProfile) + "G0 X40 Z5\nG71.2 Q100 D0.2\nM2\n");
+  const gc::Diagnostic* d = r.find("PP-U250");
+  ASSERT_NE(d, nullptr);
+  EXPECT_EQ(d->where.line, 11u);
+  EXPECT_EQ(d->where.column, 1u);
+  EXPECT_TRUE(r.of_line(11).empty());
+}
+
+TEST(LatheCyclesLinuxcnc, RefusedWhereRs274RefusesIt) {
+  // LinuxCNC docs, G71-G72 "It is an error if": the ZX plane is not selected, Q names no
+  // subroutine, the profile is not monotonic.
+  {
+    LatheRun r(std::string(kProfile) + "G17\nG71 Q100\nM2\n");
+    const gc::Diagnostic* d = r.find("PP-E250");
+    ASSERT_NE(d, nullptr);
+    EXPECT_EQ(d->where.line, 11u);
+  }
+  {
+    LatheRun r(std::string(kProfile) + "G71 Q101\nM2\n");
+    const gc::Diagnostic* d = r.find("PP-E250");
+    ASSERT_NE(d, nullptr);
+    EXPECT_EQ(d->where.line, 10u);
+  }
+  {
+    LatheRun r("G18 G21 G90 G7\nG0 X40 Z5\nF200\nO100 sub\nG1 X10 Z0\nG1 Z-10\nG1 X20 Z5\nO100 endsub\nG71 Q100\nM2\n");
+    const gc::Diagnostic* d = r.find("PP-E250");
+    ASSERT_NE(d, nullptr);
+    EXPECT_EQ(d->where.line, 9u);
+    EXPECT_NE(d->message.find("Not monotonic"), std::string::npos) << d->message;
+  }
+}
+
+TEST(LatheCyclesLinuxcnc, StatementsInsideTheProfileAreRefusedAtTheirLine) {
+  // rs274 reads the profile's blocks for the cycle without executing them.
+  LatheRun r("G18 G21 G90 G7\nG0 X40 Z5\nF200\nO100 sub\n#1 = 5\nG1 X10 Z0\nG1 Z-10\nO100 endsub\nG71 Q100\nM2\n");
+  const gc::Diagnostic* d = r.find("PP-E251");
+  ASSERT_NE(d, nullptr);
+  EXPECT_EQ(d->where.line, 5u);
+}
+
+TEST(LatheCyclesLinuxcnc, ProfileValuesFromParametersAreSubstituted) {
+  // The profile's words are evaluated with the parameters as they are when the cycle runs.
+  LatheRun r("G18 G21 G90 G8\n#<d> = 7\nG0 X20 Z5\nF100\nO100 sub\nG1 X#<d> Z0\nG1 Z-10\nO100 endsub\nG70 Q100\nM2\n");
+  ASSERT_EQ(r.sink.count(gc::Severity::error), 0u) << r.sink.stored().front().message;
+  const auto ms = r.of_line(9);
+  ASSERT_EQ(ms.size(), 4u);
+  EXPECT_NEAR(ms[2]->end[0], 7, kEps);
+  EXPECT_NEAR(ms[3]->end[0], 7, kEps);
+  EXPECT_NEAR(ms[3]->end[2], -10, kEps);
+}
+
+TEST(LatheCyclesLinuxcnc, ProfileFormsNotReproducedAreRefusedAtTheCycle) {
+  // LinuxCNC docs, G71-G72: "Each motion command may also include an optional A- or C- number"
+  // (corner fillet / chamfer) — not reproduced; an R arc under G90.1 neither.
+  {
+    LatheRun r("G18 G21 G90 G8\nG0 X20 Z5\nF100\nO100 sub\nG1 X5 Z0\nG1 Z-10 A1\nG1 X10 Z-12\nO100 endsub\n"
+               "G70 Q100\nM2\n");
+    // at the profile's line, then at the cycle
+    std::vector<std::uint64_t> lines;
+    for (const auto& d : r.sink.stored())
+      if (d.code == "PP-U250") lines.push_back(d.where.line);
+    EXPECT_EQ(lines, (std::vector<std::uint64_t>{6, 9}));
+    EXPECT_TRUE(r.of_line(9).empty());
+  }
+  {
+    LatheRun r("G18 G21 G90 G8 G90.1\nG0 X20 Z5\nF100\nO100 sub\nG1 X5 Z0\nG3 X10 Z-5 R5\nO100 endsub\n"
+               "G70 Q100\nM2\n");
+    const gc::Diagnostic* d = r.find("PP-U250");
+    ASSERT_NE(d, nullptr);
+    EXPECT_EQ(d->where.line, 8u);
+    EXPECT_NE(d->message.find("G90.1"), std::string::npos) << d->message;
+  }
+}
+
+TEST(LatheCyclesLinuxcnc, ArcsOfTheProfileAreFollowedWithTheirCentres) {
+  // G70 with D = 0 draws the profile's arcs as written: G3 X20 Z-15 K-5 from X10 Z-10 (G7:
+  // radius 5 → 10) turns counter-clockwise about X5 Z-15 (K incremental, G91.1).
+  LatheRun r("G18 G21 G90 G7\nG0 X40 Z5\nF100\nO100 sub\nG1 X10 Z0\nG1 Z-10\nG3 X20 Z-15 K-5\nG1 Z-25\n"
+             "O100 endsub\nG70 Q100\nM2\n");
+  ASSERT_EQ(r.sink.count(gc::Severity::error), 0u) << r.sink.stored().front().message;
+  const auto ms = r.of_line(10);
+  ASSERT_EQ(ms.size(), 6u);
+  const gc::Motion& arc = *ms[4];
+  EXPECT_EQ(arc.type, gc::MotionType::arc_ccw);
+  EXPECT_NEAR(arc.arc.centre[0], 5, kEps);
+  EXPECT_NEAR(arc.arc.centre[2], -15, kEps);
+  EXPECT_NEAR(arc.arc.radius, 5, kEps);
+  EXPECT_NEAR(arc.arc.sweep, std::numbers::pi / 2, 1e-9);
+  EXPECT_NEAR(arc.end[0], 10, kEps);
+  EXPECT_NEAR(arc.end[2], -15, kEps);
+}
+
+TEST(LatheCyclesLinuxcnc, G33IsAStraightMoveWithKPerRevolution) {
+  // LinuxCNC docs, G33 "Spindle Synchronized Motion": G33 X- Z- K-, K = distance per revolution;
+  // rs274 refuses it without K (on every G33 block, modal repeats too) and with the spindle
+  // stopped. X is a diameter under G7.
+  LatheRun r("G18 G21 G90 G7\nG0 X20 Z5\nM3 S300\nG33 Z-10 K1.5\nX18 Z-12 K1\nZ-14\nM2\n");
+  const auto a = r.of_line(4), b = r.of_line(5);
+  ASSERT_EQ(a.size(), 1u);
+  ASSERT_EQ(b.size(), 1u);
+  EXPECT_EQ(a[0]->type, gc::MotionType::linear);
+  EXPECT_EQ(a[0]->feed_mode, gc::FeedMode::per_rev);
+  EXPECT_DOUBLE_EQ(a[0]->feed, 1.5);
+  EXPECT_NEAR(a[0]->end[0], 10, kEps);
+  EXPECT_NEAR(a[0]->end[2], -10, kEps);
+  EXPECT_DOUBLE_EQ(b[0]->feed, 1.0);
+  EXPECT_NEAR(b[0]->end[0], 9, kEps);
+  EXPECT_NEAR(b[0]->end[2], -12, kEps);
+  const gc::Diagnostic* d = r.find("PP-E250");
+  ASSERT_NE(d, nullptr);
+  EXPECT_EQ(d->where.line, 6u);
+  LatheRun stopped("G18 G21 G90\nG0 X20 Z5\nG33 Z-10 K1.5\nM2\n");
+  const gc::Diagnostic* s = stopped.find("PP-E250");
+  ASSERT_NE(s, nullptr);
+  EXPECT_EQ(s->where.line, 3u);
+  EXPECT_TRUE(stopped.of_line(3).empty());
+}
+
+TEST(LatheCyclesLinuxcnc, SubroutineSkippedWithoutResolvingIsReported) {
+  // Read without the resolver (library use of run_program), a definition that no cycle reads is
+  // skipped — not silently: PP-U212 at the block after it names the subroutine.
+  const pptest::Program r(dialect("linuxcnc"), "G0 X0 Z0\nO100 sub\nG1 X5 Z-5 F100\nO100 endsub\nG0 X10\n");
+  const gc::Diagnostic* d = r.find("PP-U212");
+  ASSERT_NE(d, nullptr);
+  EXPECT_EQ(d->where.line, 5u);
+  EXPECT_NE(d->message.find("o100"), std::string::npos) << d->message;
+  EXPECT_EQ(r.at_line(3), nullptr);
+}
+
+}  // namespace
