@@ -35,6 +35,12 @@ inline constexpr std::string_view kUnknownKeyword = "PP-U215";
 inline constexpr std::string_view kMacroCall = "PP-U216";
 inline constexpr std::string_view kCycleRepeat = "PP-U217";
 inline constexpr std::string_view kIntegerInput = "PP-U218";
+// Fanuc dialect (docs/dialect-fanuc.md): constructs read only where they can be read exactly.
+inline constexpr std::string_view kFanucPolar = "PP-U230";     ///< G16 polar command not read exactly
+inline constexpr std::string_view kFanucScaling = "PP-U231";   ///< motion under G51 scaling
+inline constexpr std::string_view kFanucMirror = "PP-U232";    ///< G51.1 mirror case not read exactly
+inline constexpr std::string_view kFanucCorner = "PP-U233";    ///< ,C / ,R chamfer, corner rounding, direct drawing
+inline constexpr std::string_view kFanucReturn = "PP-U234";    ///< G29 whose end point is not known
 // Notes.
 inline constexpr std::string_view kDialectGuess = "PP-N001";
 inline constexpr std::string_view kDialectMismatch = "PP-N002";

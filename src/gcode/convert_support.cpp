@@ -88,10 +88,8 @@ void ModalTrack::update(const Block& b) {
       case GMeaning::cancel_motion:
         if (!motion_given) motion = GMeaning::cancel_motion;
         break;
-      case GMeaning::state_only:
-        if (dialect->id == DialectId::fanuc && g.def->code10 == 160) polar_command = true;
-        if (dialect->id == DialectId::fanuc && g.def->code10 == 150) polar_command = false;
-        break;
+      case GMeaning::polar_coord_on: polar_command = true; break;
+      case GMeaning::polar_coord_off: polar_command = false; break;
       default: break;
     }
     if (g.def->group == GGroup::motion) {
@@ -132,6 +130,9 @@ const ModalTrack::G* ModalTrack::axis_consumer() const {
       case GMeaning::tilted_plane_heidenhain:
       case GMeaning::polar_pole:
       case GMeaning::probe:
+      case GMeaning::scaling_on:
+      case GMeaning::mirror_on:
+      case GMeaning::mirror_off:
         return &g;
       default: break;
     }

@@ -67,6 +67,8 @@ bool siemens_state_keyword(std::string_view name) {
 Interpreter::Interpreter(const Dialect& dialect, std::string file, DiagnosticSink& sink, InterpreterOptions opt)
     : d_(dialect), file_(std::move(file)), sink_(sink), opt_(opt) {
   s_.diameter_mode = d_.diameter_axis != 0;
+  s_.motion = s_.interp_motion = d_.power_on_motion;
+  s_.motion_code10 = s_.interp_code10 = d_.power_on_motion == GMeaning::linear ? 10 : 0;
   if (d_.lathe) s_.plane = Plane::zx;  // lathes power up in G18
 }
 

@@ -30,6 +30,27 @@
 
 namespace postproc::gcode::resolver {
 namespace fanuc_run {
+namespace {
+
+/// B-64484EN "Custom macro — Variables: rounding": a variable value used in an address is rounded
+/// (half away from zero) to the address's least input increment — 0.001 mm / 0.0001 in for lengths,
+/// 0.001 deg for angles (increment system IS-B). Arithmetic keeps the full value; only the address
+/// gets the rounded one.
+double round_to_increment(double v, char letter, bool inch) {
+  double step = 0;
+  switch (letter) {
+    case 'X': case 'Y': case 'Z': case 'U': case 'V': case 'W': case 'I': case 'J': case 'K': case 'R':
+      step = inch ? 1e4 : 1e3;
+      break;
+    case 'A': case 'B': case 'C': step = 1e3; break;
+    default: return v;
+  }
+  if (!std::isfinite(v) || std::fabs(v) > 1e12) return v;
+  // 1.2345 is stored as 1.23449999…: nudge by a relative 1e-12 so the decimal half rounds away from zero.
+  return std::round(v * step * (1 + 1e-12)) / step;
+}
+
+}  // namespace
 
 void Runner::report(Span span, Severity sev, std::string_view code, std::string message) {
   if (out_.depth() > 0) message += fmt::format(" ({})", out_.where());
@@ -232,6 +253,11 @@ void Runner::step() {
   bool moves = false;  // an axis word with a value (G66 calls after such a block)
   std::vector<double>& vals = vals_;
   vals.assign(p.items.size(), 0.0);
+  // G65/G66 arguments are values, not addresses: they are not rounded to an input increment.
+  bool macro_args = false;
+  for (const Item& it : p.items)
+    if (it.kind == ItemKind::word && it.letter == 'G' && it.literal && (it.number == 65 || it.number == 66))
+      macro_args = true;
   for (std::size_t k = 0; k < p.items.size(); ++k) {
     const Item& it = p.items[k];
     switch (it.kind) {
@@ -244,11 +270,12 @@ void Runner::step() {
             vals[k] = NAN;
             continue;
           }
-          v = x.v;
+          v = macro_args ? x.v : round_to_increment(x.v, it.letter, inch_);
           action_[k] = 2;
           text_[k] = format_value(v, it.letter);
         }
         vals[k] = v;
+        if (it.letter == 'G' && (v == 20 || v == 21)) inch_ = v == 20;
         if (it.letter == 'G' && std::fabs(v - 66.1) < 1e-9)
           throw Failure{"PP-E709",
                         "G66.1 (a macro call after every block) is not supported by the resolver; call the macro with "
