@@ -263,4 +263,133 @@ TEST(ReaderFanuc, G80ReturnsToPreviousGroup01Motion) {
   EXPECT_NEAR(r.at_line(7)->end[0], 2, kTol);
 }
 
+// ---- 4. Chamfer and corner rounding ----------------------------------------------------------------
+
+// B-64484EN II "Chamfering and corner rounding (,C ,R)": ,C / ,R on a G01 moves the end of that block
+// and the start of the next. ",C" and ",R" are lexed as their own address (never a C axis or an arc
+// radius); both motions are refused at the word (PP-U233); the end of the next block is exact again.
+TEST(ReaderFanuc, CornerRoundingRefusedAtItsWord) {
+  const Program r(dialect("fanuc"), "G90 G0 X0 Y0\nG1 X10. ,R2. F100.\nY10.\nX20.\n");
+  expect_diag(r, "PP-U233", 2, 9);
+  EXPECT_EQ(r.at_line(2), nullptr);
+  EXPECT_EQ(r.at_line(3), nullptr);  // its start is moved by the rounding
+  ASSERT_NE(r.at_line(4), nullptr) << r.all_codes();
+  EXPECT_XYZ(*r.at_line(4), 20, 10, 0);
+  EXPECT_TRUE(known(*r.at_line(4), Axis::x) && known(*r.at_line(4), Axis::y));
+  EXPECT_NEAR(r.at_line(4)->start[1], 10, kTol);
+  EXPECT_EQ(r.sink.count(gc::Severity::error), 0u);
+  const Lexed l(dialect("fanuc"), "G1 X10. ,C1.5 Y2.");
+  ASSERT_TRUE(l.ok);
+  ASSERT_EQ(l.block.words.size(), 4u);
+  EXPECT_EQ(l.of(l.block.words[2].name), ",C");
+  EXPECT_DOUBLE_EQ(l.block.words[2].number, 1.5);
+}
+
+// B-64484EN II (lathe) "Direct drawing dimension programming" / "Chamfering and corner R": on a lathe
+// G01, R (corner), I/K (chamfer) and A (angle) change the corner; refused at the word (PP-U233). An
+// angle makes the omitted axis unknown.
+TEST(ReaderFanuc, LatheDirectDrawingRefused) {
+  const Program r(dialect("fanuc", true), "G0 X20. Z0\nG1 Z-10. R2. F0.2\nX40.\nG1 X60. A30.\nZ-40.\nZ-50.\n");
+  expect_diag(r, "PP-U233", 2, 10);
+  EXPECT_EQ(r.at_line(2), nullptr);
+  EXPECT_EQ(r.at_line(3), nullptr);
+  EXPECT_EQ(r.at_line(4), nullptr);
+  EXPECT_EQ(r.at_line(5), nullptr);  // the block after the angle block closes the direct drawing
+  const auto* last = r.at_line(6);
+  ASSERT_NE(last, nullptr) << r.all_codes();
+  EXPECT_FALSE(known(*last, Axis::x));  // X after "X60. A30." then Z-40 is not known here
+  EXPECT_TRUE(known(*last, Axis::z));
+}
+
+// ---- 5. G10 -------------------------------------------------------------------------------------------
+
+// B-64484EN II "Changing workpiece coordinate system by programmed command (G10)": G10 L2 P1 writes
+// the G54 offset, G10 L20 P1 the G54.1 P1 offset (not LinuxCNC's "set the current position"); G10
+// never moves. Writing the active frame's offset makes its named axes unknown (old value unknown),
+// writing another frame's offset changes nothing.
+TEST(ReaderFanuc, G10WritesOffsetTablesNeverMoves) {
+  const Program r(dialect("fanuc"),
+                  "G54 G90 G0 X1. Y2. Z3.\nG10 L2 P2 X50.\nG1 Z4. F100.\nG10 L20 P1 X7.\nG1 Z5.\nG10 L2 P1 X9.\n"
+                  "G1 Z6.\n");
+  EXPECT_EQ(r.motions.size(), 4u) << r.all_codes();
+  EXPECT_TRUE(known(*r.at_line(3), Axis::x));  // G55 written: G54 unchanged
+  EXPECT_NEAR(r.at_line(3)->end[0], 1, kTol);
+  EXPECT_TRUE(known(*r.at_line(5), Axis::x));  // G54.1 P1 written: not active
+  EXPECT_NEAR(r.at_line(5)->end[0], 1, kTol);
+  EXPECT_FALSE(known(*r.at_line(7), Axis::x));  // G54 itself written
+  EXPECT_TRUE(known(*r.at_line(7), Axis::y));
+  const Program ext(dialect("fanuc"), "G54.1 P3 G90 G0 X1. Y2.\nG10 L20 P3 Y0\nG1 X2. F100.\n");
+  EXPECT_FALSE(known(*ext.at_line(3), Axis::y));
+  EXPECT_TRUE(known(*ext.at_line(3), Axis::x));
+  // LinuxCNC (docs G10 L20): the current position takes the given value.
+  const Program lc(dialect("linuxcnc"), "G54 G90 G0 X1 Y2\nG10 L20 P1 X7\nG1 Y3 F100\n");
+  EXPECT_TRUE(known(*lc.at_line(3), Axis::x));
+  EXPECT_NEAR(lc.at_line(3)->end[0], 7, kTol);
+}
+
+// ---- 10. False refusals ----------------------------------------------------------------------------
+
+// B-64484EN "Tape code" (ISO): a space is disregarded in significant information, so "X 1 0 . 5" is
+// X10.5 on a Fanuc.
+TEST(ReaderFanuc, SpacesInsideNumbers) {
+  const Program r(dialect("fanuc"), "G 0 X 1 0 . 5 Y - 2.\nN2 0 G1 X1 1. F 100.\n");
+  ASSERT_EQ(r.motions.size(), 2u) << r.all_codes();
+  EXPECT_XYZ(r.motions[0], 10.5, -2, 0);
+  EXPECT_XYZ(r.motions[1], 11, -2, 0);
+  EXPECT_EQ(r.sink.count(gc::Severity::error), 0u) << r.all_codes();
+}
+
+// B-64484EN "Label skip" / tape leader: listing text before the program (a CAM listing header without
+// '%') is not part of the program; skipped with a note (PP-N003), and the program reads normally.
+TEST(ReaderFanuc, ListingHeaderBeforeProgramNumber) {
+  const Program r(dialect("fanuc"),
+                  "==========\nInformation listing created by :  user\nDate  :  8/3/2006\n==========\nO0001\n"
+                  "G90 G0 X1. Y2.\nM30\n");
+  EXPECT_EQ(r.sink.count(gc::Severity::error), 0u) << r.all_codes();
+  EXPECT_TRUE(r.has("PP-N003"));
+  ASSERT_EQ(r.motions.size(), 1u);
+  EXPECT_EQ(r.motions[0].line, 6u);
+  // NC blocks before the O number are not a listing: read (no leader).
+  const Program nc(dialect("fanuc"), "G90 G0 X1.\nO0001\nG0 X2.\n");
+  EXPECT_FALSE(nc.has("PP-N003"));
+  EXPECT_EQ(nc.motions.size(), 2u);
+}
+
+// M98 P5001 finds O5001 in a file named 5001.nc / O5001.nc / o5001 (any case) in the program's folder.
+TEST(ReaderFanuc, SubprogramFileNames) {
+  for (const char* name : {"5001.nc", "O5001.NC", "o5001", "5001.tap"}) {
+    TempDir dir;
+    write_file(dir.file(name), "O5001\nG0 X7.\nM99\n");
+    write_file(dir.file("main.nc"), "O1\nM98 P5001\nM30\n");
+    gc::DiagnosticSink sink;
+    gc::ResolveOptions opt;
+    opt.search_dirs.push_back(dir.path().string());
+    const auto r = gc::resolve(read_file(dir.file("main.nc")), dir.file("main.nc"),
+                               gc::make_dialect(gc::DialectId::fanuc), opt, sink);
+    EXPECT_FALSE(sink.has_errors()) << name;
+    EXPECT_NE(r.text.find("G0 X7."), std::string::npos) << name << ": " << r.text;
+  }
+}
+
+// B-64484EN "G code system" (lathe): in system B absolute/incremental is G90/G91 and U/W are not
+// incremental X/Z; in system A G91 does not exist (the message names --gcode-system B).
+TEST(ReaderFanuc, LatheGCodeSystemB) {
+  gc::DialectOptions o;
+  o.lathe = true;
+  o.gcode_system = 'B';
+  o.integer_input = gc::Dialect::IntegerInput::calculator;
+  const gc::Dialect b = gc::make_dialect(gc::DialectId::fanuc, o);
+  const Program r(b, "G90 G0 X20. Z5.\nG91 G1 X-4. Z-10. F0.2\nG90 G1 U2.\n");
+  ASSERT_NE(r.at_line(2), nullptr) << r.all_codes();
+  EXPECT_NEAR(r.at_line(2)->end[0], 8, kTol);  // diameter 20 - 4 = 16: radius 8
+  EXPECT_NEAR(r.at_line(2)->end[2], -5, kTol);
+  expect_diag(r, "PP-U235", 3, 8);
+  ASSERT_NE(r.at_line(3), nullptr);
+  EXPECT_NEAR(r.at_line(3)->end[0], 8, kTol);  // X unchanged: U is not incremental X in system B
+  const Program a(dialect("fanuc", true), "G91 G1 X2.\n");
+  const gc::Diagnostic* d = a.find("PP-E201");
+  ASSERT_NE(d, nullptr);
+  EXPECT_NE(d->message.find("--gcode-system B"), std::string::npos);
+}
+
 }  // namespace

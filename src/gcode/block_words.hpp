@@ -40,6 +40,7 @@ struct Interpreter::BlockWords {
   bool polar = false;                     ///< Siemens AP=/RP= polar coordinates in this block
   bool siemens_motion_keyword = false;    ///< CIP, CT, BSPLINE, … in this block
   bool machine_frame = false;             ///< G53 / SUPA / G153 in this block
+  std::int16_t corner_word = -1;          ///< Fanuc ,C / ,R / ,A word of this block
   bool words_transformed = false;         ///< Fanuc G16/G51.1: axis values were converted to the work frame
   bool axes_consumed = false;             ///< axis words were data for G10/G52/G92/… (no motion)
 

@@ -41,6 +41,7 @@ inline constexpr std::string_view kFanucScaling = "PP-U231";   ///< motion under
 inline constexpr std::string_view kFanucMirror = "PP-U232";    ///< G51.1 mirror case not read exactly
 inline constexpr std::string_view kFanucCorner = "PP-U233";    ///< ,C / ,R chamfer, corner rounding, direct drawing
 inline constexpr std::string_view kFanucReturn = "PP-U234";    ///< G29 whose end point is not known
+inline constexpr std::string_view kFanucSystemB = "PP-U235";   ///< U/W moves in lathe G-code system B
 // Notes.
 inline constexpr std::string_view kDialectGuess = "PP-N001";
 inline constexpr std::string_view kDialectMismatch = "PP-N002";

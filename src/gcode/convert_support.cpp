@@ -142,7 +142,8 @@ const ModalTrack::G* ModalTrack::axis_consumer() const {
 
 int ModalTrack::axis_of(const Word& w) const {
   if (!plain_letter(w)) return -1;
-  if (dialect->lathe && dialect->id == DialectId::fanuc && (w.letter == 'U' || w.letter == 'W' || w.letter == 'H'))
+  if (dialect->lathe && dialect->id == DialectId::fanuc && dialect->gcode_system == 'A' &&
+      (w.letter == 'U' || w.letter == 'W' || w.letter == 'H'))
     return w.letter == 'U' ? 0 : (w.letter == 'W' ? 2 : 5);
   return axis_index(w.letter);
 }
@@ -150,7 +151,8 @@ int ModalTrack::axis_of(const Word& w) const {
 bool ModalTrack::incremental(const Word& w) const {
   if (w.kind == ValueKind::incremental_fn) return true;
   if (w.kind == ValueKind::absolute_fn) return false;
-  if (dialect->lathe && dialect->id == DialectId::fanuc && (w.letter == 'U' || w.letter == 'W' || w.letter == 'H'))
+  if (dialect->lathe && dialect->id == DialectId::fanuc && dialect->gcode_system == 'A' &&
+      (w.letter == 'U' || w.letter == 'W' || w.letter == 'H'))
     return true;
   return !absolute && !has(GMeaning::machine_coords);
 }

@@ -194,4 +194,51 @@ bool Interpreter::fanuc_frame(const Block& b, BlockWords& w, GMeaning& mode) {
   return true;
 }
 
+bool Interpreter::corner_refused(const Block& b, const BlockWords& w, GMeaning mode) {
+  // B-64484EN II "Chamfering and corner rounding" (,C / ,R on G01/G02/G03) and, on lathes, "Direct
+  // drawing dimension programming" (C R A) and "Chamfering and corner R" (I K R on G01): the end of
+  // this block is moved back and a chamfer line or rounding arc is inserted before the next block.
+  // This version does not build that geometry: the motions of both blocks are refused (their end
+  // points stay exact for the blocks that follow).
+  int here = w.corner_word;
+  if (here < 0 && d_.lathe && mode == GMeaning::linear) {
+    const auto letter = [&](char L) { return w.has(L) ? static_cast<int>(w.letter_word[static_cast<std::size_t>(L - 'A')]) : -1; };
+    const bool xz = (w.axis_present & (bit(Axis::x) | bit(Axis::z))) != 0;
+    if (letter('R') >= 0) here = letter('R');
+    else if (xz && letter('I') >= 0 && s_.tcp == TcpMode::off) here = letter('I');
+    else if (xz && letter('K') >= 0 && s_.tcp == TcpMode::off) here = letter('K');
+    else if (w.axis_present & bit(Axis::a)) here = w.axis_word[static_cast<std::size_t>(Axis::a)];
+    else if (xz && (w.axis_present & bit(Axis::c))) here = w.axis_word[static_cast<std::size_t>(Axis::c)];
+  }
+  if (here >= 0) {
+    const Span at = b.words[static_cast<std::size_t>(here)].span;
+    // An angle (,A or lathe A) makes the controller compute the axis the block omits.
+    corner_angle_ = b.words[static_cast<std::size_t>(here)].letter == 'A';
+    report(b, at, Severity::warning, codes::kFanucCorner,
+           fmt::format("'{}': a chamfer / corner rounding (or direct drawing dimension) between this block and the "
+                       "next moves the end of this block and the start of the next; this version does not resolve "
+                       "it, both motions are refused{}",
+                       b.text(at),
+                       w.corner_word >= 0 ? "" : " (on a lathe C may also be a C-axis word: write ,C when the machine "
+                                                 "has a C axis, parameter 3405#4 CCR)"));
+    corner_pending_line_ = b.line;
+    return true;
+  }
+  if (corner_pending_line_ != 0 && w.axis_present != 0) {
+    Span at{};
+    for (int a = 0; a < kAxisCount; ++a)
+      if (w.axis_word[static_cast<std::size_t>(a)] >= 0) {
+        at = b.words[static_cast<std::size_t>(w.axis_word[static_cast<std::size_t>(a)])].span;
+        break;
+      }
+    report(b, at, Severity::warning, codes::kFanucCorner,
+           fmt::format("the start of this motion is moved by the chamfer / corner rounding of line {}, which this "
+                       "version does not resolve; the motion is refused",
+                       corner_pending_line_));
+    corner_pending_line_ = 0;
+    return true;
+  }
+  return false;
+}
+
 }  // namespace postproc::gcode

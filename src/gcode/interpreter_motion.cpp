@@ -87,8 +87,27 @@ void Interpreter::non_modal(const Block& b, BlockWords& w, MotionSink& out) {
       case GMeaning::set_offsets_g10: {
         w.axes_consumed = true;
         const long l = w.whole_or('L', 0, 1000, 0);
-        const long p = w.whole_or('P', 0, 1000, -1);
-        const bool active = p == 0 || p == (s_.work_offset.code10 - 530) / 10;
+        const long p = w.whole_or('P', 0, 10000, -1);
+        const std::uint16_t wc = s_.work_offset.code10;
+        if (d_.id == DialectId::fanuc) {
+          // B-64484EN "Changing workpiece coordinate system by programmed command (G10)": G10 L2 P0 writes
+          // the external work offset (it shifts every work frame), L2 P1–P6 G54–G59, L20 Pn the
+          // additional offset G54.1 Pn; values are absolute in G90, added in G91. G10 never moves the
+          // tool: the active frame shifts by new - old value, and the old value is a table entry this
+          // version does not know, so the named axes of the active frame become unknown.
+          const bool l_known = w.has('L') && !w.unresolved('L');
+          const bool p_known = w.has('P') && !w.unresolved('P') && p >= 0;
+          bool active = false;
+          if (!l_known) active = true;  // which table is written is not known
+          else if (l == 2) active = !p_known || p == 0 || (wc >= 540 && wc <= 590 && wc % 10 == 0 && p == (wc - 530) / 10);
+          else if (l == 20) active = !p_known || (wc == 541 && s_.work_offset.p == p);
+          if (active) s_.known &= static_cast<AxisMask>(~w.axis_present);
+          break;
+        }
+        // LinuxCNC: L2/L20 P0 is the active system, P1–P9 = G54–G59.3; L20 makes the current point take
+        // the given values (exact), L2 writes the table (the active frame's position becomes unknown).
+        const long index = wc == 541 ? -1 : wc <= 590 ? (wc - 530) / 10 : 6 + (wc - 590);
+        const bool active = p == 0 || p == index;
         if ((l == 2 || l == 20) && active) {
           for (int a = 0; a < kAxisCount; ++a) {
             if (!(w.axis_present & (1u << a))) continue;
@@ -247,11 +266,21 @@ void Interpreter::tool_vector(const BlockWords& w, Motion& m) const {
   }
 }
 
-void Interpreter::do_motion(const Block& b, BlockWords& w, MotionSink& out) {
+namespace {
+/// Swallows motions that are computed (to keep the modal state exact) but refused.
+struct NullSink final : MotionSink {
+  void motion(const Motion&, const Block&) override {}
+};
+}  // namespace
+
+void Interpreter::do_motion(const Block& b, BlockWords& w, MotionSink& out_all) {
   // MillPlus G74 is a one-block rapid in machine coordinates.
   GMeaning mode = w.has_meaning(GMeaning::machine_move_heidenhain) ? GMeaning::rapid
                         : w.motion.def                                  ? w.motion.def->meaning
                                                                         : s_.motion;
+  NullSink refused;
+  const bool corner = d_.id == DialectId::fanuc && corner_refused(b, w, w.motion.def ? w.motion.def->meaning : s_.motion);
+  MotionSink& out = corner ? static_cast<MotionSink&>(refused) : out_all;
   if (w.motion.def) {
     s_.motion = mode;
     s_.motion_code10 = w.motion.def->code10;
@@ -287,6 +316,18 @@ void Interpreter::do_motion(const Block& b, BlockWords& w, MotionSink& out) {
     return;
   }
   if ((s_.polar_coords || s_.scaling || s_.mirror != 0) && !w.machine_frame && !fanuc_frame(b, w, mode)) return;
+  if (d_.id == DialectId::fanuc && d_.lathe && d_.gcode_system != 'A' &&
+      (w.axis_present & (bit(Axis::u) | bit(Axis::w))) &&
+      (mode == GMeaning::rapid || mode == GMeaning::linear || mode == GMeaning::arc_cw || mode == GMeaning::arc_ccw)) {
+    // B-64484EN "G code system": in systems B and C absolute/incremental is G90/G91; U and W are the
+    // addresses of U and W axes, not incremental X and Z as in system A.
+    const int a = (w.axis_present & bit(Axis::u)) ? 6 : 8;
+    const Span ws = b.words[static_cast<std::size_t>(w.axis_word[static_cast<std::size_t>(a)])].span;
+    report(b, ws, Severity::warning, codes::kFanucSystemB,
+           fmt::format("'{}' in lathe G-code system B moves a {} axis (incremental X/Z is G91 X/Z there); if the "
+                       "program is written for system A (U/W incremental), pass --gcode-system A",
+                       b.text(ws), a == 6 ? 'U' : 'W'));
+  }
   Motion m;
   m.line = b.line;
   m.word_index = {};
@@ -345,6 +386,11 @@ void Interpreter::do_motion(const Block& b, BlockWords& w, MotionSink& out) {
       break;
   }
   if (mcall_active_ && !w.machine_frame) s_.known &= static_cast<AxisMask>(~bit(Axis::z));
+  if (corner && corner_angle_) {
+    const PlaneAxes p = plane_axes(s_.plane);
+    s_.known &= static_cast<AxisMask>(~((1u << p.u) | (1u << p.v)));
+    corner_angle_ = false;
+  }
 }
 
 void Interpreter::fanuc_g29(const Block& b, BlockWords& w, Span at, MotionSink& out) {

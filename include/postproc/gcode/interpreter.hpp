@@ -107,6 +107,9 @@ class Interpreter {
   InterpreterOptions opt_;
   ModalState s_;
   bool warned_integer_input_ = false;
+  std::uint64_t corner_pending_line_ = 0;
+  bool corner_angle_ = false;  ///< this block's refused corner word is a direct-drawing angle  ///< Fanuc: line of a ,C/,R whose next motion is moved by it
+  bool corner_refused(const Block& b, const BlockWords& w, GMeaning mode);
   bool mcall_active_ = false;  ///< Siemens modal cycle call
   bool mcall_pending_ = false; ///< MCALL seen in this block
   Span frame_span_;            ///< where that frame keyword is

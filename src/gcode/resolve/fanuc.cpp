@@ -21,8 +21,8 @@
 // - G66 P… L… <arguments> (modal call): from the next block on, every block with an axis word
 //   calls the macro after its move, with G66's arguments, until G67; moves inside the macro called
 //   that way do not call it again. G66.1 (a call after every block) is refused (PP-E709).
-// - Subprogram targets: O#### / :#### in the same file, else a file O#### (or O####.nc) in
-//   opt.search_dirs. M98 P<repeats 4 digits><program 4 digits> (packed form) is used when P has more
+// - Subprogram targets: O#### / :#### in the same file, else a file O####, O####.nc or ####.nc (also
+//   .tap .txt .cnc .eia .min .ptp .prg, any letter case) in opt.search_dirs. M98 P<repeats 4 digits><program 4 digits> (packed form) is used when P has more
 //   than 4 digits, there is no L, and no program with the full number exists.
 // - A block delete '/' is taken as switched off: the block runs (PP-W702 when it holds a
 //   statement, since the switch could change the flow).
@@ -101,8 +101,11 @@ std::optional<Runner::Target> Runner::find_program(double number) {
     if (auto l = program_line(files_.main(), number)) return Target{&files_.main(), *l};
   const auto n = static_cast<std::uint64_t>(number);
   std::vector<std::string> names;
-  for (const std::string& base : {fmt::format("O{:04d}", n), fmt::format("O{}", n)})
-    for (const char* ext : {"", ".nc", ".NC"}) {
+  // O5001, O5001.nc, 5001.nc, … in any letter case (FileSet::find compares case-insensitively): the
+  // names a program is stored under when it is punched out of or loaded into the control's memory.
+  for (const std::string& base : {fmt::format("O{:04d}", n), fmt::format("O{}", n), fmt::format("{:04d}", n),
+                                  fmt::format("{}", n)})
+    for (const char* ext : {"", ".nc", ".tap", ".txt", ".cnc", ".eia", ".min", ".ptp", ".prg"}) {
       std::string c = base + ext;
       if (std::find(names.begin(), names.end(), c) == names.end()) names.push_back(std::move(c));
     }
@@ -166,10 +169,10 @@ void Runner::call(bool macro, double program, int repeats, const Locals& args, c
     std::string dirs;
     for (const std::string& d : opt_.search_dirs) dirs += (dirs.empty() ? "" : ", ") + d;
     throw Failure{"PP-E704",
-                  fmt::format("program O{:04d} is not in {} nor a file O{:04d}[.nc] in the search folders ({}); "
+                  fmt::format("program O{:04d} is not in {} nor a file O{:04d}[.nc|.tap|…] or {:04d}.nc in the search folders ({}); "
                               "add the subprogram or its file",
                               static_cast<std::uint64_t>(program), file_->name(), static_cast<std::uint64_t>(program),
-                              dirs.empty() ? "none" : dirs),
+                              static_cast<std::uint64_t>(program), dirs.empty() ? "none" : dirs),
                   at.span};
   }
   out_.push_call(CallFrame{file_->name(), pc_ + 1, std::move(callee)});
