@@ -201,7 +201,8 @@ bool Interpreter::corner_refused(const Block& b, const BlockWords& w, GMeaning m
   // This version does not build that geometry: the motions of both blocks are refused (their end
   // points stay exact for the blocks that follow).
   int here = w.corner_word;
-  if (here < 0 && d_.lathe && mode == GMeaning::linear) {
+  // (Under G12.1/G112 polar interpolation C is the rotary axis of the polar plane, not a chamfer.)
+  if (here < 0 && d_.lathe && mode == GMeaning::linear && !s_.polar_interp) {
     const auto letter = [&](char L) { return w.has(L) ? static_cast<int>(w.letter_word[static_cast<std::size_t>(L - 'A')]) : -1; };
     const bool xz = (w.axis_present & (bit(Axis::x) | bit(Axis::z))) != 0;
     if (letter('R') >= 0) here = letter('R');
@@ -217,7 +218,7 @@ bool Interpreter::corner_refused(const Block& b, const BlockWords& w, GMeaning m
     report(b, at, Severity::warning, codes::kFanucCorner,
            fmt::format("'{}': a chamfer / corner rounding (or direct drawing dimension) between this block and the "
                        "next moves the end of this block and the start of the next; this version does not resolve "
-                       "it, both motions are refused{}",
+                       "it, both motions are refused — write the chamfer or rounding as its own G01/G02/G03 block{}",
                        b.text(at),
                        w.corner_word >= 0 ? "" : " (on a lathe C may also be a C-axis word: write ,C when the machine "
                                                  "has a C axis, parameter 3405#4 CCR)"));

@@ -253,10 +253,18 @@ class Lexer {
       last = k + 1;
       digit = digit || is_digit(c);
     }
-    if (!digit) return 0;
     bool point = false;
     double v = 0;
-    if (lex_number(std::string_view(buf, len), 0, false, v, &point) != len) return 0;
+    if (!digit || lex_number(std::string_view(buf, len), 0, false, v, &point) != len) {
+      // Not one number ("X1..2"): read what a plain literal gives, as without blanks.
+      const std::uint32_t e = lex_number(s_, i, false, v, &point);
+      if (e == i) return 0;
+      w.kind = ValueKind::number;
+      w.number = v;
+      w.whole = !point;
+      w.value = {i, e};
+      return e;
+    }
     w.kind = ValueKind::number;
     w.number = v;
     w.whole = !point;
