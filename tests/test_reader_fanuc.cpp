@@ -7,7 +7,12 @@
 #include <cmath>
 #include <numbers>
 
+#include "postproc/compensation/compensate.hpp"
+#include "postproc/contour/path.hpp"
 #include "postproc/gcode/resolve.hpp"
+#include "postproc/io/output_file.hpp"
+#include "postproc/machine/machine.hpp"
+#include "sample_machine.hpp"
 #include "support.hpp"
 
 namespace {
@@ -390,6 +395,43 @@ TEST(ReaderFanuc, LatheGCodeSystemB) {
   const gc::Diagnostic* d = a.find("PP-E201");
   ASSERT_NE(d, nullptr);
   EXPECT_NE(d->message.find("--gcode-system B"), std::string::npos);
+}
+
+// ---- Writers -----------------------------------------------------------------------------------------
+
+/// compensate through a sample machine (with errors): the output, or the refusal.
+struct Compensated {
+  std::string out;
+  gc::DiagnosticSink sink;
+};
+void compensate(std::string_view program, Compensated& r) {
+  const postproc::machine::Machine m = pptest::sample_machine("trunnion_ac_fanuc.toml");
+  const gc::Dialect d = *gc::make_dialect(m.dialect_name, m.dialect_options);
+  postproc::comp::CompensateOptions opt;
+  opt.tool_version = "test";
+  opt.header = false;
+  postproc::contour::PrecompensateOptions popt;
+  auto mem = postproc::io::OutputFile::memory();
+  postproc::comp::compensate_program(program, "t.nc", d, m, opt, popt, mem, r.sink);
+  r.out = mem.take();
+}
+
+// Under G16 the words are radius and angle (B-64484EN "Polar coordinate command"): a corrected
+// Cartesian end point must not be written into them, so compensate refuses the block (PP-E601);
+// the same move in Cartesian words is compensated.
+TEST(ReaderFanuc, CompensateRefusesPolarWords) {
+  Compensated polar;
+  compensate("%\nO1\nG90 G54 G0 X0 Y0 Z50. A0 C0\nG16\nG1 X100. Y30. Z10. F500.\nG15\nM30\n%\n", polar);
+  const gc::Diagnostic* e = nullptr;
+  for (const auto& d : polar.sink.stored())
+    if (d.severity == gc::Severity::error) e = &d;
+  ASSERT_NE(e, nullptr) << polar.out;
+  EXPECT_EQ(e->code, "PP-E601");
+  EXPECT_EQ(e->where.line, 5u);
+  Compensated plain;
+  compensate("%\nO1\nG90 G54 G0 X0 Y0 Z50. A0 C0\nG1 X86.603 Y50. Z10. F500.\nM30\n%\n", plain);
+  EXPECT_FALSE(plain.sink.has_errors());
+  EXPECT_FALSE(plain.out.empty());
 }
 
 }  // namespace
