@@ -360,6 +360,15 @@ TEST(ReaderFanuc, ListingHeaderBeforeProgramNumber) {
   EXPECT_EQ(nc.motions.size(), 2u);
 }
 
+// Same rule when the program needs macro resolution (the resolver skips the listing too).
+TEST(ReaderFanuc, ListingHeaderBeforeMacroProgram) {
+  gc::DiagnosticSink sink;
+  const auto r = resolved("==========\nInformation listing created by :  user\n==========\nO0001\n#1=2.\nG0 X#1\nM30\n",
+                          sink);
+  EXPECT_FALSE(sink.has_errors());
+  EXPECT_NE(r.text.find("G0 X2."), std::string::npos) << r.text;
+}
+
 // M98 P5001 finds O5001 in a file named 5001.nc / O5001.nc / o5001 (any case) in the program's folder.
 TEST(ReaderFanuc, SubprogramFileNames) {
   for (const char* name : {"5001.nc", "O5001.NC", "o5001", "5001.tap"}) {

@@ -561,11 +561,38 @@ void Runner::run() {
       }
     }
   }
+  // Without '%': listing text (lines that are not NC blocks, comments allowed) before the first
+  // program number is skipped the same way (program.cpp's read_leader applies the same rule).
+  std::optional<std::size_t> first_o;
+  if (!first_percent) {
+    bool text = false, blocks = false;
+    DiagnosticSink quiet(0);
+    Block scratch;
+    const Dialect fanuc = make_dialect(DialectId::fanuc);  // the lexing rules do not depend on options
+    for (std::size_t i = 0; i < m.lines() && i < 500 && !blocks; ++i) {
+      const std::string_view l = m.raw(i);
+      const std::size_t q = l.find_first_not_of(" \t");
+      if (q == std::string_view::npos) continue;
+      if ((l[q] == 'O' || l[q] == 'o' || l[q] == ':') && q + 1 < l.size() && l[q + 1] >= '0' && l[q + 1] <= '9') {
+        if (text) first_o = i;
+        break;
+      }
+      if (l[q] == '%') break;
+      scratch.clear();
+      scratch.raw = l;
+      scratch.line = i + 1;
+      if (!lex_block(fanuc, scratch, LexContext{"", &quiet})) text = true;
+      else if (!scratch.words.empty() || scratch.has_n) blocks = true;
+    }
+  }
   static const std::vector<Edit> none;
   try {
     if (first_percent) {
       for (std::size_t i = 0; i <= *first_percent; ++i) emit(m, i, none);
       pc_ = *first_percent + 1;
+    } else if (first_o) {
+      for (std::size_t i = 0; i < *first_o; ++i) emit(m, i, none);
+      pc_ = *first_o;
     }
     for (;;) {
       if (pc_ >= file_->lines()) {
