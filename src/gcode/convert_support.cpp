@@ -86,7 +86,10 @@ void ModalTrack::update(const Block& b) {
       case GMeaning::tool_length_on:
       case GMeaning::tool_length_off: tcp_vector = false; break;
       case GMeaning::cancel_motion:
-        if (!motion_given) motion = GMeaning::cancel_motion;
+        if (!motion_given) {
+          motion = dialect->g80_keeps_motion ? interp_motion : GMeaning::cancel_motion;
+          if (dialect->g80_keeps_motion) motion_code10 = interp_code10;
+        }
         break;
       case GMeaning::polar_coord_on: polar_command = true; break;
       case GMeaning::polar_coord_off: polar_command = false; break;
@@ -96,6 +99,11 @@ void ModalTrack::update(const Block& b) {
       motion = g.def->meaning;
       motion_code10 = g.def->code10;
       motion_given = true;
+      if (motion == GMeaning::rapid || motion == GMeaning::linear || motion == GMeaning::arc_cw ||
+          motion == GMeaning::arc_ccw) {
+        interp_motion = motion;
+        interp_code10 = motion_code10;
+      }
     }
   }
 }
