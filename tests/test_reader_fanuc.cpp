@@ -404,6 +404,12 @@ TEST(ReaderFanuc, LatheGCodeSystemB) {
   const gc::Diagnostic* d = a.find("PP-E201");
   ASSERT_NE(d, nullptr);
   EXPECT_NE(d->message.find("--gcode-system B"), std::string::npos);
+  // System A: G90 is the turning cycle; a G90 alone (a system-B "absolute") is refused with the hint.
+  const Program g90(dialect("fanuc", true), "G90 G54\n");
+  const gc::Diagnostic* t = g90.find("PP-U201");
+  ASSERT_NE(t, nullptr) << g90.all_codes();
+  EXPECT_EQ(t->where.column, 1u);
+  EXPECT_NE(t->message.find("--gcode-system B"), std::string::npos);
 }
 
 // ---- Writers -----------------------------------------------------------------------------------------

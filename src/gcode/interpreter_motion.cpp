@@ -306,7 +306,15 @@ void Interpreter::do_motion(const Block& b, BlockWords& w, MotionSink& out_all) 
       const auto code = mode == GMeaning::turning_cycle ? codes::kTurningCycle
                         : mode == GMeaning::threading   ? codes::kThreading
                                                         : codes::kSpline;
-      unresolved_motion(b, w, code, fmt::format("{}", b.text(b.words[static_cast<std::size_t>(w.motion.word)].span)));
+      // A G90 without X/Z on a system-A lathe is usually a system-B program's "absolute" (B-64484EN "G code
+      // system"): say so.
+      const bool g90_a = d_.id == DialectId::fanuc && d_.lathe && d_.gcode_system == 'A' && w.motion.def->code10 == 900;
+      unresolved_motion(b, w, code,
+                        fmt::format("{}{}", b.text(b.words[static_cast<std::size_t>(w.motion.word)].span),
+                                    g90_a ? " (in Fanuc lathe G-code system A, G90 is the outer-diameter turning "
+                                            "cycle; if the program means absolute mode it is system B: pass "
+                                            "--gcode-system B)"
+                                          : ""));
     }
     return;
   }
