@@ -25,6 +25,10 @@ void add_dialect_options(CLI::App& cmd, DialectArgs& a, bool required) {
                  "Fanuc: how axis words without a decimal point are read: increment (X100 = 0.1 mm, the factory "
                  "setting) or calculator (X100 = 100 mm, parameter DPI=1, Haas)")
       ->check(CLI::IsMember({"increment", "calculator"}));
+  cmd.add_option("--power-on-motion", a.power_on_motion,
+                 "Fanuc: motion mode at power-on, G0 (factory setting) or G1 (parameter 3402#0 G01=1); axis words "
+                 "before any motion G move in it")
+      ->check(CLI::IsMember({"G0", "G1", "G00", "G01"}));
   cmd.add_option("--diameter-axis", a.diameter_axis, "axis programmed as a diameter from the start (X), or 'none'")
       ->check(CLI::IsMember({"X", "x", "none"}));
   cmd.add_option("--tool-table", a.tool_table,
@@ -38,6 +42,7 @@ gcode::Dialect make_dialect(const DialectArgs& a) {
   o.lathe = a.lathe;
   if (a.integer_input == "increment") o.integer_input = gcode::Dialect::IntegerInput::increment;
   if (a.integer_input == "calculator") o.integer_input = gcode::Dialect::IntegerInput::calculator;
+  o.power_on_motion = a.power_on_motion == "G1" || a.power_on_motion == "G01" ? 1 : 0;
   o.gcode_system = a.gcode_system.empty() ? 'A' : a.gcode_system[0];
   if (a.diameter_axis == "X" || a.diameter_axis == "x") o.diameter_axis = 'X';
   if (!a.tool_table.empty()) {

@@ -21,6 +21,7 @@ struct DialectArgs {
   std::string diameter_axis; ///< "X" or empty
   std::string integer_input; ///< "", "increment" or "calculator" (Fanuc)
   std::string tool_table;    ///< LinuxCNC tool table file (lengths and diameters by tool number), "" = none
+  std::string power_on_motion; ///< "", "G0" or "G1" (Fanuc parameter 3402#0)
 };
 
 /// Adds --dialect, --lathe, --diameter-axis to `cmd`.

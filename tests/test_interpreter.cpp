@@ -372,7 +372,8 @@ TEST(Interpreter, ErrorsOnUnknownAndConflictingCodes) {
   expect_diag(planes, "PP-E202", 1, 5);
   const Program twice(dialect("fanuc"), "G0 X1 X2\n");
   expect_diag(twice, "PP-E203", 1, 7);
-  const Program after_g80(dialect("fanuc"), "G0 X0 Y0 Z10\nG80 X1\n");
+  // LinuxCNC leaves no motion mode after G80 (Fanuc keeps G00/G01: test_reader_fanuc.cpp).
+  const Program after_g80(dialect("linuxcnc"), "G0 X0 Y0 Z10\nG80 X1\n");
   expect_diag(after_g80, "PP-E204", 2, 5);
 }
 

@@ -295,10 +295,16 @@ TEST(LexerLinuxcnc, SpacesInsideWords) {
   EXPECT_EQ(L.of(L.block.words[1].value), "1.5");
   EXPECT_DOUBLE_EQ(L.block.words[2].number, -2);
   EXPECT_TRUE(covers_raw(L.block));
-  // Fanuc does not allow it: "G 1" is a G without a value.
-  const Lexed F(dialect("fanuc"), "G 1 X1");
-  EXPECT_FALSE(F.ok);
-  EXPECT_EQ(F.sink.stored().at(0).code, "PP-E106");
+  // Fanuc disregards spaces anywhere in a number (B-64484EN "Tape code"): "G 1 X 1 0" is G1 X10
+  // (more in test_reader_fanuc.cpp); a letter without any digits is still an error.
+  const Lexed F(dialect("fanuc"), "G 1 X 1 0");
+  ASSERT_TRUE(F.ok);
+  EXPECT_EQ(F.words(), (Strings{"G 1", "X 1 0"}));
+  EXPECT_DOUBLE_EQ(F.block.words[1].number, 10);
+  EXPECT_TRUE(covers_raw(F.block));
+  const Lexed bad(dialect("fanuc"), "G X1");
+  EXPECT_FALSE(bad.ok);
+  EXPECT_EQ(bad.sink.stored().at(0).code, "PP-E106");
 }
 
 TEST(LexerLinuxcnc, CommentsDoNotNest) {

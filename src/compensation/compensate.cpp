@@ -26,6 +26,15 @@ void Compensator::write_segments(const Block& b, const Motion& m, gcode::BlockEd
                                  const std::vector<Command>& pts, const Command& out) {
   // The block keeps its words and moves to the first point; the other points follow as new
   // lines of the same motion (inverse-time feeds scaled so the block keeps its duration).
+  if (m.words_transformed) {
+    // New lines would hold work coordinates where the control reads radius/angle (G16) or mirrored
+    // values (G51.1).
+    refuse(b, m.column, kRefused,
+           "the move needs subdividing but its axis words are not work coordinates (Fanuc G16 polar, G51.1 mirror "
+           "image or G29); write the block in plain coordinates");
+    written_known_ = 0;
+    return;
+  }
   const std::uint64_t n = pts.size() + 1;
   const WordWriter::Outcome o = writer_.rewrite(b, m, mask_, written_, written_known_, pts.front(), ed,
                                                 m.feed_mode == gcode::FeedMode::inverse_time ? n : 0);

@@ -129,6 +129,11 @@ WordWriter::Outcome WordWriter::rewrite(const Block& b, const Motion& m, gcode::
       // corrected end differs there at the output decimals.
       const double s = std::pow(10.0, dm);
       if (std::abs(pv - held) < 1e-9 || std::llround(pv * s) == std::llround(held * s)) continue;
+      if (m.words_transformed) {
+        o = {false, m.column, "the block's axis words are not work coordinates (Fanuc G16, G51.1 or G29) and a "
+                              "correction would need a new word; write the block in plain coordinates", 0, 0};
+        return o;
+      }
       if (!have_start && !((m.known >> a) & 1u)) {
         o = {false, m.column, fmt::format("axis {} needs a correction but its position is unknown here",
                                           gcode::kAxisLetters[static_cast<std::size_t>(a)]), 0, 0};
@@ -142,6 +147,12 @@ WordWriter::Outcome WordWriter::rewrite(const Block& b, const Motion& m, gcode::
     }
     const Word& w = b.words[static_cast<std::size_t>(wi)];
     if (std::abs(pv - program_units(a, m.end[a], m)) < 1e-9) continue;  // no correction: the word stays
+    if (m.words_transformed) {
+      o = {false, column_of(w), "the block's axis words are not work coordinates (Fanuc G16 radius/angle, G51.1 "
+                                "mirror image, or G29 relative to the intermediate point) and need a correction; "
+                                "write the block in plain coordinates", 0, 0};
+      return o;
+    }
     const auto lit = gcode::literal_span(b, w);
     const bool inc = track_.incremental(w);
     if (!lit) {

@@ -81,6 +81,11 @@ class Compensator final : public gcode::BlockVisitor {
     // A block that moves to the reference point or changes the work offset without moving: the
     // corrected position the controller holds is no longer known in the program's coordinates.
     if (motions.empty() && !keeps_coordinates()) written_known_ = 0;
+    // Axis words that produced no motion (a move the reader refused, e.g. an arc from an unknown start
+    // or a Fanuc ,R corner): what the controller holds on those axes is not the last written value.
+    if (motions.empty() && track_.axis_consumer() == nullptr)
+      for (const gcode::Word& w : b.words)
+        if (const int a = track_.axis_of(w); a >= 0) written_known_ &= static_cast<gcode::AxisMask>(~(1u << a));
     if (ed.empty()) {
       emit(b.raw, after_.empty() ? b.eol : std::string_view(eol_), b.line);
     } else {

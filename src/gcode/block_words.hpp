@@ -43,6 +43,8 @@ struct Interpreter::BlockWords {
   std::int16_t polar_word = -1;           ///< index of the first of them
   bool siemens_motion_keyword = false;    ///< CIP, CT, BSPLINE, … in this block
   bool machine_frame = false;             ///< G53 / SUPA / G153 in this block
+  std::int16_t corner_word = -1;          ///< Fanuc ,C / ,R / ,A word of this block
+  bool words_transformed = false;         ///< Fanuc G16/G51.1: axis values were converted to the work frame
   bool axes_consumed = false;             ///< axis words were data for G10/G52/G92/… (no motion)
 
   [[nodiscard]] bool has(char L) const { return (letter_present >> (L - 'A')) & 1u; }

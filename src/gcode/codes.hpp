@@ -45,6 +45,13 @@ inline constexpr std::string_view kModalRestore = "PP-U222";   // LinuxCNC M72/M
 inline constexpr std::string_view kLatheCycleRejected = "PP-E250";  ///< the controller rejects the cycle
 inline constexpr std::string_view kLatheProfileStatement = "PP-E251";  ///< statement inside a cycle's profile
 inline constexpr std::string_view kLatheCycleUnresolved = "PP-U250";  ///< cycle word / profile form not followed
+// Fanuc dialect (docs/dialect-fanuc.md): constructs read only where they can be read exactly.
+inline constexpr std::string_view kFanucPolar = "PP-U230";     ///< G16 polar command not read exactly
+inline constexpr std::string_view kFanucScaling = "PP-U231";   ///< motion under G51 scaling
+inline constexpr std::string_view kFanucMirror = "PP-U232";    ///< G51.1 mirror case not read exactly
+inline constexpr std::string_view kFanucCorner = "PP-U233";    ///< ,C / ,R chamfer, corner rounding, direct drawing
+inline constexpr std::string_view kFanucReturn = "PP-U234";    ///< G29 whose end point is not known
+inline constexpr std::string_view kFanucSystemB = "PP-U235";   ///< U/W moves in lathe G-code system B
 // Notes.
 inline constexpr std::string_view kDialectGuess = "PP-N001";
 inline constexpr std::string_view kDialectMismatch = "PP-N002";

@@ -86,18 +86,24 @@ void ModalTrack::update(const Block& b) {
       case GMeaning::tool_length_on:
       case GMeaning::tool_length_off: tcp_vector = false; break;
       case GMeaning::cancel_motion:
-        if (!motion_given) motion = GMeaning::cancel_motion;
+        if (!motion_given) {
+          motion = dialect->g80_keeps_motion ? interp_motion : GMeaning::cancel_motion;
+          if (dialect->g80_keeps_motion) motion_code10 = interp_code10;
+        }
         break;
-      case GMeaning::state_only:
-        if (dialect->id == DialectId::fanuc && g.def->code10 == 160) polar_command = true;
-        if (dialect->id == DialectId::fanuc && g.def->code10 == 150) polar_command = false;
-        break;
+      case GMeaning::polar_coord_on: polar_command = true; break;
+      case GMeaning::polar_coord_off: polar_command = false; break;
       default: break;
     }
     if (g.def->group == GGroup::motion) {
       motion = g.def->meaning;
       motion_code10 = g.def->code10;
       motion_given = true;
+      if (motion == GMeaning::rapid || motion == GMeaning::linear || motion == GMeaning::arc_cw ||
+          motion == GMeaning::arc_ccw) {
+        interp_motion = motion;
+        interp_code10 = motion_code10;
+      }
     }
   }
 }
@@ -132,6 +138,9 @@ const ModalTrack::G* ModalTrack::axis_consumer() const {
       case GMeaning::tilted_plane_heidenhain:
       case GMeaning::polar_pole:
       case GMeaning::probe:
+      case GMeaning::scaling_on:
+      case GMeaning::mirror_on:
+      case GMeaning::mirror_off:
         return &g;
       default: break;
     }
@@ -141,7 +150,8 @@ const ModalTrack::G* ModalTrack::axis_consumer() const {
 
 int ModalTrack::axis_of(const Word& w) const {
   if (!plain_letter(w)) return -1;
-  if (dialect->lathe && dialect->id == DialectId::fanuc && (w.letter == 'U' || w.letter == 'W' || w.letter == 'H'))
+  if (dialect->lathe && dialect->id == DialectId::fanuc && dialect->gcode_system == 'A' &&
+      (w.letter == 'U' || w.letter == 'W' || w.letter == 'H'))
     return w.letter == 'U' ? 0 : (w.letter == 'W' ? 2 : 5);
   return axis_index(w.letter);
 }
@@ -149,7 +159,8 @@ int ModalTrack::axis_of(const Word& w) const {
 bool ModalTrack::incremental(const Word& w) const {
   if (w.kind == ValueKind::incremental_fn) return true;
   if (w.kind == ValueKind::absolute_fn) return false;
-  if (dialect->lathe && dialect->id == DialectId::fanuc && (w.letter == 'U' || w.letter == 'W' || w.letter == 'H'))
+  if (dialect->lathe && dialect->id == DialectId::fanuc && dialect->gcode_system == 'A' &&
+      (w.letter == 'U' || w.letter == 'W' || w.letter == 'H'))
     return true;
   return !absolute && !has(GMeaning::machine_coords);
 }

@@ -42,7 +42,9 @@ namespace postproc::gcode {
 /// Modal state as far as convert needs it, updated from each block's G words (the state in force
 /// for the block's own words, as the interpreter applies units, feed mode and distance first).
 struct ModalTrack {
-  explicit ModalTrack(const Dialect& d) : dialect(&d), diameter(d.diameter_axis != 0) {}
+  explicit ModalTrack(const Dialect& d)
+      : dialect(&d), diameter(d.diameter_axis != 0), motion(d.power_on_motion), interp_motion(d.power_on_motion),
+        motion_code10(d.power_on_motion == GMeaning::linear ? 10 : 0), interp_code10(motion_code10) {}
   void update(const Block& b);
 
   /// The block's G codes (valid after update()).
@@ -70,7 +72,9 @@ struct ModalTrack {
   bool diameter = false;      ///< X is written as a diameter (lathes, G7, DIAMON)
   Plane plane = Plane::xy;
   GMeaning motion = GMeaning::cancel_motion;
+  GMeaning interp_motion = GMeaning::cancel_motion;  ///< last G00–G03 (Fanuc: what G80 returns to)
   std::uint16_t motion_code10 = 0;
+  std::uint16_t interp_code10 = 0;
   bool css = false;         ///< G96: S is a surface speed (m/min or ft/min)
   bool tcp_vector = false;  ///< Fanuc G43.5: I J K are a tool direction
   bool polar_command = false;  ///< Fanuc G16: X/Y are radius/angle

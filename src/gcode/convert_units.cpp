@@ -173,6 +173,8 @@ UnitsPass::Class UnitsPass::classify(const Block& b, const Word& w) const {
   if (!plain_letter(w)) {
     const std::string name = upper(b.text(w.name));
     if (name == "CR" || name == "RP") return Class::length;  // arc radius, polar radius
+    if (name == ",C" || name == ",R") return Class::length;  // Fanuc chamfer / corner radius
+    if (name == ",A") return Class::none;                     // Fanuc direct-drawing angle
     if ((w.letter == 'A' || w.letter == 'B' || w.letter == 'C') && w.index != 0) return Class::none;  // tool vector
     if (name == "TU" || name == "AP" || name == "AR" || name == "SF") return Class::none;  // turns, angles
     return Class::unknown;

@@ -75,15 +75,15 @@ void fanuc(std::vector<GCodeDef>& t, bool lathe, char system) {
       {g(7.1), M::cylindrical_interp, Gr::non_modal}, {g(107), M::cylindrical_interp, Gr::non_modal},
       {g(12.1), M::polar_interp_on, Gr::non_modal}, {g(13.1), M::polar_interp_off, Gr::non_modal},
       {g(112), M::polar_interp_on, Gr::non_modal}, {g(113), M::polar_interp_off, Gr::non_modal},
-      {g(15), M::state_only, Gr::non_modal}, {g(16), M::state_only, Gr::non_modal},
-      {g(32), M::threading, Gr::motion}, {g(33), M::threading, Gr::motion}, {g(50.1), M::state_only, Gr::non_modal},
-      {g(51.1), M::state_only, Gr::non_modal}, {g(65), M::state_only, Gr::non_modal},
+      {g(15), M::polar_coord_off, Gr::non_modal}, {g(16), M::polar_coord_on, Gr::non_modal},
+      {g(32), M::threading, Gr::motion}, {g(33), M::threading, Gr::motion}, {g(50.1), M::mirror_off, Gr::non_modal},
+      {g(51.1), M::mirror_on, Gr::non_modal}, {g(65), M::state_only, Gr::non_modal},
       {g(80.5), M::cancel_motion, Gr::non_modal}, {g(49.1), M::tool_length_off, Gr::tool_length},
       {g(41.2), M::cutter_comp, Gr::cutter_comp}, {g(42.2), M::cutter_comp, Gr::cutter_comp},
       {g(61.1), M::path_control, Gr::path_control}, {g(62), M::path_control, Gr::path_control},
       {g(63), M::path_control, Gr::path_control}, {g(10.6), M::state_only, Gr::non_modal},
       {g(11), M::state_only, Gr::non_modal}, {g(13), M::state_only, Gr::non_modal},
-      {g(50), M::state_only, Gr::non_modal}, {g(51), M::state_only, Gr::non_modal},
+      {g(50), M::scaling_off, Gr::non_modal}, {g(51), M::scaling_on, Gr::non_modal},
       {g(27), M::home_return, Gr::non_modal}, {g(29), M::home_return, Gr::non_modal},
       {g(26), M::state_only, Gr::non_modal}, {g(25), M::state_only, Gr::non_modal},
   });
@@ -216,6 +216,8 @@ Dialect make_dialect(DialectId id, const DialectOptions& opt) {
       fanuc(d.gcodes, opt.lathe, opt.gcode_system);
       d.integer_input = opt.integer_input;
       d.gcode_system = opt.gcode_system;
+      d.power_on_motion = opt.power_on_motion == 1 ? GMeaning::linear : GMeaning::rapid;
+      d.g80_keeps_motion = true;
       if (opt.lathe) d.diameter_axis = 'X';
       break;
     case DialectId::siemens:

@@ -67,6 +67,8 @@ bool siemens_state_keyword(std::string_view name) {
 Interpreter::Interpreter(const Dialect& dialect, std::string file, DiagnosticSink& sink, InterpreterOptions opt)
     : d_(dialect), file_(std::move(file)), sink_(sink), opt_(opt) {
   s_.diameter_mode = d_.diameter_axis != 0;
+  s_.motion = s_.interp_motion = d_.power_on_motion;
+  s_.motion_code10 = s_.interp_code10 = d_.power_on_motion == GMeaning::linear ? 10 : 0;
   if (d_.lathe) s_.plane = Plane::zx;  // lathes power up in G18
   // LinuxCNC's interpreter starts in G99 (retract to the R plane; rs274 agrees); Fanuc powers on in G98.
   if (d_.id == DialectId::linuxcnc) s_.return_to_r = true;
@@ -101,7 +103,9 @@ bool Interpreter::collect(const Block& b, BlockWords& w) {
   w.axis_word.fill(-1);
   w.letter_word.fill(-1);
   bool ok = true;
-  const bool lathe_incremental = d_.lathe && d_.id == DialectId::fanuc;
+  // Fanuc lathe G-code system A: U W H are incremental X Z C. In systems B/C they are not (G91 is
+  // used; B-64484EN "G code system" / "Absolute and incremental programming").
+  const bool lathe_incremental = d_.lathe && d_.id == DialectId::fanuc && d_.gcode_system == 'A';
   // Units for reading whole numbers as increments: a G20/G21 anywhere in this block applies.
   bool inch = s_.inch;
   bool any_whole = false;
@@ -159,6 +163,10 @@ bool Interpreter::collect(const Block& b, BlockWords& w) {
     if (word.name_len > 1 || word.index != 0) {
       // Siemens extended addresses: CR= radius, A3/B3/C3 tool vector, others state only.
       const std::string_view nm = b.text(word.name);
+      if (!nm.empty() && nm.front() == ',') {
+        w.corner_word = wi;
+        continue;
+      }
       if (iequals(nm, "CR") && resolved) {
         w.has_cr = true;
         w.cr = v;
@@ -182,9 +190,13 @@ bool Interpreter::collect(const Block& b, BlockWords& w) {
                                 ? d_.find_g(static_cast<std::uint16_t>(code10))
                                 : nullptr;
       if (def == nullptr) {
+        const bool system_b_hint = d_.id == DialectId::fanuc && d_.lathe && d_.gcode_system == 'A' && code10 == 910;
         report(b, word.span, Severity::error, codes::kUnknownG,
-               fmt::format("'{}' is not a G code of the {} dialect{}; check --dialect (and --lathe)", b.text(word.span),
-                           d_.name, d_.lathe ? " (lathe)" : ""));
+               fmt::format("'{}' is not a G code of the {} dialect{}; {}", b.text(word.span), d_.name,
+                           d_.lathe ? " (lathe)" : "",
+                           system_b_hint ? "G91 (incremental) exists in Fanuc lathe G-code system B/C, not in system A "
+                                           "(U/W there): pass --gcode-system B if the program is system B"
+                                         : "check --dialect (and --lathe)"));
         ok = false;
         continue;
       }
@@ -192,9 +204,14 @@ bool Interpreter::collect(const Block& b, BlockWords& w) {
         for (int k = 0; k < w.ng; ++k) {
           const auto& other = w.g[static_cast<std::size_t>(k)];
           if (other.def->group == def->group) {
+            const bool g90_a = d_.id == DialectId::fanuc && d_.lathe && d_.gcode_system == 'A' &&
+                               (def->code10 == 900 || other.def->code10 == 900);
             report(b, word.span, Severity::error, codes::kModalConflict,
-                   fmt::format("'{}' and '{}' belong to the same modal group; keep one of them",
-                               b.text(b.words[static_cast<std::size_t>(other.word)].span), b.text(word.span)));
+                   fmt::format("'{}' and '{}' belong to the same modal group; keep one of them{}",
+                               b.text(b.words[static_cast<std::size_t>(other.word)].span), b.text(word.span),
+                               g90_a ? " (in Fanuc lathe G-code system A, G90 is the turning cycle; G90 absolute "
+                                       "is system B/C: pass --gcode-system B)"
+                                     : ""));
             ok = false;
           }
         }

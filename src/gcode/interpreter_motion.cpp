@@ -105,8 +105,27 @@ void Interpreter::non_modal(const Block& b, BlockWords& w, MotionSink& out) {
       case GMeaning::set_offsets_g10: {
         w.axes_consumed = true;
         const long l = w.whole_or('L', 0, 1000, 0);
-        const long p = w.whole_or('P', 0, 1000, -1);
-        const bool active = p == 0 || p == (s_.work_offset.code10 - 530) / 10;
+        const long p = w.whole_or('P', 0, 10000, -1);
+        const std::uint16_t wc = s_.work_offset.code10;
+        if (d_.id == DialectId::fanuc) {
+          // B-64484EN "Changing workpiece coordinate system by programmed command (G10)": G10 L2 P0 writes
+          // the external work offset (it shifts every work frame), L2 P1–P6 G54–G59, L20 Pn the
+          // additional offset G54.1 Pn; values are absolute in G90, added in G91. G10 never moves the
+          // tool: the active frame shifts by new - old value, and the old value is a table entry this
+          // version does not know, so the named axes of the active frame become unknown.
+          const bool l_known = w.has('L') && !w.unresolved('L');
+          const bool p_known = w.has('P') && !w.unresolved('P') && p >= 0;
+          bool active = false;
+          if (!l_known) active = true;  // which table is written is not known
+          else if (l == 2) active = !p_known || p == 0 || (wc >= 540 && wc <= 590 && wc % 10 == 0 && p == (wc - 530) / 10);
+          else if (l == 20) active = !p_known || (wc == 541 && s_.work_offset.p == p);
+          if (active) s_.known &= static_cast<AxisMask>(~w.axis_present);
+          break;
+        }
+        // LinuxCNC: L2/L20 P0 is the active system, P1–P9 = G54–G59.3; L20 makes the current point take
+        // the given values (exact), L2 writes the table (the active frame's position becomes unknown).
+        const long index = wc == 541 ? -1 : wc <= 590 ? (wc - 530) / 10 : 6 + (wc - 590);
+        const bool active = p == 0 || p == index;
         if ((l == 2 || l == 20) && active) {
           for (int a = 0; a < kAxisCount; ++a) {
             if (!(w.axis_present & (1u << a))) continue;
@@ -165,6 +184,19 @@ void Interpreter::non_modal(const Block& b, BlockWords& w, MotionSink& out) {
       case GMeaning::home_return: {
         // Intermediate point (if any) is an ordinary rapid; then the axes go home (unknown here).
         AxisMask named = w.axis_present;
+        w.axes_consumed = true;
+        if (d_.id == DialectId::fanuc && named != 0 && (s_.polar_coords || s_.scaling || (s_.mirror & named))) {
+          report(b, at, Severity::warning,
+                 s_.polar_coords ? codes::kFanucPolar : s_.scaling ? codes::kFanucScaling : codes::kFanucMirror,
+                 fmt::format("'{}' with axis words under {} is not resolved by this version; cancel it first",
+                             b.text(at), s_.polar_coords ? "G16" : s_.scaling ? "G51" : "G51.1"));
+          s_.known &= static_cast<AxisMask>(~named);
+          break;
+        }
+        if (g.def->code10 == 290 && d_.id == DialectId::fanuc) {
+          fanuc_g29(b, w, at, out);
+          break;
+        }
         if (named != 0 && g.def->code10 != 290 && d_.id != DialectId::siemens) {
           Motion m;
           m.line = b.line;
@@ -173,16 +205,32 @@ void Interpreter::non_modal(const Block& b, BlockWords& w, MotionSink& out) {
           fill_state(m);
           m.word_index.fill(-1);
           if (target(b, w, m)) out.motion(m, b);
+          if (g.def->code10 == 280 || g.def->code10 == 300) {
+            // Fanuc keeps the intermediate point of each named axis for G29 (in the work frame).
+            s_.home_mid_known = static_cast<AxisMask>((s_.home_mid_known & ~named) | (s_.known & named));
+            for (int a = 0; a < kAxisCount; ++a)
+              if (named & (1u << a)) s_.home_mid[a] = s_.position[a];
+          }
         }
         s_.known &= static_cast<AxisMask>(~(named == 0 ? kAllAxes : named));
         if (named == 0 || (named & bit(Axis::z))) s_.tool_z_pending = 0;  // Z goes home: known by no one
-        w.axes_consumed = true;
         break;
       }
       case GMeaning::home_set:
       case GMeaning::polar_pole: w.axes_consumed = true; break;
+      case GMeaning::polar_coord_on:
+      case GMeaning::polar_coord_off:
+      case GMeaning::scaling_on:
+      case GMeaning::scaling_off:
+      case GMeaning::mirror_on:
+      case GMeaning::mirror_off: fanuc_frame_command(b, w, *g.def, at); break;
       case GMeaning::cancel_motion:
-        if (w.motion.def == nullptr) s_.motion = GMeaning::cancel_motion;
+        if (w.motion.def == nullptr) {
+          // Fanuc B-64484EN "Canned cycle cancel (G80)": G80 cancels group 09 only; G00–G03 of group 01
+          // stay as they were before the cycle.
+          s_.motion = d_.g80_keeps_motion ? s_.interp_motion : GMeaning::cancel_motion;
+          if (d_.g80_keeps_motion) s_.motion_code10 = s_.interp_code10;
+        }
         break;
       case GMeaning::spindle_clamp:
         // Fanuc lathe G50: with X/Z it sets the coordinate system like G92, with S it clamps speed.
@@ -265,15 +313,29 @@ void Interpreter::tool_vector(const BlockWords& w, Motion& m) const {
   }
 }
 
-void Interpreter::do_motion(const Block& b, BlockWords& w, MotionSink& out) {
+namespace {
+/// Swallows motions that are computed (to keep the modal state exact) but refused.
+struct NullSink final : MotionSink {
+  void motion(const Motion&, const Block&) override {}
+};
+}  // namespace
+
+void Interpreter::do_motion(const Block& b, BlockWords& w, MotionSink& out_all) {
   // MillPlus G74 is a one-block rapid in machine coordinates.
-  const GMeaning mode = w.has_meaning(GMeaning::machine_move_heidenhain) ? GMeaning::rapid
+  GMeaning mode = w.has_meaning(GMeaning::machine_move_heidenhain) ? GMeaning::rapid
                         : w.motion.def                                  ? w.motion.def->meaning
                                                                         : s_.motion;
+  NullSink refused;
+  const bool corner = d_.id == DialectId::fanuc && corner_refused(b, w, w.motion.def ? w.motion.def->meaning : s_.motion);
+  MotionSink& out = corner ? static_cast<MotionSink&>(refused) : out_all;
   if (w.motion.def) {
     const bool was_cycle = s_.motion == GMeaning::drill_cycle;
     s_.motion = mode;
     s_.motion_code10 = w.motion.def->code10;
+    if (mode == GMeaning::rapid || mode == GMeaning::linear || mode == GMeaning::arc_cw || mode == GMeaning::arc_ccw) {
+      s_.interp_motion = mode;
+      s_.interp_code10 = w.motion.def->code10;
+    }
     // LinuxCNC keeps the initial level (old_z) while one cycle follows another (G81 … G98 G82 retracts
     // to the level before the first; rs274 agrees); elsewhere a cycle code sets it anew.
     if (mode == GMeaning::drill_cycle && !d_.lathe && !(was_cycle && d_.id == DialectId::linuxcnc)) {
@@ -306,7 +368,15 @@ void Interpreter::do_motion(const Block& b, BlockWords& w, MotionSink& out) {
       const auto code = mode == GMeaning::turning_cycle ? codes::kTurningCycle
                         : mode == GMeaning::threading   ? codes::kThreading
                                                         : codes::kSpline;
-      unresolved_motion(b, w, code, fmt::format("{}", b.text(b.words[static_cast<std::size_t>(w.motion.word)].span)));
+      // A G90 without X/Z on a system-A lathe is usually a system-B program's "absolute" (B-64484EN "G code
+      // system"): say so.
+      const bool g90_a = d_.id == DialectId::fanuc && d_.lathe && d_.gcode_system == 'A' && w.motion.def->code10 == 900;
+      unresolved_motion(b, w, code,
+                        fmt::format("{}{}", b.text(b.words[static_cast<std::size_t>(w.motion.word)].span),
+                                    g90_a ? " (in Fanuc lathe G-code system A, G90 is the outer-diameter turning "
+                                            "cycle; if the program means absolute mode it is system B: pass "
+                                            "--gcode-system B)"
+                                          : ""));
     }
     return;
   }
@@ -314,6 +384,19 @@ void Interpreter::do_motion(const Block& b, BlockWords& w, MotionSink& out) {
     unresolved_motion(b, w, codes::kPolar, "motion under polar coordinate interpolation (G12.1/G112)");
     s_.known &= static_cast<AxisMask>(~w.axis_present);
     return;
+  }
+  if ((s_.polar_coords || s_.scaling || s_.mirror != 0) && !w.machine_frame && !fanuc_frame(b, w, mode)) return;
+  if (d_.id == DialectId::fanuc && d_.lathe && d_.gcode_system != 'A' &&
+      (w.axis_present & (bit(Axis::u) | bit(Axis::w))) &&
+      (mode == GMeaning::rapid || mode == GMeaning::linear || mode == GMeaning::arc_cw || mode == GMeaning::arc_ccw)) {
+    // B-64484EN "G code system": in systems B and C absolute/incremental is G90/G91; U and W are the
+    // addresses of U and W axes, not incremental X and Z as in system A.
+    const int a = (w.axis_present & bit(Axis::u)) ? 6 : 8;
+    const Span ws = b.words[static_cast<std::size_t>(w.axis_word[static_cast<std::size_t>(a)])].span;
+    report(b, ws, Severity::warning, codes::kFanucSystemB,
+           fmt::format("'{}' in lathe G-code system B moves a {} axis (incremental X/Z is G91 X/Z there); if the "
+                       "program is written for system A (U/W incremental), pass --gcode-system A",
+                       b.text(ws), a == 6 ? 'U' : 'W'));
   }
   Motion m;
   m.line = b.line;
@@ -358,6 +441,7 @@ void Interpreter::do_motion(const Block& b, BlockWords& w, MotionSink& out) {
                                                       : "the control applies it with the next Z travel"));
     }
   }
+  m.words_transformed = w.words_transformed;
   if (mode == GMeaning::rapid || mode == GMeaning::linear) tool_vector(w, m);  // arcs use I J K as centre
   switch (mode) {
     case GMeaning::rapid:
@@ -409,6 +493,39 @@ void Interpreter::do_motion(const Block& b, BlockWords& w, MotionSink& out) {
       break;
   }
   if (mcall_active_ && !w.machine_frame) s_.known &= static_cast<AxisMask>(~bit(Axis::z));
+  if (corner && corner_angle_) {
+    const PlaneAxes p = plane_axes(s_.plane);
+    s_.known &= static_cast<AxisMask>(~((1u << p.u) | (1u << p.v)));
+    corner_angle_ = false;
+  }
+}
+
+void Interpreter::fanuc_g29(const Block& b, BlockWords& w, Span at, MotionSink& out) {
+  // B-64484EN "Return from reference position (G29)": the named axes move at rapid from the reference
+  // position through the intermediate point of the last G28/G30 to the commanded point; in G91 the
+  // command is the distance from the intermediate point. Axes not named do not move. The leg from
+  // the reference position (unknown in the work frame) is not a resolved motion; the second leg is.
+  const AxisMask named = w.axis_present;
+  if (named == 0) return;
+  Motion m;
+  m.line = b.line;
+  m.column = at.begin + 1;
+  m.type = MotionType::rapid;
+  fill_state(m);
+  for (int a = 0; a < kAxisCount; ++a) m.word_index[static_cast<std::size_t>(a)] = w.axis_word[static_cast<std::size_t>(a)];
+  m.words_transformed = true;  // in G91 the words are relative to the intermediate point
+  for (int a = 0; a < kAxisCount; ++a) {
+    const AxisMask bitmask = static_cast<AxisMask>(1u << a);
+    if (!(named & bitmask)) continue;
+    s_.position[a] = s_.home_mid[a];
+    s_.known = static_cast<AxisMask>((s_.known & ~bitmask) | (s_.home_mid_known & bitmask));
+  }
+  target(b, w, m);
+  if ((s_.known & named) != named)
+    report(b, at, Severity::warning, codes::kFanucReturn,
+           "G29 end point is not known: in G91 it is relative to the intermediate point of the last G28/G30, which "
+           "was not given (or not known) for every named axis; program G29 in G90");
+  out.motion(m, b);
 }
 
 bool Interpreter::polar_to_xy(const Block& b, BlockWords& w) {
@@ -513,8 +630,21 @@ bool Interpreter::arc(const Block& b, const BlockWords& w, Motion& m, AxisMask s
   const AxisMask need = static_cast<AxisMask>((1u << p.u) | (1u << p.v));
   const Span at = b.words[static_cast<std::size_t>(w.motion.word >= 0 ? w.motion.word : 0)].span;
   const char cu = centre_letter(p.u), cv = centre_letter(p.v);
-  const bool by_radius = (w.has('R') && !w.has(cu) && !w.has(cv)) || w.has_cr;
-  const bool centre_unresolved = w.unresolved(cu) || w.unresolved(cv) || (by_radius && w.has('R') && w.unresolved('R'));
+  if (d_.id == DialectId::linuxcnc && w.has('R') && (w.has('I') || w.has('J') || w.has('K'))) {
+    // LinuxCNC G-code "G2, G3 Arc": an arc is given either in radius format or in centre format;
+    // mixing R with I/J/K is an error ("mixed radius-ijk format for arc").
+    report(b, b.words[static_cast<std::size_t>(w.letter_word['R' - 'A'])].span, Severity::error, codes::kArcGeometry,
+           "arc with both R and I/J/K: LinuxCNC refuses mixed radius and centre formats; keep R or the centre words");
+    s_.known &= static_cast<AxisMask>(~need);
+    return false;
+  }
+  // Fanuc (B-64484EN "Circular interpolation (G02, G03)"): when R and I J K are both given, R is used
+  // and I J K are ignored.
+  const bool by_radius =
+      (w.has('R') && ((!w.has(cu) && !w.has(cv)) || d_.id == DialectId::fanuc)) || w.has_cr;
+  const bool centre_ignored = by_radius && d_.id == DialectId::fanuc;  // Fanuc: I J K ignored beside R
+  const bool centre_unresolved = (!centre_ignored && (w.unresolved(cu) || w.unresolved(cv))) ||
+                                 (by_radius && w.has('R') && w.unresolved('R'));
   if ((s_.known & need) != need || centre_unresolved || (start_known & need) != need) {
     // Start, end or centre unknown: the arc cannot be resolved.
     if (!centre_unresolved)

@@ -84,6 +84,9 @@ class Lexer {
         next = d_.multi_letter_identifiers ? siemens_item(i, first_item) : letter_item(i, first_item);
       } else if ((c == '@' || c == '^') && d_.id == DialectId::linuxcnc) {
         next = letter_item(i, first_item);  // LinuxCNC polar words: @ distance, ^ angle (degrees)
+      } else if (c == ',' && d_.id == DialectId::fanuc && i + 1 < n() &&
+                 (upper(s_[i + 1]) == 'C' || upper(s_[i + 1]) == 'R' || upper(s_[i + 1]) == 'A')) {
+        next = comma_word(i);
       } else if (c == '$' && d_.multi_letter_identifiers && i + 1 < n() && (is_alpha(s_[i + 1]) || s_[i + 1] == '_')) {
         next = system_variable_write(i);
       } else {
@@ -202,6 +205,7 @@ class Lexer {
       }
       return 0;
     }
+    if (d_.id == DialectId::fanuc) return fanuc_spaced_number(j, w);
     bool point = false;
     const std::uint32_t e = lex_number(s_, j, d_.spaces_inside_words, w.number, &point);
     w.whole = !point;
@@ -209,6 +213,68 @@ class Lexer {
     w.kind = ValueKind::number;
     w.value = {j, e};
     return e;
+  }
+
+  /// Fanuc `,C` `,R` `,A` (chamfer, corner rounding, direct-drawing angle): a two-character address,
+  /// never an axis.
+  std::uint32_t comma_word(std::uint32_t i) {
+    Word w;
+    w.letter = upper(s_[i + 1]);
+    w.name = {i, i + 2};
+    w.name_len = 2;
+    const std::uint32_t e = value(i + 2, w);
+    if (e == 0) return missing_value(i);
+    w.span = {i, e};
+    b_.words.push_back(w);
+    return e;
+  }
+
+  /// Fanuc: true when blanks at `e` are followed by more digits of the same number ("X1 0.5").
+  [[nodiscard]] bool fanuc_digits_follow(std::uint32_t e) const {
+    if (d_.id != DialectId::fanuc || e >= n() || !is_space(s_[e])) return false;
+    const std::uint32_t k = skip_space(e);
+    return k < n() && (is_digit(s_[k]) || s_[k] == '.');
+  }
+
+  /// Fanuc reads a number with blanks anywhere in it ("X 1 0 . 5" is X10.5): the tape reader ignores
+  /// spaces (B-64484EN "Tape code": SP is disregarded in significant information). The value span
+  /// runs from the first to the last character of the number.
+  std::uint32_t fanuc_spaced_number(std::uint32_t i, Word& w) {
+    const std::uint32_t j = skip_space(i);
+    char buf[64];
+    std::size_t len = 0;
+    std::uint32_t last = j;
+    bool digit = false;
+    std::uint32_t k = j;
+    if (k < n() && (s_[k] == '-' || s_[k] == '+')) {
+      buf[len++] = s_[k++];
+      last = k;
+    }
+    for (; k < n() && len < sizeof buf; ++k) {
+      const char c = s_[k];
+      if (is_space(c)) continue;
+      if (!is_digit(c) && c != '.') break;
+      buf[len++] = c;
+      last = k + 1;
+      digit = digit || is_digit(c);
+    }
+    bool point = false;
+    double v = 0;
+    if (!digit || lex_number(std::string_view(buf, len), 0, false, v, &point) != len) {
+      // Not one number ("X1..2"): read what a plain literal gives, as without blanks.
+      const std::uint32_t e = lex_number(s_, i, false, v, &point);
+      if (e == i) return 0;
+      w.kind = ValueKind::number;
+      w.number = v;
+      w.whole = !point;
+      w.value = {i, e};
+      return e;
+    }
+    w.kind = ValueKind::number;
+    w.number = v;
+    w.whole = !point;
+    w.value = {j, last};
+    return last;
   }
 
   /// End of `#123`, `#<name>`, `##1`, `#[expr]`, or 0.
@@ -268,7 +334,7 @@ class Lexer {
         double v = 0;
         bool point = false;
         const std::uint32_t e = lex_number(s_, i + 1, d_.spaces_inside_words, v, &point);
-        if (e != i + 1 && (e >= n() || (s_[e] != '.' && !is_digit(s_[e])))) {
+        if (e != i + 1 && (e >= n() || (s_[e] != '.' && !is_digit(s_[e]))) && !fanuc_digits_follow(e)) {
           if (L == 'N' && first_item && !b_.has_n) {
             b_.has_n = true;
             b_.n_span = {i, e};

@@ -114,6 +114,10 @@ bool Linearizer::check(const Block& b, const Motion& m) {
     refuse(b, at, "an arc in machine coordinates");
     return false;
   }
+  if (m.words_transformed) {
+    refuse(b, at, "an arc whose axis words are not work coordinates (Fanuc G16 polar or G51.1 mirror image)");
+    return false;
+  }
   for (const Word& w : b.words) {
     if (!plain_letter(w)) {
       if (upper(b.text(w.name)) == "CR" && w.kind == ValueKind::number) continue;

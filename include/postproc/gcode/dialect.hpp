@@ -66,6 +66,12 @@ enum class GMeaning : std::uint8_t {
   tilted_plane_heidenhain,///< MillPlus G7 tilted plane
   machine_move_heidenhain,///< MillPlus G74 machine-coordinate move
   polar_pole,             ///< Siemens G110–G112 pole definition (axis words are data)
+  polar_coord_on,         ///< Fanuc mill G16: plane axis words are radius and angle
+  polar_coord_off,        ///< Fanuc mill G15
+  scaling_on,             ///< Fanuc mill G51 (axis words are the scaling centre, P/I J K factors)
+  scaling_off,            ///< Fanuc mill G50
+  mirror_on,              ///< Fanuc G51.1 programmable mirror image (axis words = axis of symmetry)
+  mirror_off,             ///< Fanuc G50.1 (axis words name the axes to cancel)
   state_only,             ///< recognised, no effect on geometry (e.g. G05.1 Q0, G08, G174)
 };
 
@@ -109,6 +115,12 @@ struct Dialect {
   /// (LinuxCNC). A number missing here is unknown: a block whose position depends on it is refused.
   std::map<std::uint32_t, double> tool_lengths;
   std::map<std::uint32_t, double> tool_radii;
+  /// Motion mode at power-on: Fanuc G00 (or G01 with parameter 3402#0 G01=1); cancel_motion where
+  /// axis words need a motion G first (LinuxCNC powers on in G80).
+  GMeaning power_on_motion = GMeaning::cancel_motion;
+  /// Fanuc: canned cycles are a modal group of their own, so G80 leaves the G00/G01/G02/G03 that was
+  /// active before the cycle; LinuxCNC: G80 leaves no motion mode.
+  bool g80_keeps_motion = false;
   /// Table indexed by code10; GMeaning::unknown where the dialect has no such code.
   std::vector<GCodeDef> gcodes;
 
@@ -126,6 +138,8 @@ struct DialectOptions {
   Dialect::IntegerInput integer_input = Dialect::IntegerInput::unknown;
   std::map<std::uint32_t, double> tool_lengths;  ///< mm, see Dialect::tool_lengths
   std::map<std::uint32_t, double> tool_radii;    ///< mm, see Dialect::tool_radii
+  /// Fanuc only: power-on motion mode, 0 = G00 (factory setting) or 1 = G01 (parameter 3402#0 G01).
+  int power_on_motion = 0;
 };
 
 /// Builds the dialect named `name` (fanuc, siemens, linuxcnc, heidenhain-iso); nullopt if unknown.

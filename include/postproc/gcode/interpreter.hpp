@@ -24,6 +24,8 @@ class MotionSink {
 struct ModalState {
   GMeaning motion = GMeaning::cancel_motion;
   std::uint16_t motion_code10 = 0;
+  GMeaning interp_motion = GMeaning::cancel_motion;  ///< last G00–G03 (Fanuc: what G80 returns to)
+  std::uint16_t interp_code10 = 0;
   Plane plane = Plane::xy;
   bool absolute = true;
   bool arc_absolute = false;        ///< G90.1 (LinuxCNC); IJK incremental by default
@@ -64,6 +66,14 @@ struct ModalState {
   bool tilted_plane = false;
   bool ori_mks = false;             ///< Siemens ORIMKS: orientation vectors in the machine frame
   bool polar_interp = false;
+  bool polar_coords = false;        ///< Fanuc G16 polar coordinate command
+  bool scaling = false;             ///< Fanuc G51 scaling (motions refused while active)
+  AxisMask mirror = 0;              ///< Fanuc G51.1: mirrored axes
+  AxisMask mirror_centre_known = 0;
+  AxisMask mirror_synced = 0;       ///< mirrored axes reached by an absolute word since the mirror began
+  AxisVector mirror_centre = AxisVector::Zero();  ///< G51.1 axis of symmetry per axis, mm / deg
+  AxisVector home_mid = AxisVector::Zero();       ///< Fanuc G28/G30 intermediate point (work frame), for G29
+  AxisMask home_mid_known = 0;
   Eigen::Vector3d circle_centre = Eigen::Vector3d::Zero();  ///< Heidenhain CC (I J K), mm, modal
   std::uint8_t circle_centre_known = 0;  ///< bits 0..2 = X Y Z components set
   AxisVector position = AxisVector::Zero();  ///< current point, active work coordinates, mm / deg
@@ -108,6 +118,9 @@ class Interpreter {
   bool polar_to_xy(const Block& b, BlockWords& w);
   void siemens_token(const Block& b, const Token& t, BlockWords& w);
   void non_modal(const Block& b, BlockWords& w, MotionSink& out);
+  bool fanuc_frame(const Block& b, BlockWords& w, GMeaning& mode);
+  void fanuc_g29(const Block& b, BlockWords& w, Span at, MotionSink& out);
+  void fanuc_frame_command(const Block& b, BlockWords& w, const GCodeDef& def, Span at);
   void unresolved_motion(const Block& b, const BlockWords& w, std::string_view code, std::string what);
   [[nodiscard]] double to_mm(int axis, double v) const;
   // LinuxCNC lathe profile cycles G70–G72 (src/gcode/interpreter_lathe.cpp): the resolver hands
@@ -125,6 +138,9 @@ class Interpreter {
   ModalState saved_;           ///< LinuxCNC M70 saved state, valid when saved_valid_
   bool saved_valid_ = false;
   bool warned_integer_input_ = false;
+  std::uint64_t corner_pending_line_ = 0;
+  bool corner_angle_ = false;  ///< this block's refused corner word is a direct-drawing angle  ///< Fanuc: line of a ,C/,R whose next motion is moved by it
+  bool corner_refused(const Block& b, const BlockWords& w, GMeaning mode);
   bool mcall_active_ = false;  ///< Siemens modal cycle call
   bool mcall_pending_ = false; ///< MCALL seen in this block
   Span frame_span_;            ///< where that frame keyword is

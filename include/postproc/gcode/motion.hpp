@@ -106,6 +106,9 @@ struct Motion {
   bool orientation_machine_frame = false;  ///< Siemens ORIMKS (else ORIWKS: workpiece frame)
   bool diameter_mode = false;    ///< X was programmed as a diameter (end holds the radius)
   bool inch_source = false;      ///< the block was programmed in inches (end is converted to mm)
+  /// The block's axis words are not the end point in the work frame (Fanuc G16 radius/angle, G51.1
+  /// mirrored, G29 through the intermediate point): a writer must not put corrected coordinates in them.
+  bool words_transformed = false;
 };
 
 }  // namespace postproc::gcode

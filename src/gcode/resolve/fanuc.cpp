@@ -21,8 +21,8 @@
 // - G66 P… L… <arguments> (modal call): from the next block on, every block with an axis word
 //   calls the macro after its move, with G66's arguments, until G67; moves inside the macro called
 //   that way do not call it again. G66.1 (a call after every block) is refused (PP-E709).
-// - Subprogram targets: O#### / :#### in the same file, else a file O#### (or O####.nc) in
-//   opt.search_dirs. M98 P<repeats 4 digits><program 4 digits> (packed form) is used when P has more
+// - Subprogram targets: O#### / :#### in the same file, else a file O####, O####.nc or ####.nc (also
+//   .tap .txt .cnc .eia .min .ptp .prg, any letter case) in opt.search_dirs. M98 P<repeats 4 digits><program 4 digits> (packed form) is used when P has more
 //   than 4 digits, there is no L, and no program with the full number exists.
 // - A block delete '/' is taken as switched off: the block runs (PP-W702 when it holds a
 //   statement, since the switch could change the flow).
@@ -30,6 +30,27 @@
 
 namespace postproc::gcode::resolver {
 namespace fanuc_run {
+namespace {
+
+/// B-64484EN "Custom macro — Variables: rounding": a variable value used in an address is rounded
+/// (half away from zero) to the address's least input increment — 0.001 mm / 0.0001 in for lengths,
+/// 0.001 deg for angles (increment system IS-B). Arithmetic keeps the full value; only the address
+/// gets the rounded one.
+double round_to_increment(double v, char letter, bool inch) {
+  double step = 0;
+  switch (letter) {
+    case 'X': case 'Y': case 'Z': case 'U': case 'V': case 'W': case 'I': case 'J': case 'K': case 'R':
+      step = inch ? 1e4 : 1e3;
+      break;
+    case 'A': case 'B': case 'C': step = 1e3; break;
+    default: return v;
+  }
+  if (!std::isfinite(v) || std::fabs(v) > 1e12) return v;
+  // 1.2345 is stored as 1.23449999…: nudge by a relative 1e-12 so the decimal half rounds away from zero.
+  return std::round(v * step * (1 + 1e-12)) / step;
+}
+
+}  // namespace
 
 void Runner::report(Span span, Severity sev, std::string_view code, std::string message) {
   if (out_.depth() > 0) message += fmt::format(" ({})", out_.where());
@@ -80,8 +101,11 @@ std::optional<Runner::Target> Runner::find_program(double number) {
     if (auto l = program_line(files_.main(), number)) return Target{&files_.main(), *l};
   const auto n = static_cast<std::uint64_t>(number);
   std::vector<std::string> names;
-  for (const std::string& base : {fmt::format("O{:04d}", n), fmt::format("O{}", n)})
-    for (const char* ext : {"", ".nc", ".NC"}) {
+  // O5001, O5001.nc, 5001.nc, … in any letter case (FileSet::find compares case-insensitively): the
+  // names a program is stored under when it is punched out of or loaded into the control's memory.
+  for (const std::string& base : {fmt::format("O{:04d}", n), fmt::format("O{}", n), fmt::format("{:04d}", n),
+                                  fmt::format("{}", n)})
+    for (const char* ext : {"", ".nc", ".tap", ".txt", ".cnc", ".eia", ".min", ".ptp", ".prg"}) {
       std::string c = base + ext;
       if (std::find(names.begin(), names.end(), c) == names.end()) names.push_back(std::move(c));
     }
@@ -145,10 +169,10 @@ void Runner::call(bool macro, double program, int repeats, const Locals& args, c
     std::string dirs;
     for (const std::string& d : opt_.search_dirs) dirs += (dirs.empty() ? "" : ", ") + d;
     throw Failure{"PP-E704",
-                  fmt::format("program O{:04d} is not in {} nor a file O{:04d}[.nc] in the search folders ({}); "
+                  fmt::format("program O{:04d} is not in {} nor a file O{:04d}[.nc|.tap|…] or {:04d}.nc in the search folders ({}); "
                               "add the subprogram or its file",
                               static_cast<std::uint64_t>(program), file_->name(), static_cast<std::uint64_t>(program),
-                              dirs.empty() ? "none" : dirs),
+                              static_cast<std::uint64_t>(program), dirs.empty() ? "none" : dirs),
                   at.span};
   }
   out_.push_call(CallFrame{file_->name(), pc_ + 1, std::move(callee)});
@@ -232,6 +256,11 @@ void Runner::step() {
   bool moves = false;  // an axis word with a value (G66 calls after such a block)
   std::vector<double>& vals = vals_;
   vals.assign(p.items.size(), 0.0);
+  // G65/G66 arguments are values, not addresses: they are not rounded to an input increment.
+  bool macro_args = false;
+  for (const Item& it : p.items)
+    if (it.kind == ItemKind::word && it.letter == 'G' && it.literal && (it.number == 65 || it.number == 66))
+      macro_args = true;
   for (std::size_t k = 0; k < p.items.size(); ++k) {
     const Item& it = p.items[k];
     switch (it.kind) {
@@ -244,11 +273,12 @@ void Runner::step() {
             vals[k] = NAN;
             continue;
           }
-          v = x.v;
+          v = macro_args ? x.v : round_to_increment(x.v, it.letter, inch_);
           action_[k] = 2;
           text_[k] = format_value(v, it.letter);
         }
         vals[k] = v;
+        if (it.letter == 'G' && (v == 20 || v == 21)) inch_ = v == 20;
         if (it.letter == 'G' && std::fabs(v - 66.1) < 1e-9)
           throw Failure{"PP-E709",
                         "G66.1 (a macro call after every block) is not supported by the resolver; call the macro with "
@@ -531,11 +561,38 @@ void Runner::run() {
       }
     }
   }
+  // Without '%': listing text (lines that are not NC blocks, comments allowed) before the first
+  // program number is skipped the same way (program.cpp's read_leader applies the same rule).
+  std::optional<std::size_t> first_o;
+  if (!first_percent) {
+    bool text = false, blocks = false;
+    DiagnosticSink quiet(0);
+    Block scratch;
+    const Dialect fanuc = make_dialect(DialectId::fanuc);  // the lexing rules do not depend on options
+    for (std::size_t i = 0; i < m.lines() && i < 500 && !blocks; ++i) {
+      const std::string_view l = m.raw(i);
+      const std::size_t q = l.find_first_not_of(" \t");
+      if (q == std::string_view::npos) continue;
+      if ((l[q] == 'O' || l[q] == 'o' || l[q] == ':') && q + 1 < l.size() && l[q + 1] >= '0' && l[q + 1] <= '9') {
+        if (text) first_o = i;
+        break;
+      }
+      if (l[q] == '%') break;
+      scratch.clear();
+      scratch.raw = l;
+      scratch.line = i + 1;
+      if (!lex_block(fanuc, scratch, LexContext{"", &quiet})) text = true;
+      else if (!scratch.words.empty() || scratch.has_n) blocks = true;
+    }
+  }
   static const std::vector<Edit> none;
   try {
     if (first_percent) {
       for (std::size_t i = 0; i <= *first_percent; ++i) emit(m, i, none);
       pc_ = *first_percent + 1;
+    } else if (first_o) {
+      for (std::size_t i = 0; i < *first_o; ++i) emit(m, i, none);
+      pc_ = *first_o;
     }
     for (;;) {
       if (pc_ >= file_->lines()) {

@@ -144,6 +144,7 @@ class Runner {
   std::vector<std::string> text_;
   std::vector<double> vals_;
   bool warned_block_delete_ = false;
+  bool inch_ = false;  // G20 seen (least input increment 0.0001 in instead of 0.001 mm)
 };
 
 // ---------------------------------------------------------------------------------------------

@@ -43,7 +43,8 @@ void Runner::compile(SourceFile& f, std::size_t line, LinePlan& p) {
       if (w.kind == ValueKind::number) {
         it.number = w.number;
         if ((w.letter == 'M' && (w.number == 98 || w.number == 99 || w.number == 30 || w.number == 2)) ||
-            (w.letter == 'G' && (w.number == 65 || w.number == 66 || w.number == 67 || w.number == 66.1)))
+            (w.letter == 'G' && (w.number == 65 || w.number == 66 || w.number == 67 || w.number == 66.1 ||
+                                 w.number == 20 || w.number == 21)))  // (G20/G21: the runner tracks the unit)
           p.plain = false;
       } else {
         it.literal = false;
