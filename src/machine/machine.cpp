@@ -234,6 +234,9 @@ std::optional<Machine> parse_machine(std::string file, std::string text, gcode::
     if (auto ii = f.text("integer_input", false, kIntegerInput))
       m.dialect_options.integer_input =
           *ii == "increment" ? gcode::Dialect::IntegerInput::increment : gcode::Dialect::IntegerInput::calculator;
+    // Fanuc parameter 3402#0 (G01): the motion mode at power-on / reset, G0 unless the machine says G1.
+    static constexpr std::string_view kPowerOn[] = {"G0", "G1"};
+    if (auto pm = f.text("power_on_motion", false, kPowerOn)) m.dialect_options.power_on_motion = *pm == "G1" ? 1 : 0;
     m.model_kind = f.text("model", true, kModels).value_or("serial");
     const auto coords = f.text("program", false, kCoordinates).value_or(m.model_kind == "serial" ? "axes" : "tool-tip");
     m.coordinates = coords == "axes" ? ProgramCoordinates::axes : ProgramCoordinates::tool_tip;
