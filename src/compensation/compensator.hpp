@@ -354,6 +354,7 @@ class Compensator final : public gcode::BlockVisitor {
       return;
     }
     const bool arc = m.type == MotionType::arc_cw || m.type == MotionType::arc_ccw;
+    if (arc && siemens_arc_words(b, m)) return;
     if (arc) {
       const ArcCheck k = arc_check(b, m, out);
       if (k == ArcCheck::refused) return;
@@ -489,6 +490,9 @@ class Compensator final : public gcode::BlockVisitor {
   /// An arc stays an arc when its correction is a rigid shift (within --max-deviation) over it;
   /// otherwise it is replaced by corrected chords (compensate_shapes.cpp).
   ArcCheck arc_check(const Block& b, const Motion& m, const Command& out);
+  /// Refuses (true) a Sinumerik arc written with CIP / CT or AR= / TURN= / I1=: its words are not
+  /// rewritten by this version (an absolute intermediate point or a computed end would go stale).
+  bool siemens_arc_words(const Block& b, const Motion& m);
   /// After an arc was replaced by G1 chords, the next arc block that relied on the modal G2/G3
   /// gets its motion word back.
   void restore_arc_mode(const Block& b, gcode::BlockEditor& ed);

@@ -31,6 +31,16 @@ struct Interpreter::BlockWords {
 
   double cr = 0;                          ///< Siemens CR= radius
   bool has_cr = false;
+  // Sinumerik motion addresses (840D sl Fundamentals, "Motion commands").
+  double ar = 0;                          ///< AR= opening angle, degrees
+  bool has_ar = false;
+  double turn = 0;                        ///< TURN= additional full turns of a helix
+  bool has_turn = false;
+  Eigen::Vector3d ip = Eigen::Vector3d::Zero();  ///< CIP intermediate point I1= J1= K1= (program values)
+  std::uint8_t ip_present = 0, ip_absolute = 0, ip_incremental = 0;  ///< bits 0..2 = I1 J1 K1
+  std::uint8_t ext_unresolved = 0;        ///< bits: 1 CR, 2 AR, 4 TURN, 8 I1/J1/K1 not literal
+  std::int16_t cr_word = -1, ar_word = -1, turn_word = -1, ip_word = -1;
+  std::int16_t corner_word = -1;          ///< CHF= CHR= RND= RNDM= (first of them)
   int m_count = 0;
   std::array<double, 8> m;               ///< first m_count entries valid
   std::array<std::int16_t, 8> m_word;
@@ -39,6 +49,7 @@ struct Interpreter::BlockWords {
   std::uint8_t vector_present = 0;        ///< bits 0..2 = A3 B3 C3 given literally
   bool polar = false;                     ///< Siemens AP=/RP= polar coordinates in this block
   bool siemens_motion_keyword = false;    ///< CIP, CT, BSPLINE, … in this block
+  Span motion_keyword_span;               ///< where CIP / CT is written
   bool machine_frame = false;             ///< G53 / SUPA / G153 in this block
   bool axes_consumed = false;             ///< axis words were data for G10/G52/G92/… (no motion)
 

@@ -35,6 +35,12 @@ inline constexpr std::string_view kUnknownKeyword = "PP-U215";
 inline constexpr std::string_view kMacroCall = "PP-U216";
 inline constexpr std::string_view kCycleRepeat = "PP-U217";
 inline constexpr std::string_view kIntegerInput = "PP-U218";
+// Siemens dialect (reader round 2): Sinumerik motion addresses and declarations.
+inline constexpr std::string_view kSiemensCorner = "PP-U240";     ///< CHF= CHR= RND= RNDM= not computed
+inline constexpr std::string_view kSiemensSpaceArc = "PP-U241";   ///< CIP / CT arc not in a principal plane
+inline constexpr std::string_view kSiemensGlobalVar = "PP-U242";  ///< GUD / undeclared variable read
+inline constexpr std::string_view kSiemensArcWords = "PP-E240";   ///< AR= TURN= CR= I1= misused
+inline constexpr std::string_view kSiemensGlobalFlow = "PP-E241";  ///< GUD value decides control flow / assignment
 // Notes.
 inline constexpr std::string_view kDialectGuess = "PP-N001";
 inline constexpr std::string_view kDialectMismatch = "PP-N002";

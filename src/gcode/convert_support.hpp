@@ -42,7 +42,7 @@ namespace postproc::gcode {
 /// Modal state as far as convert needs it, updated from each block's G words (the state in force
 /// for the block's own words, as the interpreter applies units, feed mode and distance first).
 struct ModalTrack {
-  explicit ModalTrack(const Dialect& d) : dialect(&d), diameter(d.diameter_axis != 0) {}
+  explicit ModalTrack(const Dialect& d) : dialect(&d), diameter(d.diameter_axis != 0) { inch = feed_inch = d.basic_inch; }
   void update(const Block& b);
 
   /// The block's G codes (valid after update()).
