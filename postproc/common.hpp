@@ -20,6 +20,8 @@ struct DialectArgs {
   std::string gcode_system = "A";
   std::string diameter_axis; ///< "X" or empty
   std::string integer_input; ///< "", "increment" or "calculator" (Fanuc)
+  std::string basic_system = "metric";  ///< Siemens MD10240: "metric" or "inch"
+  std::string reset_motion = "G1";      ///< Siemens MD20150[0]: "G0" or "G1"
 };
 
 /// Adds --dialect, --lathe, --diameter-axis to `cmd`.

@@ -308,6 +308,47 @@ TEST(ReaderSiemens, DSelectsTheToolLengthOffset) {
   expect_diag(bad, "PP-E205", 1, 1);
 }
 
+// ---- 6. other constructs ----------------------------------------------------------------------------
+
+TEST(ReaderSiemens, DwellFIsSecondsNotAFeed) {
+  // Fundamentals, "Dwell time (G4)": G4 F… gives the dwell in seconds; the programmed feed stays.
+  const Program r(siemens(), "G0 X0 Y0 Z0\nG1 X10 F200\nG4 F3\nG1 X20\n");
+  ASSERT_EQ(r.motions.size(), 3u) << r.all_codes();
+  EXPECT_NEAR(r.motions[2].feed, 200, kTol);
+}
+
+TEST(ReaderSiemens, PolarMovesAboutThePole) {
+  // Fundamentals, "Polar coordinates: G110, G111, G112" and "Travel commands with polar coordinates
+  // (G0, G1, G2, G3, AP, RP)": G111 pole in work coordinates, G110 relative to the last position,
+  // G112 relative to the last pole; AP= angle from the plane's first axis, RP= radius, both modal;
+  // G2/G3 turn about the pole; without any pole the work origin is the pole.
+  const Program r(siemens(), "G17 G0 X0 Y0 Z0\nG111 X10 Y10\nG1 RP=5 AP=90 F100\nAP=180\nG3 AP=270\n"
+                             "G112 X5\nG1 RP=2 AP=0\nG110 X1 Y1\nG0 AP=90 RP=1\nG111 AP=90 RP=10\nG1 AP=0 RP=3\n");
+  ASSERT_EQ(r.motions.size(), 7u) << r.all_codes();
+  EXPECT_TRUE(r.sink.stored().empty()) << r.all_codes();
+  EXPECT_VEC(r.motions[1].end, 10, 15, 0);
+  EXPECT_VEC(r.motions[2].end, 5, 10, 0);
+  EXPECT_EQ(r.motions[3].type, MotionType::arc_ccw);
+  EXPECT_VEC(r.motions[3].end, 10, 5, 0);
+  EXPECT_VEC(r.motions[3].arc.centre, 10, 10, 0);
+  EXPECT_NEAR(r.motions[3].arc.sweep, kPi / 2, 1e-9);
+  EXPECT_VEC(r.motions[4].end, 17, 10, 0);  // pole (15,10)
+  EXPECT_VEC(r.motions[5].end, 18, 12, 0);  // pole (18,11) = last position + (1,1)
+  EXPECT_VEC(r.motions[6].end, 3, 10, 0);   // pole (0,10) given by AP/RP from the origin
+  const Program origin(siemens(), "G0 X0 Y0 Z0\nG1 RP=10 AP=30 F100\n");
+  ASSERT_EQ(origin.motions.size(), 2u);
+  EXPECT_VEC(origin.motions[1].end, 10 * std::cos(kPi / 6), 5, 0);
+}
+
+TEST(ReaderSiemens, PolarMovesThatCannotBeReadAreRefused) {
+  // A new pole asks for RP= again (Fundamentals, same section); polar moves in G91 are not read.
+  const Program pole(siemens(), "G0 X0 Y0 Z0\nG111 X0 Y0\nG1 RP=5 AP=0 F100\nG111 X10 Y0\nG1 AP=90\nG1 X0 Y0\n");
+  expect_diag(pole, "PP-U204", 5, 1);
+  EXPECT_EQ(pole.motions.size(), 3u);
+  const Program inc(siemens(), "G0 X0 Y0 Z0\nG91 G1 RP=5 AP=0 F100\n");
+  expect_diag(inc, "PP-U204", 2, 5);
+}
+
 // ---- 4. declarations and global user data ----------------------------------------------------------
 
 TEST(ReaderSiemens, GlobalUserVariableRefusesOnlyTheWordThatReadsIt) {

@@ -334,6 +334,7 @@ class Compensator final : public gcode::BlockVisitor {
 
   void motion(const Block& b, const Motion& m, gcode::BlockEditor& ed) {
     ++r_.motions;
+    if (siemens_unwritable(b, m)) return;
     Command out;
     kin::JointVector q;
     rapid_as_written_ = false;
@@ -354,7 +355,6 @@ class Compensator final : public gcode::BlockVisitor {
       return;
     }
     const bool arc = m.type == MotionType::arc_cw || m.type == MotionType::arc_ccw;
-    if (arc && siemens_arc_words(b, m)) return;
     if (arc) {
       const ArcCheck k = arc_check(b, m, out);
       if (k == ArcCheck::refused) return;
@@ -490,9 +490,10 @@ class Compensator final : public gcode::BlockVisitor {
   /// An arc stays an arc when its correction is a rigid shift (within --max-deviation) over it;
   /// otherwise it is replaced by corrected chords (compensate_shapes.cpp).
   ArcCheck arc_check(const Block& b, const Motion& m, const Command& out);
-  /// Refuses (true) a Sinumerik arc written with CIP / CT or AR= / TURN= / I1=: its words are not
-  /// rewritten by this version (an absolute intermediate point or a computed end would go stale).
-  bool siemens_arc_words(const Block& b, const Motion& m);
+  /// Refuses (true) a Sinumerik move written in polar coordinates (AP= RP=) or an arc written with
+  /// CIP / CT or AR= / TURN= / I1=: their words are not rewritten by this version (an absolute
+  /// intermediate point, a computed end point or a polar end point would go stale).
+  bool siemens_unwritable(const Block& b, const Motion& m);
   /// After an arc was replaced by G1 chords, the next arc block that relied on the modal G2/G3
   /// gets its motion word back.
   void restore_arc_mode(const Block& b, gcode::BlockEditor& ed);

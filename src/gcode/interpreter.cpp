@@ -198,6 +198,17 @@ bool Interpreter::collect(const Block& b, BlockWords& w) {
         unresolved_bit(8);
       }
       if (iequals(nm, "AP") || iequals(nm, "RP")) w.polar = true;
+      if (iequals(nm, "AP")) {
+        w.has_ap = true;
+        w.ap = v;
+        w.ap_incremental = fn_inc;
+        unresolved_bit(16);
+      } else if (iequals(nm, "RP")) {
+        w.has_rp = true;
+        w.rp = v;
+        w.rp_incremental = fn_inc;
+        unresolved_bit(32);
+      }
       // A3 B3 C3: tool direction vector components under TRAORI.
       if (word.index == 3 && word.name_len == 2 && resolved && word.letter >= 'A' && word.letter <= 'C') {
         w.vector[word.letter - 'A'] = v;
@@ -423,7 +434,11 @@ void Interpreter::apply_modes(const Block& b, BlockWords& w) {
       default: break;
     }
   }
-  if (w.has('F') && !w.unresolved('F')) {
+  // Sinumerik G4 F… is a dwell time in seconds, not a feed: the programmed feed stays (Fundamentals,
+  // "Dwell time (G4)").
+  const bool f_is_dwell = d_.id == DialectId::siemens && w.has_meaning(GMeaning::dwell);
+  if (f_is_dwell) {
+  } else if (w.has('F') && !w.unresolved('F')) {
     const double f = w.get('F');
     s_.feed = s_.feed_mode == FeedMode::inverse_time ? f : (s_.feed_inch ? f * 25.4 : f);
     s_.feed_known = true;

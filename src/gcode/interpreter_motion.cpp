@@ -156,8 +156,11 @@ void Interpreter::non_modal(const Block& b, BlockWords& w, MotionSink& out) {
         w.axes_consumed = true;
         break;
       }
-      case GMeaning::home_set:
-      case GMeaning::polar_pole: w.axes_consumed = true; break;
+      case GMeaning::home_set: w.axes_consumed = true; break;
+      case GMeaning::polar_pole:
+        w.axes_consumed = true;
+        if (d_.id == DialectId::siemens) siemens_pole(b, w, g.def->code10, at);
+        break;
       case GMeaning::cancel_motion:
         if (w.motion.def == nullptr) s_.motion = GMeaning::cancel_motion;
         break;
@@ -235,7 +238,8 @@ void Interpreter::do_motion(const Block& b, BlockWords& w, MotionSink& out) {
       s_.cycle_initial_known = (s_.known >> normal) & 1u;
     }
   }
-  if (w.polar) {
+  Eigen::Vector2d polar_end = Eigen::Vector2d::Zero();
+  if (w.polar && (d_.id != DialectId::siemens || !siemens_polar_end(b, w, mode, polar_end))) {
     unresolved_motion(b, w, codes::kPolar, "motion in polar coordinates (AP=/RP=)");
     s_.known &= static_cast<AxisMask>(~(bit(Axis::x) | bit(Axis::y) | bit(Axis::z)));
     return;
@@ -244,7 +248,7 @@ void Interpreter::do_motion(const Block& b, BlockWords& w, MotionSink& out) {
   // Sinumerik G2/G3 with centre and opening angle (AR=) has no end point words: it still moves.
   const bool arc_by_angle = d_.id == DialectId::siemens && w.has_ar &&
                             (mode == GMeaning::arc_cw || mode == GMeaning::arc_ccw);
-  if (w.axis_present == 0 && !arc_by_angle) {
+  if (w.axis_present == 0 && !arc_by_angle && !w.polar) {
     if (w.motion.def && (mode == GMeaning::turning_cycle || mode == GMeaning::threading || mode == GMeaning::spline)) {
       const auto code = mode == GMeaning::turning_cycle ? codes::kTurningCycle
                         : mode == GMeaning::threading   ? codes::kThreading
@@ -277,6 +281,54 @@ void Interpreter::do_motion(const Block& b, BlockWords& w, MotionSink& out) {
   m.column = b.words[static_cast<std::size_t>(first_word)].span.begin + 1;
   fill_state(m);
   if (mode == GMeaning::rapid || mode == GMeaning::linear) tool_vector(w, m);  // arcs use I J K as centre
+  if (w.polar) {
+    // Sinumerik AP= RP=: the end point in the plane is the pole plus RP at angle AP; G2/G3 turn
+    // about the pole (Fundamentals, "Polar coordinates", "Travel commands with polar coordinates").
+    const PlaneAxes p = plane_axes(s_.plane);
+    const AxisMask plane_bits = static_cast<AxisMask>((1u << p.u) | (1u << p.v));
+    const AxisMask known_before = s_.known;
+    target(b, w, m);
+    s_.position[p.u] = polar_end.x();
+    s_.position[p.v] = polar_end.y();
+    s_.known |= plane_bits;
+    m.end = s_.position;
+    m.known = s_.known;
+    m.programmed |= plane_bits;
+    if (mode == GMeaning::rapid || mode == GMeaning::linear) {
+      m.type = mode == GMeaning::rapid ? MotionType::rapid : MotionType::linear;
+      emit(m, b, out);
+      return;
+    }
+    const Span at = b.words[static_cast<std::size_t>(first_word)].span;
+    if ((known_before & plane_bits) != plane_bits) {
+      report(b, at, Severity::warning, codes::kUnknownPosition,
+             "arc whose start point is unknown (after an unresolved construct); it is not resolved");
+      s_.known &= static_cast<AxisMask>(~plane_bits);
+      return;
+    }
+    const Eigen::Vector2d c = s_.pole;
+    const Eigen::Vector2d st(m.start[p.u], m.start[p.v]);
+    if (!radii_agree(b, at, st, polar_end, c)) {
+      s_.known &= static_cast<AxisMask>(~plane_bits);
+      return;
+    }
+    const bool cw = mode == GMeaning::arc_cw;
+    const Eigen::Vector2d rs = st - c, re = polar_end - c;
+    double sweep = std::atan2(rs.x() * re.y() - rs.y() * re.x(), rs.dot(re));
+    if ((polar_end - st).norm() < 1e-9) sweep = 0;
+    if (cw && sweep >= 0) sweep -= 2 * std::numbers::pi;
+    if (!cw && sweep <= 0) sweep += 2 * std::numbers::pi;
+    if (w.has_turn) sweep += (cw ? -1.0 : 1.0) * 2 * std::numbers::pi * w.turn;
+    if (set_plane_arc(b, at, m, s_.plane, c, sweep)) {
+      m.type = cw ? MotionType::arc_cw : MotionType::arc_ccw;
+      m.arc.turns = w.has_turn ? static_cast<std::uint32_t>(w.turn) + 1 : 1;
+      m.arc.full_circle = (polar_end - st).norm() < 1e-9;
+      emit(m, b, out);
+    } else {
+      s_.known &= static_cast<AxisMask>(~plane_bits);
+    }
+    return;
+  }
   switch (mode) {
     case GMeaning::rapid:
     case GMeaning::linear:
@@ -795,6 +847,77 @@ bool Interpreter::tangent_arc(const Block& b, const BlockWords& w, Motion& m, Ax
   if (rho > 0 && sweep <= 0) sweep += 2 * std::numbers::pi;
   if (rho < 0 && sweep >= 0) sweep -= 2 * std::numbers::pi;
   return set_plane_arc(b, at, m, s_.plane, c, sweep);
+}
+
+}  // namespace postproc::gcode
+
+namespace postproc::gcode {
+
+void Interpreter::siemens_pole(const Block& b, const BlockWords& w, std::uint16_t code10, Span at) {
+  // Fundamentals, "Polar coordinates: G110, G111, G112": the pole relative to the last programmed
+  // position (G110), to the work origin (G111) or to the last pole (G112), given in X Y (plane axes)
+  // or as AP= RP= from that reference. A new pole asks for AP= and RP= again.
+  const PlaneAxes p = plane_axes(s_.plane);
+  const AxisMask plane_bits = static_cast<AxisMask>((1u << p.u) | (1u << p.v));
+  Eigen::Vector2d ref = Eigen::Vector2d::Zero();
+  bool known = true;
+  if (code10 == 1100) {
+    ref = Eigen::Vector2d(s_.position[p.u], s_.position[p.v]);
+    known = (s_.known & plane_bits) == plane_bits;
+  } else if (code10 == 1120) {
+    ref = s_.pole;
+    known = s_.pole_known && (s_.pole_plane == s_.plane || !s_.pole_defined);
+  }
+  const bool cartesian = (w.axis_present & plane_bits) != 0;
+  const bool polar = w.has_ap || w.has_rp;
+  Eigen::Vector2d off = Eigen::Vector2d::Zero();
+  if (cartesian && polar) {
+    report(b, at, Severity::error, codes::kSiemensArcWords,
+           "a pole is given either by its plane axes or by AP= RP=, not both; keep one");
+    known = false;
+  } else if (cartesian) {
+    if (w.axis_unresolved & plane_bits) known = false;
+    if (w.axis_present & (1u << p.u)) off.x() = to_mm(p.u, w.axis[p.u]);
+    if (w.axis_present & (1u << p.v)) off.y() = to_mm(p.v, w.axis[p.v]);
+  } else if (polar) {
+    if (!(w.has_ap && w.has_rp) || (w.ext_unresolved & (16u | 32u)) || w.ap_incremental || w.rp_incremental) {
+      known = false;
+    } else {
+      const double a = w.ap * std::numbers::pi / 180.0, r = to_mm(0, w.rp);
+      off = Eigen::Vector2d(r * std::cos(a), r * std::sin(a));
+    }
+  }
+  s_.pole = ref + off;
+  s_.pole_known = known;
+  s_.pole_defined = true;
+  s_.pole_plane = s_.plane;
+  s_.polar_angle_set = s_.polar_radius_set = false;
+}
+
+bool Interpreter::siemens_polar_end(const Block& b, const BlockWords& w, GMeaning mode, Eigen::Vector2d& end) {
+  // Fundamentals, "Travel commands with polar coordinates (G0, G1, G2, G3, AP, RP)": AP= the angle
+  // from the plane's first axis (AP=IC(…) from the last angle), RP= the radius; both modal.
+  (void)b;
+  const bool motion = mode == GMeaning::rapid || mode == GMeaning::linear || mode == GMeaning::arc_cw ||
+                      mode == GMeaning::arc_ccw;
+  const PlaneAxes p = plane_axes(s_.plane);
+  const AxisMask plane_bits = static_cast<AxisMask>((1u << p.u) | (1u << p.v));
+  const bool pole_ok = s_.pole_known && (!s_.pole_defined || s_.pole_plane == s_.plane);
+  if (!motion || !pole_ok || !s_.absolute || (w.axis_present & plane_bits) || (w.ext_unresolved & (16u | 32u)) ||
+      w.rp_incremental)
+    return false;
+  if (!s_.pole_defined) s_.pole = Eigen::Vector2d::Zero();  // no pole: the work origin
+  double ap = s_.polar_angle, rp = s_.polar_radius;
+  if (w.has_ap) ap = w.ap_incremental ? s_.polar_angle + w.ap : w.ap;
+  if (w.has_rp) rp = to_mm(0, w.rp);
+  if ((!w.has_ap || w.ap_incremental) && !s_.polar_angle_set) return false;
+  if (!w.has_rp && !s_.polar_radius_set) return false;
+  s_.polar_angle = ap;
+  s_.polar_radius = rp;
+  s_.polar_angle_set = s_.polar_radius_set = true;
+  const double a = ap * std::numbers::pi / 180.0;
+  end = s_.pole + rp * Eigen::Vector2d(std::cos(a), std::sin(a));
+  return true;
 }
 
 }  // namespace postproc::gcode

@@ -51,6 +51,12 @@ struct ModalState {
   bool polar_interp = false;
   Eigen::Vector3d circle_centre = Eigen::Vector3d::Zero();  ///< Heidenhain CC (I J K), mm, modal
   std::uint8_t circle_centre_known = 0;  ///< bits 0..2 = X Y Z components set
+  Eigen::Vector2d pole = Eigen::Vector2d::Zero();  ///< Siemens polar pole in the plane's (first, second) axes, mm
+  Plane pole_plane = Plane::xy;
+  bool pole_defined = false;        ///< G110/G111/G112 seen (else the work origin is the pole)
+  bool pole_known = true;
+  double polar_angle = 0, polar_radius = 0;  ///< modal AP= (deg) and RP= (mm)
+  bool polar_angle_set = false, polar_radius_set = false;
   Eigen::Vector3d tangent = Eigen::Vector3d::UnitX();  ///< direction at the end of the last motion (Siemens CT)
   bool tangent_known = false;
   AxisVector position = AxisVector::Zero();  ///< current point, active work coordinates, mm / deg
@@ -84,6 +90,8 @@ class Interpreter {
   bool check_arc_words(const Block& b, const BlockWords& w);
   bool siemens_motion_words(const Block& b, const BlockWords& w, GMeaning mode);
   void corner_words(const Block& b, const BlockWords& w);
+  void siemens_pole(const Block& b, const BlockWords& w, std::uint16_t code10, Span at);
+  bool siemens_polar_end(const Block& b, const BlockWords& w, GMeaning mode, Eigen::Vector2d& end);
   bool cip_arc(const Block& b, const BlockWords& w, Motion& m, AxisMask start_known);
   bool tangent_arc(const Block& b, const BlockWords& w, Motion& m, AxisMask start_known,
                    const Eigen::Vector3d& tangent, bool tangent_known);
