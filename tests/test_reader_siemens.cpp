@@ -7,7 +7,10 @@
 #include <cmath>
 #include <numbers>
 
+#include "postproc/compensation/compensate.hpp"
 #include "postproc/gcode/resolve.hpp"
+#include "postproc/io/output_file.hpp"
+#include "sample_machine.hpp"
 #include "support.hpp"
 
 namespace {
@@ -347,6 +350,36 @@ TEST(ReaderSiemens, PolarMovesThatCannotBeReadAreRefused) {
   EXPECT_EQ(pole.motions.size(), 3u);
   const Program inc(siemens(), "G0 X0 Y0 Z0\nG91 G1 RP=5 AP=0 F100\n");
   expect_diag(inc, "PP-U204", 2, 5);
+}
+
+/// Compensates `program` for the sample TRAORI machine (trunnion_ac_siemens.toml); returns the
+/// diagnostics.
+gc::DiagnosticSink compensate_siemens(const std::string& program) {
+  const auto m = sample_machine("trunnion_ac_siemens.toml");
+  const gc::Dialect d = *gc::make_dialect(m.dialect_name, m.dialect_options);
+  TempDir dir;
+  gc::DiagnosticSink sink;
+  gc::LineReader reader{std::string_view(program)};
+  postproc::io::OutputFile out(dir.file("out.mpf"));
+  postproc::comp::CompensateOptions opt;
+  opt.tool_version = "test";
+  (void)postproc::comp::compensate(reader, "in.mpf", d, m, opt, out, sink);
+  return sink;
+}
+
+TEST(ReaderSiemens, CompensateRefusesMovesWhoseWordsItCannotRewrite) {
+  // A polar end point (AP= RP=) or a CIP intermediate point would go stale when only X Y Z are
+  // rewritten: compensate refuses those blocks at their line instead of writing a wrong program.
+  const std::string head = "G17 G90 G54 G71\nT=\"BALL_8\" M6\nD1\nTRAORI\nG0 X0 Y0 Z50 A0 C0\n";
+  for (const auto& [block, word] : std::vector<std::pair<std::string, std::string>>{
+           {"G1 RP=10 AP=0 F100\n", "RP=10"}, {"CIP X10 Y10 I1=7 J1=3 K1=50 F100\n", "CIP / CT"}}) {
+    const gc::DiagnosticSink sink = compensate_siemens(head + block + "M30\n");
+    bool found = false;
+    for (const auto& diag : sink.stored())
+      found = found || (diag.severity == gc::Severity::error && diag.where.line == 6 &&
+                        diag.message.find(word) != std::string::npos);
+    EXPECT_TRUE(found) << block;
+  }
 }
 
 // ---- 4. declarations and global user data ----------------------------------------------------------
