@@ -121,10 +121,18 @@ TEST(ReaderSiemens, TurnAddsFullTurnsToAHelix) {
 }
 
 TEST(ReaderSiemens, TurnMustBeAWholeNumber) {
-  // Fundamentals, "Helical interpolation": TURN= 0…999 further turns.
-  const Program r(siemens(), "G0 X10 Y0\nG3 X10 Y0 I-10 TURN=1.5\n");
+  // Fundamentals, "Helical interpolation": TURN= 0…999 further full turns. Beyond the range: refused
+  // (PP-E240); a fraction (NX posts write TURN=.5) has no documented reading: not resolved (PP-U243).
+  const Program r(siemens(), "G0 X10 Y0\nG3 X10 Y0 I-10 TURN=1000\n");
   expect_diag(r, "PP-E240", 2, 16);
   EXPECT_EQ(r.motions.size(), 1u);
+  const Program f(siemens(), "G0 X10 Y0 Z0\nG3 X-10 Y0 Z-1 I-10 TURN=.5\nG1 X0 Y0\n");
+  expect_diag(f, "PP-U243", 2, 21);
+  EXPECT_EQ(f.find("PP-U243")->severity, gc::Severity::warning);
+  ASSERT_EQ(f.motions.size(), 2u);
+  // The end point is the programmed one whatever the turns: the next block starts there.
+  EXPECT_VEC(f.motions[1].start, -10, 0, -1);
+  EXPECT_EQ(f.motions[1].known & gc::bit(gc::Axis::x), gc::bit(gc::Axis::x));
 }
 
 TEST(ReaderSiemens, RadiusCR) {

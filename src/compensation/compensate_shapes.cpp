@@ -14,7 +14,7 @@ bool Compensator::siemens_unwritable(const Block& b, const Motion& m) {
     if (what.empty() && !gcode::plain_letter(w)) {
       const std::string name = gcode::text::upper(b.text(w.name));
       if (name == "AP" || name == "RP" ||
-          (arc && (name == "AR" || name == "TURN" || name == "I1" || name == "J1" || name == "K1")))
+          (arc && (name == "AR" || name == "I1" || name == "J1" || name == "K1")))
         what = std::string(b.text(w.span));
     }
   if (what.empty()) return false;

@@ -491,7 +491,7 @@ class Compensator final : public gcode::BlockVisitor {
   /// otherwise it is replaced by corrected chords (compensate_shapes.cpp).
   ArcCheck arc_check(const Block& b, const Motion& m, const Command& out);
   /// Refuses (true) a Sinumerik move written in polar coordinates (AP= RP=) or an arc written with
-  /// CIP / CT or AR= / TURN= / I1=: their words are not rewritten by this version (an absolute
+  /// CIP / CT or AR= / I1=: their words are not rewritten by this version (an absolute
   /// intermediate point, a computed end point or a polar end point would go stale).
   bool siemens_unwritable(const Block& b, const Motion& m);
   /// After an arc was replaced by G1 chords, the next arc block that relied on the modal G2/G3

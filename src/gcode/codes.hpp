@@ -39,6 +39,7 @@ inline constexpr std::string_view kIntegerInput = "PP-U218";
 inline constexpr std::string_view kSiemensCorner = "PP-U240";     ///< CHF= CHR= RND= RNDM= not computed
 inline constexpr std::string_view kSiemensSpaceArc = "PP-U241";   ///< CIP / CT arc not in a principal plane
 inline constexpr std::string_view kSiemensGlobalVar = "PP-U242";  ///< GUD / undeclared variable read
+inline constexpr std::string_view kSiemensTurnFraction = "PP-U243"; ///< TURN= not a whole number
 inline constexpr std::string_view kSiemensArcWords = "PP-E240";   ///< AR= TURN= CR= I1= misused
 inline constexpr std::string_view kSiemensGlobalFlow = "PP-E241";  ///< GUD value decides control flow / assignment
 // Notes.

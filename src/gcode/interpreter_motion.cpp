@@ -448,6 +448,7 @@ bool Interpreter::arc(const Block& b, const BlockWords& w, Motion& m, AxisMask s
     s_.known &= static_cast<AxisMask>(~need);
     return false;
   }
+  if (siemens && turn_fraction(b, w)) return false;
   if ((s_.known & need) != need || centre_unresolved || (start_known & need) != need) {
     // Start, end or centre unknown: the arc cannot be resolved.
     if (!centre_unresolved)
@@ -601,12 +602,22 @@ bool Interpreter::check_arc_words(const Block& b, const BlockWords& w) {
       return false;
     }
   }
-  if (w.has_turn && !(w.ext_unresolved & 4u) &&
-      !(w.turn >= 0 && w.turn <= 999 && w.turn == std::floor(w.turn))) {
+  if (w.has_turn && !(w.ext_unresolved & 4u) && !(w.turn >= 0 && w.turn <= 999)) {
     report(b, at(w.turn_word), Severity::error, codes::kSiemensArcWords,
-           fmt::format("TURN={:g}: the number of further full turns must be a whole number from 0 to 999", w.turn));
+           fmt::format("TURN={:g}: the number of further full turns runs from 0 to 999", w.turn));
     return false;
   }
+  return true;
+}
+
+bool Interpreter::turn_fraction(const Block& b, const BlockWords& w) {
+  if (!w.has_turn || (w.ext_unresolved & 4u) || w.turn == std::floor(w.turn)) return false;
+  // The manual defines whole turns only; how the control reads a fraction is not documented. The
+  // block's path is not resolved; its end point is the programmed one either way.
+  report(b, b.words[static_cast<std::size_t>(w.turn_word)].span, Severity::warning, codes::kSiemensTurnFraction,
+         fmt::format("TURN={:g} is not a whole number of further full turns; how the control reads it is not "
+                     "documented, so this helix's path is not resolved (write TURN= as a whole number)",
+                     w.turn));
   return true;
 }
 

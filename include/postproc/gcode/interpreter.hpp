@@ -88,6 +88,7 @@ class Interpreter {
   bool target(const Block& b, const BlockWords& w, Motion& m);
   bool arc(const Block& b, const BlockWords& w, Motion& m, AxisMask start_known);
   bool check_arc_words(const Block& b, const BlockWords& w);
+  bool turn_fraction(const Block& b, const BlockWords& w);
   bool siemens_motion_words(const Block& b, const BlockWords& w, GMeaning mode);
   void corner_words(const Block& b, const BlockWords& w);
   void siemens_pole(const Block& b, const BlockWords& w, std::uint16_t code10, Span at);
