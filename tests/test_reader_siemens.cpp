@@ -423,6 +423,14 @@ TEST(ReaderSiemens, GlobalUserVariableRefusesOnlyTheWordThatReadsIt) {
   EXPECT_VEC(w.motions[0].end, 4, 0, 0);
 }
 
+TEST(ReaderSiemens, GlobalUserVariableAsLoopCounter) {
+  // A GUD the program assigns (here as FOR counter) is known from there on.
+  const Resolved r("G0 X0 Y0 Z0\nFOR _I=1 TO 3\nG1 X=_I*10 F100\nENDFOR\nM30\n");
+  EXPECT_TRUE(r.sink.stored().empty()) << r.all_codes();
+  ASSERT_EQ(r.motions.size(), 4u);
+  EXPECT_VEC(r.motions[3].end, 30, 0, 0);
+}
+
 TEST(ReaderSiemens, GlobalUserVariableDecidingControlFlowRefusesTheProgram) {
   // The branch taken depends on the controller's value: nothing after it can be followed (PP-E241).
   const Resolved r("G0 X0 Y0 Z0\nIF _MODE==1 GOTOF SKIP\nG1 X5 F100\nSKIP:\nM30\n");

@@ -605,8 +605,7 @@ bool Siemens::step(Frame& fr, Line& L) {
           const Target& t = H.for_var;
           if (t.kind == Target::var) {
             auto it = fr.vars.find(t.name);
-            if (it == fr.vars.end()) throw Fail{"PP-E703", L.ctl_span, fmt::format("FOR variable '{}' is not declared; declare it with DEF INT", t.name)};
-            Var& var = it->second;
+            Var& var = it != fr.vars.end() ? it->second : global(t.name, L.ctl_span, false, t.index.size());
             Node dummy;
             cur_line_ = head;
             v = *element(var, H.pool, dummy, t.index.data(), t.index.size(), t.span);
