@@ -54,6 +54,10 @@ void print_summary(const std::string& file, const gcode::Dialect& d, const std::
                    const gcode::ProgramSummary& s, const gcode::DiagnosticSink& sink) {
   using gcode::MotionType;
   std::string out = fmt::format("{}: dialect {}{}{}\n", file, d.name, d.lathe ? " (lathe)" : "", how);
+  if (d.id == gcode::DialectId::siemens)
+    out += fmt::format("  machine settings: basic system {} (MD10240), reset motion {} (MD20150); see --basic-system, "
+                       "--reset-motion\n",
+                       d.basic_inch ? "inch" : "metric", d.reset_motion == gcode::GMeaning::rapid ? "G0" : "G1");
   out += fmt::format("  blocks: {}\n", s.blocks);
   out += fmt::format("  motions: {} (rapid {}, linear {}, cw {}, ccw {}, drill {}{})\n", s.motions(),
                      s.motions_by_type[0], s.motions_by_type[1], s.motions_by_type[2], s.motions_by_type[3],

@@ -35,6 +35,16 @@ void add_dialect_options(CLI::App& cmd, DialectArgs& a, bool required) {
                  "LinuxCNC tool table file (T<n> Z<length> D<diameter>, mm): resolves G43 H / G43 / G41 / G42; "
                  "without it a tool-length change leaves Z unknown until the program states it")
       ->check(CLI::ExistingFile);
+  cmd.add_option("--basic-system", a.basic_system,
+                 "Siemens: the control's basic system (MD10240 SCALING_SYSTEM_IS_METRIC): metric (assumed) or inch; "
+                 "F under G70/G71 is in this system")
+      ->check(CLI::IsMember({"metric", "inch"}))
+      ->capture_default_str();
+  cmd.add_option("--reset-motion", a.reset_motion,
+                 "Siemens: motion mode before the program's first G0/G1/G2/G3 (MD20150 GCODE_RESET_VALUES[0]; "
+                 "factory setting G1)")
+      ->check(CLI::IsMember({"G0", "G1"}))
+      ->capture_default_str();
 }
 
 gcode::Dialect make_dialect(const DialectArgs& a) {
@@ -52,6 +62,8 @@ gcode::Dialect make_dialect(const DialectArgs& a) {
     printer.finish();
     if (!ok) throw Error(ExitCode::refused, fmt::format("{}: tool table refused", a.tool_table));
   }
+  o.basic_inch = a.basic_system == "inch";
+  o.reset_motion = a.reset_motion == "G0" ? '0' : '1';
   auto d = gcode::make_dialect(a.dialect, o);
   if (!d) throw Error(ExitCode::usage, fmt::format("unknown dialect '{}'; use {}", a.dialect, gcode::dialect_names()));
   if (a.diameter_axis == "none") d->diameter_axis = 0;

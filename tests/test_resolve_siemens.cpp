@@ -340,8 +340,10 @@ TEST(ResolveSiemens, DivisionByZero) {
 }
 
 TEST(ResolveSiemens, UndeclaredName) {
+  // A name without DEF is a GUD (Job planning, "Global user data"): the word reading it is refused
+  // (PP-U242, a warning), not the program (reader round 2; see tests/test_reader_siemens.cpp).
   const Outcome run = resolve_text("G1 X=DEPTH+1\nM30\n");
-  const Diagnostic* d = run.first("PP-E703");
+  const Diagnostic* d = run.first("PP-U242");
   ASSERT_NE(d, nullptr) << run.errors();
   EXPECT_EQ(d->where.line, 1u);
   EXPECT_EQ(d->where.column, 6u);

@@ -1,8 +1,29 @@
 // compensate: arcs (kept when the correction is rigid over them, else corrected chords) and
 // drilling cycles (hole corrected at its bottom, levels along the normal).
 #include "src/compensation/compensator.hpp"
+#include "src/gcode/text.hpp"
 
 namespace postproc::comp::detail {
+
+bool Compensator::siemens_unwritable(const Block& b, const Motion& m) {
+  if (d_.id != gcode::DialectId::siemens) return false;
+  const bool arc = m.type == gcode::MotionType::arc_cw || m.type == gcode::MotionType::arc_ccw;
+  std::string what;
+  if (arc && (track_.motion == gcode::GMeaning::arc_cip || track_.motion == gcode::GMeaning::arc_tangent)) what = "CIP / CT";
+  for (const Word& w : b.words)
+    if (what.empty() && !gcode::plain_letter(w)) {
+      const std::string name = gcode::text::upper(b.text(w.name));
+      if (name == "AP" || name == "RP" ||
+          (arc && (name == "AR" || name == "I1" || name == "J1" || name == "K1")))
+        what = std::string(b.text(w.span));
+    }
+  if (what.empty()) return false;
+  refuse(b, m.column, kRefused,
+         fmt::format("this Sinumerik move is written with {}, whose words this version does not rewrite; program it "
+                     "with X Y Z (arcs: G2/G3 with I J K or CR=)",
+                     what));
+  return true;
+}
 
 Compensator::ArcCheck Compensator::arc_check(const Block& b, const Motion& m, const Command& out) {
   if ((written_known_ & mask_) != mask_) {

@@ -80,7 +80,9 @@ class Compensator final : public gcode::BlockVisitor {
     block_error_ = false;
     // A block that moves to the reference point or changes the work offset without moving: the
     // corrected position the controller holds is no longer known in the program's coordinates.
-    if (motions.empty() && !keeps_coordinates()) written_known_ = 0;
+    // Likewise a block whose axis words moved the machine without a motion record (a construct the
+    // reader does not resolve, e.g. a Sinumerik TURN=.5 helix): where it ends is not what was written.
+    if (motions.empty() && (!keeps_coordinates() || moved_unresolved(b))) written_known_ = 0;
     // Axis words that produced no motion (a move the reader refused, e.g. an arc from an unknown start
     // or a Fanuc ,R corner): what the controller holds on those axes is not the last written value.
     if (motions.empty() && track_.axis_consumer() == nullptr)
@@ -112,6 +114,12 @@ class Compensator final : public gcode::BlockVisitor {
  private:
   /// False for blocks that change what the program's coordinates mean (G28/G30, a work offset,
   /// G10 offset writes).
+  bool moved_unresolved(const Block& b) const {
+    if (track_.axis_consumer() != nullptr) return false;
+    for (const Word& w : b.words)
+      if (track_.axis_of(w) >= 0) return true;
+    return false;
+  }
   bool keeps_coordinates() const {
     return !(track_.has(gcode::GMeaning::home_return) || track_.has(gcode::GMeaning::work_offset) ||
              track_.has(gcode::GMeaning::set_offsets_g10));
@@ -339,6 +347,7 @@ class Compensator final : public gcode::BlockVisitor {
 
   void motion(const Block& b, const Motion& m, gcode::BlockEditor& ed) {
     ++r_.motions;
+    if (siemens_unwritable(b, m)) return;
     Command out;
     kin::JointVector q;
     rapid_as_written_ = false;
@@ -494,6 +503,10 @@ class Compensator final : public gcode::BlockVisitor {
   /// An arc stays an arc when its correction is a rigid shift (within --max-deviation) over it;
   /// otherwise it is replaced by corrected chords (compensate_shapes.cpp).
   ArcCheck arc_check(const Block& b, const Motion& m, const Command& out);
+  /// Refuses (true) a Sinumerik move written in polar coordinates (AP= RP=) or an arc written with
+  /// CIP / CT or AR= / I1=: their words are not rewritten by this version (an absolute
+  /// intermediate point, a computed end point or a polar end point would go stale).
+  bool siemens_unwritable(const Block& b, const Motion& m);
   /// After an arc was replaced by G1 chords, the next arc block that relied on the modal G2/G3
   /// gets its motion word back.
   void restore_arc_mode(const Block& b, gcode::BlockEditor& ed);

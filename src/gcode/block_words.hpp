@@ -31,6 +31,18 @@ struct Interpreter::BlockWords {
 
   double cr = 0;                          ///< Siemens CR= radius
   bool has_cr = false;
+  // Sinumerik motion addresses (840D sl Fundamentals, "Motion commands").
+  double ar = 0;                          ///< AR= opening angle, degrees
+  bool has_ar = false;
+  double turn = 0;                        ///< TURN= additional full turns of a helix
+  bool has_turn = false;
+  Eigen::Vector3d ip = Eigen::Vector3d::Zero();  ///< CIP intermediate point I1= J1= K1= (program values)
+  std::uint8_t ip_present = 0, ip_absolute = 0, ip_incremental = 0;  ///< bits 0..2 = I1 J1 K1
+  std::uint8_t ext_unresolved = 0;        ///< bits: 1 CR, 2 AR, 4 TURN, 8 I1/J1/K1, 16 AP, 32 RP not literal
+  std::int16_t cr_word = -1, ar_word = -1, turn_word = -1, ip_word = -1;
+  std::int16_t corner_word = -1;          ///< CHF= CHR= RND= RNDM= (first of them)
+  double ap = 0, rp = 0;                  ///< AP= polar angle (deg), RP= polar radius (program units)
+  bool has_ap = false, has_rp = false, ap_incremental = false, rp_incremental = false;
   int m_count = 0;
   std::array<double, 8> m;               ///< first m_count entries valid
   std::array<std::int16_t, 8> m_word;
@@ -42,6 +54,7 @@ struct Interpreter::BlockWords {
   std::uint8_t polar_words = 0;           ///< bit 0 = @, bit 1 = ^ given; bit 2 = one is unresolved
   std::int16_t polar_word = -1;           ///< index of the first of them
   bool siemens_motion_keyword = false;    ///< CIP, CT, BSPLINE, … in this block
+  Span motion_keyword_span;               ///< where CIP / CT is written
   bool machine_frame = false;             ///< G53 / SUPA / G153 in this block
   std::int16_t corner_word = -1;          ///< Fanuc ,C / ,R / ,A word of this block
   bool words_transformed = false;         ///< Fanuc G16/G51.1: axis values were converted to the work frame

@@ -52,6 +52,13 @@ inline constexpr std::string_view kFanucMirror = "PP-U232";    ///< G51.1 mirror
 inline constexpr std::string_view kFanucCorner = "PP-U233";    ///< ,C / ,R chamfer, corner rounding, direct drawing
 inline constexpr std::string_view kFanucReturn = "PP-U234";    ///< G29 whose end point is not known
 inline constexpr std::string_view kFanucSystemB = "PP-U235";   ///< U/W moves in lathe G-code system B
+// Siemens dialect (reader round 2): Sinumerik motion addresses and declarations.
+inline constexpr std::string_view kSiemensCorner = "PP-U240";     ///< CHF= CHR= RND= RNDM= not computed
+inline constexpr std::string_view kSiemensSpaceArc = "PP-U241";   ///< CIP / CT arc not in a principal plane
+inline constexpr std::string_view kSiemensGlobalVar = "PP-U242";  ///< GUD / undeclared variable read
+inline constexpr std::string_view kSiemensTurnFraction = "PP-U243"; ///< TURN= not a whole number
+inline constexpr std::string_view kSiemensArcWords = "PP-E240";   ///< AR= TURN= CR= I1= misused
+inline constexpr std::string_view kSiemensGlobalFlow = "PP-E241";  ///< GUD value decides control flow / assignment
 // Notes.
 inline constexpr std::string_view kDialectGuess = "PP-N001";
 inline constexpr std::string_view kDialectMismatch = "PP-N002";

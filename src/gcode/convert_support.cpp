@@ -54,6 +54,9 @@ void ModalTrack::update(const Block& b) {
       const std::string name = text::upper(b.text(t.name));
       if (name == "DIAMON" || name == "DIAM90") diameter = true;
       if (name == "DIAMOF") diameter = false;
+      // CIP / CT are group-1 motion commands (arcs given by other words than G2/G3).
+      if (name == "CIP") motion = GMeaning::arc_cip;
+      if (name == "CT") motion = GMeaning::arc_tangent;
     }
   bool motion_given = false;
   for (const G& g : block_g) {
@@ -64,7 +67,7 @@ void ModalTrack::update(const Block& b) {
         inch = to_inch;
         units_in_block = true;
         // Sinumerik G70/G71 change geometry only; feeds stay in the basic system (G700/G710 change both).
-        if (!siemens || g.def->code10 >= 7000) feed_inch = to_inch;
+        feed_inch = !siemens || g.def->code10 >= 7000 ? to_inch : dialect->basic_inch;
         break;
       }
       case GMeaning::feed_inverse_time: feed_mode = FeedMode::inverse_time; break;

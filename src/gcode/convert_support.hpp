@@ -44,7 +44,9 @@ namespace postproc::gcode {
 struct ModalTrack {
   explicit ModalTrack(const Dialect& d)
       : dialect(&d), diameter(d.diameter_axis != 0), motion(d.power_on_motion), interp_motion(d.power_on_motion),
-        motion_code10(d.power_on_motion == GMeaning::linear ? 10 : 0), interp_code10(motion_code10) {}
+        motion_code10(d.power_on_motion == GMeaning::linear ? 10 : 0), interp_code10(motion_code10) {
+    inch = feed_inch = d.basic_inch;
+  }
   void update(const Block& b);
 
   /// The block's G codes (valid after update()).

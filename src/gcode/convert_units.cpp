@@ -134,7 +134,7 @@ void UnitsPass::unit_words(const Block& b, BlockEditor& ed) {
       target = inch ? 700 : 710;
     }
     out_inch_ = inch;
-    if (d_.id != DialectId::siemens || c >= 7000) out_feed_inch_ = inch;
+    out_feed_inch_ = d_.id != DialectId::siemens || c >= 7000 ? inch : d_.basic_inch;
     if (target == c) continue;
     const Word& w = b.words[g.word];
     const std::string_view old = b.text(w.value);

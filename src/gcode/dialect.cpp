@@ -228,6 +228,9 @@ Dialect make_dialect(DialectId id, const DialectOptions& opt) {
       d.hash_parameters = false;
       d.r_parameters = true;
       d.decimal_point_required = false;
+      d.basic_inch = opt.basic_inch;
+      // 840D sl Fundamentals, list of G functions, group 1: G1 is the Siemens default (MD20150[0]).
+      d.reset_motion = opt.reset_motion == '0' ? GMeaning::rapid : GMeaning::linear;
       siemens(d.gcodes);
       break;
     case DialectId::linuxcnc:

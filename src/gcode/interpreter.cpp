@@ -72,6 +72,13 @@ Interpreter::Interpreter(const Dialect& dialect, std::string file, DiagnosticSin
   if (d_.lathe) s_.plane = Plane::zx;  // lathes power up in G18
   // LinuxCNC's interpreter starts in G99 (retract to the R plane; rs274 agrees); Fanuc powers on in G98.
   if (d_.id == DialectId::linuxcnc) s_.return_to_r = true;
+  if (d_.id == DialectId::siemens) {
+    // Reset state (MD20150 $MC_GCODE_RESET_VALUES, factory setting): G1 in group 1, units of the
+    // basic system (MD10240). 840D sl Fundamentals, "List of G functions".
+    s_.inch = s_.feed_inch = d_.basic_inch;
+    s_.motion = d_.reset_motion;
+    s_.motion_code10 = d_.reset_motion == GMeaning::rapid ? 0 : d_.reset_motion == GMeaning::linear ? 10 : 0;
+  }
 }
 
 void Interpreter::report(const Block& b, Span at, Severity sev, std::string_view code, std::string msg) {
@@ -167,11 +174,51 @@ bool Interpreter::collect(const Block& b, BlockWords& w) {
         w.corner_word = wi;
         continue;
       }
-      if (iequals(nm, "CR") && resolved) {
+      const auto unresolved_bit = [&](unsigned bitv) {
+        if (!resolved) w.ext_unresolved = static_cast<std::uint8_t>(w.ext_unresolved | bitv);
+      };
+      if (iequals(nm, "CR")) {
         w.has_cr = true;
         w.cr = v;
+        w.cr_word = wi;
+        unresolved_bit(1);
+      } else if (iequals(nm, "AR")) {
+        w.has_ar = true;
+        w.ar = v;
+        w.ar_word = wi;
+        unresolved_bit(2);
+      } else if (iequals(nm, "TURN")) {
+        w.has_turn = true;
+        w.turn = v;
+        w.turn_word = wi;
+        unresolved_bit(4);
+      } else if (iequals(nm, "CHF") || iequals(nm, "CHR") || iequals(nm, "RND") || iequals(nm, "RNDM")) {
+        // RNDM=0 switches modal rounding off: nothing is inserted.
+        const bool off = iequals(nm, "RNDM") && resolved && v == 0;
+        if (w.corner_word < 0 && !off) w.corner_word = wi;
+      } else if (d_.id == DialectId::siemens && word.index == 1 && word.name_len == 2 && word.letter >= 'I' &&
+                 word.letter <= 'K') {
+        // I1= J1= K1=: the intermediate point of CIP.
+        const int k = word.letter - 'I';
+        w.ip[k] = v;
+        w.ip_present = static_cast<std::uint8_t>(w.ip_present | (1u << k));
+        if (fn_abs) w.ip_absolute = static_cast<std::uint8_t>(w.ip_absolute | (1u << k));
+        if (fn_inc) w.ip_incremental = static_cast<std::uint8_t>(w.ip_incremental | (1u << k));
+        if (w.ip_word < 0) w.ip_word = wi;
+        unresolved_bit(8);
       }
       if (iequals(nm, "AP") || iequals(nm, "RP")) w.polar = true;
+      if (iequals(nm, "AP")) {
+        w.has_ap = true;
+        w.ap = v;
+        w.ap_incremental = fn_inc;
+        unresolved_bit(16);
+      } else if (iequals(nm, "RP")) {
+        w.has_rp = true;
+        w.rp = v;
+        w.rp_incremental = fn_inc;
+        unresolved_bit(32);
+      }
       // A3 B3 C3: tool direction vector components under TRAORI.
       if (word.index == 3 && word.name_len == 2 && resolved && word.letter >= 'A' && word.letter <= 'C') {
         w.vector[word.letter - 'A'] = v;
@@ -330,8 +377,12 @@ void Interpreter::siemens_token(const Block& b, const Token& t, BlockWords& w) {
       report(b, t.span, Severity::warning, codes::kUnknownKeyword,
              "TRAOOF is not a Sinumerik keyword (TRAFOOF is); treated as TRAFOOF — check the program");
     s_.tcp = TcpMode::off;
-  } else if (iequals(name, "CIP") || iequals(name, "CT") || iequals(name, "ASPLINE") || iequals(name, "BSPLINE") ||
-             iequals(name, "CSPLINE") || iequals(name, "POLY")) {
+  } else if (iequals(name, "CIP") || iequals(name, "CT")) {
+    // Group 1 motion keywords (840D sl Fundamentals, list of G functions, group 1): arcs.
+    s_.motion = iequals(name, "CIP") ? GMeaning::arc_cip : GMeaning::arc_tangent;
+    w.siemens_motion_keyword = true;
+    w.motion_keyword_span = t.span;
+  } else if (iequals(name, "ASPLINE") || iequals(name, "BSPLINE") || iequals(name, "CSPLINE") || iequals(name, "POLY")) {
     // Motion-group keywords whose paths this version does not compute.
     s_.motion = GMeaning::spline;
     w.siemens_motion_keyword = true;
@@ -402,8 +453,16 @@ void Interpreter::apply_modes(const Block& b, BlockWords& w) {
       case GMeaning::feed_inverse_time: s_.feed_mode = FeedMode::inverse_time; break;
       case GMeaning::feed_per_minute: s_.feed_mode = FeedMode::per_minute; break;
       case GMeaning::feed_per_rev: s_.feed_mode = FeedMode::per_rev; break;
-      case GMeaning::inch: s_.inch = true; break;
-      case GMeaning::mm: s_.inch = false; break;
+      case GMeaning::inch:
+      case GMeaning::mm:
+        s_.inch = g.def->meaning == GMeaning::inch;
+        // Sinumerik: G70/G71 change lengths only, F stays in the basic system; G700/G710 change F too
+        // (840D sl Fundamentals, "Inch or metric dimensions: G70/G700, G71/G710").
+        s_.feed_inch = d_.id != DialectId::siemens      ? s_.inch
+                       : g.def->code10 == 7000          ? true
+                       : g.def->code10 == 7100          ? false
+                                                        : d_.basic_inch;
+        break;
       default: break;
     }
   }
@@ -415,10 +474,14 @@ void Interpreter::apply_modes(const Block& b, BlockWords& w) {
     s_.feed_known = false;
     s_.feed_undefined = true;
   }
-  if (w.has('F')) s_.feed_undefined = false;
-  if (w.has('F') && !w.unresolved('F')) {
+  // Sinumerik G4 F… is a dwell time in seconds, not a feed: the programmed feed stays (Fundamentals,
+  // "Dwell time (G4)").
+  const bool f_is_dwell = d_.id == DialectId::siemens && w.has_meaning(GMeaning::dwell);
+  if (w.has('F') && !f_is_dwell) s_.feed_undefined = false;
+  if (f_is_dwell) {
+  } else if (w.has('F') && !w.unresolved('F')) {
     const double f = w.get('F');
-    s_.feed = s_.feed_mode == FeedMode::inverse_time ? f : (s_.inch ? f * 25.4 : f);
+    s_.feed = s_.feed_mode == FeedMode::inverse_time ? f : (s_.feed_inch ? f * 25.4 : f);
     s_.feed_known = true;
   } else if (w.has('F')) {
     s_.feed_known = false;
@@ -503,6 +566,22 @@ void Interpreter::apply_modes(const Block& b, BlockWords& w) {
       }
       s_.circle_centre[a] = from_current ? s_.position[a] + v : v;
       s_.circle_centre_known = static_cast<std::uint8_t>(s_.circle_centre_known | (1u << a));
+    }
+  }
+  if (d_.id == DialectId::siemens && w.has('D')) {
+    // Sinumerik: T selects the tool, D its cutting edge, and D carries the tool length offset; D0
+    // switches it off (840D sl Fundamentals, "Tool offset call (D)"). The active edge number is kept
+    // in tool_length_h so that a change of D is a change of tool length for the interpreter.
+    const Span at = b.words[static_cast<std::size_t>(w.letter_word['D' - 'A'])].span;
+    const long dn = w.whole_or('D', 0, 32000, -1);
+    if (w.unresolved('D')) {
+      s_.known &= static_cast<AxisMask>(~(bit(Axis::x) | bit(Axis::y) | bit(Axis::z)));
+    } else if (dn < 0) {
+      report(b, at, Severity::error, codes::kOutOfRange,
+             fmt::format("'{}': a cutting edge number is a whole number from 0 (no offset) to 32000", b.text(at)));
+    } else {
+      s_.tool_length_active = dn != 0;
+      s_.tool_length_h = static_cast<std::uint16_t>(dn);
     }
   }
   if (d_.id == DialectId::siemens && w.has('L')) {

@@ -2,6 +2,7 @@
 #include <cmath>
 #include <numbers>
 
+#include <Eigen/Geometry>
 #include <fmt/format.h>
 
 #include "postproc/gcode/interpreter.hpp"
@@ -56,6 +57,7 @@ void Interpreter::execute(const Block& b, MotionSink& out) {
       if (mc == 3 || mc == 4) spindle_turning_ = true;
       if (mc == 5) spindle_turning_ = false;
     }
+  if (d_.id == DialectId::siemens) corner_words(b, w);
   if (!w.axes_consumed) do_motion(b, w, out);
 }
 
@@ -216,8 +218,11 @@ void Interpreter::non_modal(const Block& b, BlockWords& w, MotionSink& out) {
         if (named == 0 || (named & bit(Axis::z))) s_.tool_z_pending = 0;  // Z goes home: known by no one
         break;
       }
-      case GMeaning::home_set:
-      case GMeaning::polar_pole: w.axes_consumed = true; break;
+      case GMeaning::home_set: w.axes_consumed = true; break;
+      case GMeaning::polar_pole:
+        w.axes_consumed = true;
+        if (d_.id == DialectId::siemens) siemens_pole(b, w, g.def->code10, at);
+        break;
       case GMeaning::polar_coord_on:
       case GMeaning::polar_coord_off:
       case GMeaning::scaling_on:
@@ -349,7 +354,8 @@ void Interpreter::do_motion(const Block& b, BlockWords& w, MotionSink& out_all) 
     lathe_cycle(b, w, out);
     return;
   }
-  if (w.polar) {
+  Eigen::Vector2d polar_end = Eigen::Vector2d::Zero();
+  if (w.polar && (d_.id != DialectId::siemens || !siemens_polar_end(b, w, mode, polar_end))) {
     unresolved_motion(b, w, codes::kPolar, "motion in polar coordinates (AP=/RP=)");
     s_.known &= static_cast<AxisMask>(~(bit(Axis::x) | bit(Axis::y) | bit(Axis::z)));
     return;
@@ -363,7 +369,10 @@ void Interpreter::do_motion(const Block& b, BlockWords& w, MotionSink& out_all) 
       (d_.id == DialectId::linuxcnc || d_.id == DialectId::fanuc) &&
       (w.has(static_cast<char>('I' + pa.u)) || w.has(static_cast<char>('I' + pa.v))) && !w.has('R');
   // Axis words (or R/Z for cycles) make a motion; a motion G alone does not.
-  if (w.axis_present == 0 && !centre_only_circle) {
+  // Sinumerik G2/G3 with centre and opening angle (AR=) has no end point words: it still moves.
+  const bool arc_by_angle = d_.id == DialectId::siemens && w.has_ar &&
+                            (mode == GMeaning::arc_cw || mode == GMeaning::arc_ccw);
+  if (w.axis_present == 0 && !centre_only_circle && !arc_by_angle && !w.polar) {
     if (w.motion.def && (mode == GMeaning::turning_cycle || mode == GMeaning::threading || mode == GMeaning::spline)) {
       const auto code = mode == GMeaning::turning_cycle ? codes::kTurningCycle
                         : mode == GMeaning::threading   ? codes::kThreading
@@ -397,6 +406,13 @@ void Interpreter::do_motion(const Block& b, BlockWords& w, MotionSink& out_all) 
            fmt::format("'{}' in lathe G-code system B moves a {} axis (incremental X/Z is G91 X/Z there); if the "
                        "program is written for system A (U/W incremental), pass --gcode-system A",
                        b.text(ws), a == 6 ? 'U' : 'W'));
+  }
+  const Eigen::Vector3d prev_tangent = s_.tangent;  // for CT
+  const bool prev_tangent_known = s_.tangent_known;
+  s_.tangent_known = false;  // set again by the motion this block emits
+  if (d_.id == DialectId::siemens && !siemens_motion_words(b, w, mode)) {
+    s_.known &= static_cast<AxisMask>(~w.axis_present);
+    return;
   }
   Motion m;
   m.line = b.line;
@@ -443,17 +459,75 @@ void Interpreter::do_motion(const Block& b, BlockWords& w, MotionSink& out_all) 
   }
   m.words_transformed = w.words_transformed;
   if (mode == GMeaning::rapid || mode == GMeaning::linear) tool_vector(w, m);  // arcs use I J K as centre
+  if (w.polar) {
+    // Sinumerik AP= RP=: the end point in the plane is the pole plus RP at angle AP; G2/G3 turn
+    // about the pole (Fundamentals, "Polar coordinates", "Travel commands with polar coordinates").
+    const PlaneAxes p = plane_axes(s_.plane);
+    const AxisMask plane_bits = static_cast<AxisMask>((1u << p.u) | (1u << p.v));
+    const AxisMask known_before = s_.known;
+    target(b, w, m);
+    s_.position[p.u] = polar_end.x();
+    s_.position[p.v] = polar_end.y();
+    s_.known |= plane_bits;
+    m.end = s_.position;
+    m.known = s_.known;
+    m.programmed |= plane_bits;
+    if (mode == GMeaning::rapid || mode == GMeaning::linear) {
+      m.type = mode == GMeaning::rapid ? MotionType::rapid : MotionType::linear;
+      emit(m, b, out);
+      return;
+    }
+    const Span at = b.words[static_cast<std::size_t>(first_word)].span;
+    if ((known_before & plane_bits) != plane_bits) {
+      report(b, at, Severity::warning, codes::kUnknownPosition,
+             "arc whose start point is unknown (after an unresolved construct); it is not resolved");
+      s_.known &= static_cast<AxisMask>(~plane_bits);
+      return;
+    }
+    const Eigen::Vector2d c = s_.pole;
+    const Eigen::Vector2d st(m.start[p.u], m.start[p.v]);
+    if (!radii_agree(b, at, st, polar_end, c)) {
+      s_.known &= static_cast<AxisMask>(~plane_bits);
+      return;
+    }
+    const bool cw = mode == GMeaning::arc_cw;
+    const Eigen::Vector2d rs = st - c, re = polar_end - c;
+    double sweep = std::atan2(rs.x() * re.y() - rs.y() * re.x(), rs.dot(re));
+    if ((polar_end - st).norm() < 1e-9) sweep = 0;
+    if (cw && sweep >= 0) sweep -= 2 * std::numbers::pi;
+    if (!cw && sweep <= 0) sweep += 2 * std::numbers::pi;
+    if (w.has_turn) sweep += (cw ? -1.0 : 1.0) * 2 * std::numbers::pi * w.turn;
+    if (set_plane_arc(b, at, m, s_.plane, c, sweep)) {
+      m.type = cw ? MotionType::arc_cw : MotionType::arc_ccw;
+      m.arc.turns = w.has_turn ? static_cast<std::uint32_t>(w.turn) + 1 : 1;
+      m.arc.full_circle = (polar_end - st).norm() < 1e-9;
+      emit(m, b, out);
+    } else {
+      s_.known &= static_cast<AxisMask>(~plane_bits);
+    }
+    return;
+  }
   switch (mode) {
     case GMeaning::rapid:
     case GMeaning::linear:
       m.type = mode == GMeaning::rapid ? MotionType::rapid : MotionType::linear;
-      if (target(b, w, m)) out.motion(m, b);
+      if (target(b, w, m)) emit(m, b, out);
       break;
     case GMeaning::arc_cw:
     case GMeaning::arc_ccw: {
       m.type = mode == GMeaning::arc_cw ? MotionType::arc_cw : MotionType::arc_ccw;
       const AxisMask known_before = s_.known;  // the arc needs its start point, not just its end
-      if (target(b, w, m) && arc(b, w, m, known_before)) out.motion(m, b);
+      if (target(b, w, m) && arc(b, w, m, known_before)) emit(m, b, out);
+      break;
+    }
+    case GMeaning::arc_cip:
+    case GMeaning::arc_tangent: {
+      if (w.motion_keyword_span.size() > 0) m.column = w.motion_keyword_span.begin + 1;
+      const AxisMask known_before = s_.known;
+      target(b, w, m);
+      const bool ok = mode == GMeaning::arc_cip ? cip_arc(b, w, m, known_before)
+                                                : tangent_arc(b, w, m, known_before, prev_tangent, prev_tangent_known);
+      if (ok) emit(m, b, out);
       break;
     }
     case GMeaning::drill_cycle:
@@ -640,11 +714,19 @@ bool Interpreter::arc(const Block& b, const BlockWords& w, Motion& m, AxisMask s
   }
   // Fanuc (B-64484EN "Circular interpolation (G02, G03)"): when R and I J K are both given, R is used
   // and I J K are ignored.
+  const bool siemens = d_.id == DialectId::siemens;
+  const bool by_angle = siemens && w.has_ar;
   const bool by_radius =
-      (w.has('R') && ((!w.has(cu) && !w.has(cv)) || d_.id == DialectId::fanuc)) || w.has_cr;
+      !by_angle && ((w.has('R') && ((!w.has(cu) && !w.has(cv)) || d_.id == DialectId::fanuc)) || w.has_cr);
   const bool centre_ignored = by_radius && d_.id == DialectId::fanuc;  // Fanuc: I J K ignored beside R
   const bool centre_unresolved = (!centre_ignored && (w.unresolved(cu) || w.unresolved(cv))) ||
-                                 (by_radius && w.has('R') && w.unresolved('R'));
+                                 (by_radius && !w.has_cr && w.has('R') && w.unresolved('R')) ||
+                                 (w.ext_unresolved & (1u | 2u | 4u)) != 0;
+  if (siemens && !check_arc_words(b, w)) {
+    s_.known &= static_cast<AxisMask>(~need);
+    return false;
+  }
+  if (siemens && turn_fraction(b, w)) return false;
   if ((s_.known & need) != need || centre_unresolved || (start_known & need) != need) {
     // Start, end or centre unknown: the arc cannot be resolved.
     if (!centre_unresolved)
@@ -655,11 +737,42 @@ bool Interpreter::arc(const Block& b, const BlockWords& w, Motion& m, AxisMask s
     return false;
   }
   const Eigen::Vector2d s(m.start[p.u], m.start[p.v]);
-  const Eigen::Vector2d e(m.end[p.u], m.end[p.v]);
+  Eigen::Vector2d e(m.end[p.u], m.end[p.v]);
   const bool cw = m.type == MotionType::arc_cw;
   Eigen::Vector2d c = Eigen::Vector2d::Zero();
   const double scale = s_.inch ? 25.4 : 1.0;
-  if (by_radius) {
+  double sweep_given = 0;  // AR=: the sweep is the programmed opening angle
+  if (by_angle) {
+    // 840D sl Fundamentals, "Circular interpolation with opening angle and centre point (AR, I, J, K)"
+    // and "… with opening angle and end point (AR, X, Y, Z)": G3 turns counter-clockwise by AR.
+    const double ar = w.ar * std::numbers::pi / 180.0;
+    sweep_given = cw ? -ar : ar;
+    if (w.has(cu) || w.has(cv)) {
+      const double iu = w.has(cu) ? w.get(cu) * scale : 0.0;
+      const double iv = w.has(cv) ? w.get(cv) * scale : 0.0;
+      const bool abs_u = (w.letter_absolute >> (cu - 'A')) & 1u;
+      const bool abs_v = (w.letter_absolute >> (cv - 'A')) & 1u;
+      c = Eigen::Vector2d(abs_u ? iu : s.x() + iu, abs_v ? iv : s.y() + iv);
+      const Eigen::Rotation2Dd rot(sweep_given);
+      const Eigen::Vector2d end = c + rot * (s - c);
+      s_.position[p.u] = end.x();
+      s_.position[p.v] = end.y();
+      m.end[p.u] = end.x();
+      m.end[p.v] = end.y();
+      e = end;
+    } else {
+      const Eigen::Vector2d chord = e - s;
+      const double d = chord.norm();
+      if (d < 1e-9) {
+        report(b, b.words[static_cast<std::size_t>(w.ar_word)].span, Severity::error, codes::kArcGeometry,
+               "arc by opening angle AR= with its end point on its start point; give the centre (I J K) instead");
+        return false;
+      }
+      const Eigen::Vector2d left(-chord.y() / d, chord.x() / d);
+      const double h = d / 2 / std::tan(ar / 2);  // negative beyond 180°: centre on the other side
+      c = (s + e) / 2 + (cw ? -h : h) * left;
+    }
+  } else if (by_radius) {
     double r = (w.has_cr ? w.cr : w.get('R')) * scale;
     const Eigen::Vector2d chord = e - s;
     const double d = chord.norm();
@@ -715,7 +828,13 @@ bool Interpreter::arc(const Block& b, const BlockWords& w, Motion& m, AxisMask s
   if (cw && sweep >= 0) sweep -= 2 * std::numbers::pi;
   if (!cw && sweep <= 0) sweep += 2 * std::numbers::pi;
   if (same) sweep = cw ? -2 * std::numbers::pi : 2 * std::numbers::pi;
+  if (by_angle) sweep = sweep_given;
   std::uint32_t turns = 1;
+  if (siemens && w.has_turn) {
+    // TURN=n: n further full circles of a helix (840D sl Fundamentals, "Helical interpolation").
+    turns = static_cast<std::uint32_t>(w.turn) + 1;
+    sweep += (cw ? -1.0 : 1.0) * 2 * std::numbers::pi * w.turn;
+  }
   if (d_.id == DialectId::linuxcnc && w.has('P') && !w.unresolved('P')) {
     const double pv = w.get('P');
     if (!(pv >= 1 && pv <= 1e6) || pv != std::floor(pv)) {
@@ -733,7 +852,50 @@ bool Interpreter::arc(const Block& b, const BlockWords& w, Motion& m, AxisMask s
   m.arc.radius = rs.norm();
   m.arc.sweep = sweep;
   m.arc.turns = turns;
-  m.arc.full_circle = same;
+  m.arc.full_circle = same && !by_angle;
+  return true;
+}
+
+bool Interpreter::check_arc_words(const Block& b, const BlockWords& w) {
+  // The combinations the 840D sl accepts (Fundamentals, "Circular interpolation", programming
+  // forms): AR= with either the centre or the end point, not with CR=; TURN= a whole number 0…999.
+  const auto at = [&](std::int16_t word) { return b.words[static_cast<std::size_t>(word)].span; };
+  const PlaneAxes p = plane_axes(s_.plane);
+  if (w.has_ar && !(w.ext_unresolved & 2u)) {
+    if (w.has_cr) {
+      report(b, at(w.ar_word), Severity::error, codes::kSiemensArcWords,
+             "AR= (opening angle) and CR= (radius) in one block over-determine the arc; keep one of them");
+      return false;
+    }
+    if (!(w.ar > 0 && w.ar < 360)) {
+      report(b, at(w.ar_word), Severity::error, codes::kSiemensArcWords,
+             fmt::format("opening angle AR={:g} is outside 0…360 degrees (exclusive); a full circle needs I J K", w.ar));
+      return false;
+    }
+    const bool centre = w.has(centre_letter(p.u)) || w.has(centre_letter(p.v));
+    const bool end = (w.axis_present & ((1u << p.u) | (1u << p.v))) != 0;
+    if (centre && end) {
+      report(b, at(w.ar_word), Severity::error, codes::kSiemensArcWords,
+             "AR= with both the centre (I J K) and the end point over-determines the arc; give AR= with one of them");
+      return false;
+    }
+  }
+  if (w.has_turn && !(w.ext_unresolved & 4u) && !(w.turn >= 0 && w.turn <= 999)) {
+    report(b, at(w.turn_word), Severity::error, codes::kSiemensArcWords,
+           fmt::format("TURN={:g}: the number of further full turns runs from 0 to 999", w.turn));
+    return false;
+  }
+  return true;
+}
+
+bool Interpreter::turn_fraction(const Block& b, const BlockWords& w) {
+  if (!w.has_turn || (w.ext_unresolved & 4u) || w.turn == std::floor(w.turn)) return false;
+  // The manual defines whole turns only; how the control reads a fraction is not documented. The
+  // block's path is not resolved; its end point is the programmed one either way.
+  report(b, b.words[static_cast<std::size_t>(w.turn_word)].span, Severity::warning, codes::kSiemensTurnFraction,
+         fmt::format("TURN={:g} is not a whole number of further full turns; how the control reads it is not "
+                     "documented, so this helix's path is not resolved (write TURN= as a whole number)",
+                     w.turn));
   return true;
 }
 
@@ -781,6 +943,270 @@ void Interpreter::drill(const Block& b, const BlockWords& w, Motion& m, MotionSi
   m.end = s_.position;
   m.known = s_.known;
   out.motion(m, b);
+}
+
+}  // namespace postproc::gcode
+
+namespace postproc::gcode {
+
+void Interpreter::emit(Motion& m, const Block& b, MotionSink& out) {
+  // Direction at the end of the motion, for a following CT (tangential arc).
+  const Eigen::Vector3d start = m.start.head<3>(), end = m.end.head<3>();
+  Eigen::Vector3d dir = end - start;
+  if (m.type == MotionType::arc_cw || m.type == MotionType::arc_ccw) {
+    const PlaneAxes p = plane_axes(m.plane);
+    Eigen::Vector3d radial = end - m.arc.centre;
+    radial[p.n] = 0;
+    Eigen::Vector3d normal = Eigen::Vector3d::Zero();
+    normal[p.n] = m.arc.sweep >= 0 ? 1.0 : -1.0;
+    // Helix: the in-plane tangent plus the climb per radian along the normal.
+    Eigen::Vector3d t = normal.cross(radial);
+    if (std::abs(m.arc.sweep) > 0) t[p.n] = (end[p.n] - start[p.n]) / std::abs(m.arc.sweep);
+    dir = t;
+  }
+  const AxisMask xyz = bit(Axis::x) | bit(Axis::y) | bit(Axis::z);
+  // An axis not written in the block does not move, known or not.
+  const AxisMask moved = static_cast<AxisMask>(m.programmed & xyz);
+  s_.tangent_known = (m.known & moved) == moved && m.frame == Frame::work && dir.allFinite() && dir.norm() > 1e-12;
+  if (s_.tangent_known) s_.tangent = dir.normalized();
+  out.motion(m, b);
+}
+
+bool Interpreter::siemens_motion_words(const Block& b, const BlockWords& w, GMeaning mode) {
+  const auto at = [&](std::int16_t word) { return b.words[static_cast<std::size_t>(word)].span; };
+  const bool arc_mode = mode == GMeaning::arc_cw || mode == GMeaning::arc_ccw;
+  // Words that belong to G2/G3 (AR= TURN=) or CIP (I1= J1= K1=) only.
+  const std::int16_t misplaced = !arc_mode && w.has_ar ? w.ar_word
+                                 : !arc_mode && w.has_turn ? w.turn_word
+                                 : mode != GMeaning::arc_cip && w.ip_present ? w.ip_word
+                                                                              : -1;
+  if (misplaced >= 0) {
+    report(b, at(misplaced), Severity::error, codes::kSiemensArcWords,
+           fmt::format("'{}' belongs to {} only; this block moves in another mode — remove the word or program the "
+                       "arc",
+                       b.text(at(misplaced)), misplaced == w.ip_word ? "a CIP arc" : "a G2/G3 arc"));
+    return false;
+  }
+  return true;
+}
+
+void Interpreter::corner_words(const Block& b, const BlockWords& w) {
+  const auto at = [&](std::int16_t word) { return b.words[static_cast<std::size_t>(word)].span; };
+  if (w.corner_word >= 0) {
+    // CHF=/CHR=/RND= insert a chamfer or rounding between this block's move and the next one and
+    // shorten both; RNDM= does so at every following corner (840D sl Fundamentals, "Chamfer,
+    // rounding: CHF, CHR, RND, RNDM").
+    const std::string_view text = b.text(at(w.corner_word));
+    report(b, at(w.corner_word), Severity::warning, codes::kSiemensCorner,
+           fmt::format("'{}' inserts a chamfer or rounding at the corner after this block, which this version does "
+                       "not compute: the tool does not reach the programmed corner point (compensation refuses the "
+                       "program unless --pass-through; write the chamfer or arc out as its own blocks)",
+                       text));
+  }
+}
+
+bool Interpreter::set_plane_arc(const Block& b, Span at, Motion& m, Plane plane, const Eigen::Vector2d& c,
+                                double sweep) {
+  const PlaneAxes p = plane_axes(plane);
+  const Eigen::Vector2d s(m.start[p.u], m.start[p.v]);
+  if ((s - c).norm() < 1e-9) {
+    report(b, at, Severity::error, codes::kArcGeometry, "arc of zero radius; check the end and intermediate points");
+    return false;
+  }
+  m.type = sweep >= 0 ? MotionType::arc_ccw : MotionType::arc_cw;
+  m.plane = plane;
+  m.arc.centre = m.start.head<3>();
+  m.arc.centre[p.u] = c.x();
+  m.arc.centre[p.v] = c.y();
+  m.arc.radius = (s - c).norm();
+  m.arc.sweep = sweep;
+  m.arc.turns = 1;
+  m.arc.full_circle = false;
+  return true;
+}
+
+bool Interpreter::cip_arc(const Block& b, const BlockWords& w, Motion& m, AxisMask start_known) {
+  // 840D sl Fundamentals, "Circular interpolation with intermediate and end points (CIP)": the circle
+  // runs from the start through I1= J1= K1= to the end; G90/G91 (or =AC/=IC) apply to the intermediate
+  // point as to the end point, incremental ones from the circle's start; an omitted component is 0.
+  const Span at = w.motion_keyword_span.size() > 0 ? w.motion_keyword_span
+                                                  : b.words[static_cast<std::size_t>(std::max<int>(0, w.ip_word))].span;
+  const AxisMask xyz = bit(Axis::x) | bit(Axis::y) | bit(Axis::z);
+  if ((start_known & xyz) != xyz || (s_.known & xyz) != xyz || (w.ext_unresolved & 8u)) {
+    if (!(w.ext_unresolved & 8u))
+      report(b, at, Severity::warning, codes::kUnknownPosition,
+             "CIP arc whose start or end point is unknown (after an unresolved construct); it is not resolved");
+    s_.known &= static_cast<AxisMask>(~xyz);
+    return false;
+  }
+  if (w.ip_present == 0) {
+    report(b, at, Severity::error, codes::kMissingWord,
+           "CIP without an intermediate point; write I1= J1= K1= (the point the arc passes through)");
+    s_.known &= static_cast<AxisMask>(~xyz);
+    return false;
+  }
+  const Eigen::Vector3d S = m.start.head<3>(), E = m.end.head<3>();
+  Eigen::Vector3d P;
+  for (int k = 0; k < 3; ++k) {
+    const bool incremental = ((w.ip_incremental >> k) & 1u) || (!s_.absolute && !((w.ip_absolute >> k) & 1u));
+    const double v = (w.ip_present >> k) & 1u ? to_mm(k, w.ip[k]) : 0.0;
+    P[k] = incremental ? S[k] + v : v;
+  }
+  // The circle must lie in one of the principal planes (the active one first).
+  const Plane order[3] = {s_.plane, s_.plane == Plane::xy ? Plane::zx : Plane::xy,
+                          s_.plane == Plane::yz ? Plane::zx : Plane::yz};
+  const double tol = 1e-6 + 1e-9 * (S - E).norm();
+  for (Plane pl : order) {
+    const PlaneAxes p = plane_axes(pl);
+    if (std::abs(S[p.n] - E[p.n]) > tol || std::abs(S[p.n] - P[p.n]) > tol) continue;
+    const Eigen::Vector2d s(S[p.u], S[p.v]), q(P[p.u], P[p.v]), e(E[p.u], E[p.v]);
+    const Eigen::Vector2d a = q - s, c2 = e - s;
+    const double cross = a.x() * c2.y() - a.y() * c2.x();
+    if (std::abs(cross) < 1e-9 * std::max(1.0, a.squaredNorm() + c2.squaredNorm())) {
+      report(b, at, Severity::error, codes::kArcGeometry,
+             "CIP start, intermediate and end points lie on one line (or coincide); no circle passes through them");
+      s_.known &= static_cast<AxisMask>(~xyz);
+      return false;
+    }
+    // Circumcentre of s, q, e (relative to s).
+    const double d = 2 * cross;
+    const Eigen::Vector2d rel((c2.y() * a.squaredNorm() - a.y() * c2.squaredNorm()) / d,
+                              (a.x() * c2.squaredNorm() - c2.x() * a.squaredNorm()) / d);
+    const Eigen::Vector2d c = s + rel;
+    // Direction from the order start → intermediate → end: counter-clockwise when the end lies left
+    // of start → intermediate.
+    const bool ccw = cross > 0;
+    const Eigen::Vector2d rs = s - c, re = e - c;
+    double sweep = std::atan2(rs.x() * re.y() - rs.y() * re.x(), rs.dot(re));
+    if (ccw && sweep <= 0) sweep += 2 * std::numbers::pi;
+    if (!ccw && sweep >= 0) sweep -= 2 * std::numbers::pi;
+    return set_plane_arc(b, at, m, pl, c, sweep);
+  }
+  report(b, at, Severity::warning, codes::kSiemensSpaceArc,
+         fmt::format("CIP circle through start ({:g} {:g} {:g}), intermediate ({:g} {:g} {:g}) and end point lies in no "
+                     "plane parallel to XY, ZX or YZ; this version does not resolve circles inclined in space (an "
+                     "omitted I1= J1= K1= reads as 0: write all three if the arc is meant to stay in its plane)",
+                     S.x(), S.y(), S.z(), P.x(), P.y(), P.z()));
+  s_.known &= static_cast<AxisMask>(~xyz);
+  return false;
+}
+
+bool Interpreter::tangent_arc(const Block& b, const BlockWords& w, Motion& m, AxisMask start_known,
+                              const Eigen::Vector3d& tangent, bool tangent_known) {
+  // 840D sl Fundamentals, "Circular interpolation with tangential transition (CT)": the arc in the
+  // active plane leaves the previous path element tangentially and ends at the programmed point.
+  const Span at = w.motion_keyword_span.size() > 0
+                      ? w.motion_keyword_span
+                      : b.words[static_cast<std::size_t>(std::max<int>(0, w.motion.word))].span;
+  const PlaneAxes p = plane_axes(s_.plane);
+  const AxisMask need = static_cast<AxisMask>((1u << p.u) | (1u << p.v));
+  if ((start_known & need) != need || (s_.known & need) != need) {
+    report(b, at, Severity::warning, codes::kUnknownPosition,
+           "CT arc whose start or end point is unknown (after an unresolved construct); it is not resolved");
+    s_.known &= static_cast<AxisMask>(~need);
+    return false;
+  }
+  const Eigen::Vector2d t(tangent[p.u], tangent[p.v]);
+  const bool helix = std::abs(m.end[p.n] - m.start[p.n]) > 1e-9;
+  if (!tangent_known || t.norm() < 1e-9 || std::abs(tangent[p.n]) > 1e-9 || helix) {
+    report(b, at, Severity::warning, codes::kSiemensSpaceArc,
+           !tangent_known ? "CT arc: the direction of the previous path element is not known here (no resolved move "
+                            "before it in this program); the arc is not resolved"
+                          : "CT arc whose previous path element or end point leaves the active plane; this version "
+                            "resolves tangential arcs in the active plane only");
+    s_.known &= static_cast<AxisMask>(~need);
+    return false;
+  }
+  const Eigen::Vector2d s(m.start[p.u], m.start[p.v]), e(m.end[p.u], m.end[p.v]);
+  const Eigen::Vector2d u = t.normalized();
+  const Eigen::Vector2d left(-u.y(), u.x());
+  const Eigen::Vector2d d = e - s;
+  const double side = left.dot(d);
+  if (std::abs(side) < 1e-9 * std::max(1.0, d.norm())) {
+    report(b, at, Severity::error, codes::kArcGeometry,
+           "CT end point lies on the tangent of the previous element: no arc leaves it tangentially; program G1");
+    s_.known &= static_cast<AxisMask>(~need);
+    return false;
+  }
+  // Centre on the normal through the start, equidistant from start and end.
+  const double rho = d.squaredNorm() / (2 * side);  // > 0: centre on the left, counter-clockwise
+  const Eigen::Vector2d c = s + rho * left;
+  const Eigen::Vector2d rs = s - c, re = e - c;
+  double sweep = std::atan2(rs.x() * re.y() - rs.y() * re.x(), rs.dot(re));
+  if (rho > 0 && sweep <= 0) sweep += 2 * std::numbers::pi;
+  if (rho < 0 && sweep >= 0) sweep -= 2 * std::numbers::pi;
+  return set_plane_arc(b, at, m, s_.plane, c, sweep);
+}
+
+}  // namespace postproc::gcode
+
+namespace postproc::gcode {
+
+void Interpreter::siemens_pole(const Block& b, const BlockWords& w, std::uint16_t code10, Span at) {
+  // Fundamentals, "Polar coordinates: G110, G111, G112": the pole relative to the last programmed
+  // position (G110), to the work origin (G111) or to the last pole (G112), given in X Y (plane axes)
+  // or as AP= RP= from that reference. A new pole asks for AP= and RP= again.
+  const PlaneAxes p = plane_axes(s_.plane);
+  const AxisMask plane_bits = static_cast<AxisMask>((1u << p.u) | (1u << p.v));
+  Eigen::Vector2d ref = Eigen::Vector2d::Zero();
+  bool known = true;
+  if (code10 == 1100) {
+    ref = Eigen::Vector2d(s_.position[p.u], s_.position[p.v]);
+    known = (s_.known & plane_bits) == plane_bits;
+  } else if (code10 == 1120) {
+    ref = s_.pole;
+    known = s_.pole_known && (s_.pole_plane == s_.plane || !s_.pole_defined);
+  }
+  const bool cartesian = (w.axis_present & plane_bits) != 0;
+  const bool polar = w.has_ap || w.has_rp;
+  Eigen::Vector2d off = Eigen::Vector2d::Zero();
+  if (cartesian && polar) {
+    report(b, at, Severity::error, codes::kSiemensArcWords,
+           "a pole is given either by its plane axes or by AP= RP=, not both; keep one");
+    known = false;
+  } else if (cartesian) {
+    if (w.axis_unresolved & plane_bits) known = false;
+    if (w.axis_present & (1u << p.u)) off.x() = to_mm(p.u, w.axis[p.u]);
+    if (w.axis_present & (1u << p.v)) off.y() = to_mm(p.v, w.axis[p.v]);
+  } else if (polar) {
+    if (!(w.has_ap && w.has_rp) || (w.ext_unresolved & (16u | 32u)) || w.ap_incremental || w.rp_incremental) {
+      known = false;
+    } else {
+      const double a = w.ap * std::numbers::pi / 180.0, r = to_mm(0, w.rp);
+      off = Eigen::Vector2d(r * std::cos(a), r * std::sin(a));
+    }
+  }
+  s_.pole = ref + off;
+  s_.pole_known = known;
+  s_.pole_defined = true;
+  s_.pole_plane = s_.plane;
+  s_.polar_angle_set = s_.polar_radius_set = false;
+}
+
+bool Interpreter::siemens_polar_end(const Block& b, const BlockWords& w, GMeaning mode, Eigen::Vector2d& end) {
+  // Fundamentals, "Travel commands with polar coordinates (G0, G1, G2, G3, AP, RP)": AP= the angle
+  // from the plane's first axis (AP=IC(…) from the last angle), RP= the radius; both modal.
+  (void)b;
+  const bool motion = mode == GMeaning::rapid || mode == GMeaning::linear || mode == GMeaning::arc_cw ||
+                      mode == GMeaning::arc_ccw;
+  const PlaneAxes p = plane_axes(s_.plane);
+  const AxisMask plane_bits = static_cast<AxisMask>((1u << p.u) | (1u << p.v));
+  const bool pole_ok = s_.pole_known && (!s_.pole_defined || s_.pole_plane == s_.plane);
+  if (!motion || !pole_ok || !s_.absolute || (w.axis_present & plane_bits) || (w.ext_unresolved & (16u | 32u)) ||
+      w.rp_incremental)
+    return false;
+  if (!s_.pole_defined) s_.pole = Eigen::Vector2d::Zero();  // no pole: the work origin
+  double ap = s_.polar_angle, rp = s_.polar_radius;
+  if (w.has_ap) ap = w.ap_incremental ? s_.polar_angle + w.ap : w.ap;
+  if (w.has_rp) rp = to_mm(0, w.rp);
+  if ((!w.has_ap || w.ap_incremental) && !s_.polar_angle_set) return false;
+  if (!w.has_rp && !s_.polar_radius_set) return false;
+  s_.polar_angle = ap;
+  s_.polar_radius = rp;
+  s_.polar_angle_set = s_.polar_radius_set = true;
+  const double a = ap * std::numbers::pi / 180.0;
+  end = s_.pole + rp * Eigen::Vector2d(std::cos(a), std::sin(a));
+  return true;
 }
 
 }  // namespace postproc::gcode

@@ -479,7 +479,8 @@ class Lexer {
       std::uint32_t v = skip_space(after + 1);
       std::uint32_t end = siemens_expression_end(v);
       if (end == v) return bad(i, "PP-E109", fmt::format("'{}=' without a value", ident), "write a value after '='");
-      const bool is_address = letters.size() <= 2 && (letters.size() == 1 || is_siemens_two_letter(letters));
+      const bool is_address = (letters.size() <= 2 && (letters.size() == 1 || is_siemens_two_letter(letters))) ||
+                              (d == e && is_siemens_motion_address(letters));
       if (!is_address || (letters.size() == 1 && upper(letters[0]) == 'R')) {
         push_token(TokenKind::assignment, {i, end}, {i, d});
         return end;
@@ -558,14 +559,52 @@ class Lexer {
       if (iequals(l, k)) return true;
     return false;
   }
+  /// Sinumerik multi-letter motion addresses (840D sl Fundamentals, "Motion commands"): helix turns,
+  /// chamfer and rounding. They are words of the block, not variable assignments.
+  static bool is_siemens_motion_address(std::string_view l) {
+    constexpr std::string_view kNames[] = {"TURN", "CHF", "CHR", "RND", "RNDM"};
+    for (auto k : kNames)
+      if (iequals(l, k)) return true;
+    return false;
+  }
   std::uint8_t extended_index(std::uint32_t from, std::uint32_t to) const {
     unsigned v = 0;
     for (std::uint32_t k = from; k < to && v < 100; ++k)
       if (is_digit(s_[k])) v = v * 10 + static_cast<unsigned>(s_[k] - '0');
     return static_cast<std::uint8_t>(v);
   }
-  /// Siemens value after '=': runs to whitespace at bracket depth 0 (or a comment).
+  /// Siemens value after '=': runs to whitespace at bracket depth 0 (or a comment), and on across
+  /// blanks next to an operator (`R1 = 2 * 4`, `R1=7 DIV 2`) as the Sinumerik reads it — the same rule
+  /// as the resolver's (src/gcode/resolve/siemens_parse.hpp, extended_end), so that check and convert
+  /// read one program alike.
   std::uint32_t siemens_expression_end(std::uint32_t v) {
+    std::uint32_t e = siemens_value_end(v);
+    for (;;) {
+      const std::uint32_t q = skip_space(e);
+      if (q >= n() || q == e || s_[q] == ';' || e == v) return e;
+      const char prev = s_[e - 1];
+      bool prev_op = std::string_view("+-*/<>=(,").find(prev) != std::string_view::npos;
+      if (!prev_op && is_ident(prev)) {
+        std::uint32_t k = e;
+        while (k > v && is_ident(s_[k - 1])) --k;
+        prev_op = operator_keyword(s_.substr(k, e - k), true);
+      }
+      bool next_op = std::string_view("+-*/<>=").find(s_[q]) != std::string_view::npos;
+      if (!next_op && (is_alpha(s_[q]) || s_[q] == '_')) {
+        std::uint32_t k = q;
+        while (k < n() && is_ident(s_[k])) ++k;
+        next_op = operator_keyword(s_.substr(q, k - q), false) && k < n() && (is_space(s_[k]) || s_[k] == '(');
+      }
+      if (!prev_op && !next_op) return e;
+      e = std::max(siemens_value_end(q), q + 1);
+    }
+  }
+  static bool operator_keyword(std::string_view id, bool unary_too) {
+    for (std::string_view k : {"DIV", "MOD", "AND", "OR", "XOR", "B_AND", "B_OR", "B_XOR"})
+      if (iequals(id, k)) return true;
+    return unary_too && (iequals(id, "NOT") || iequals(id, "B_NOT"));
+  }
+  std::uint32_t siemens_value_end(std::uint32_t v) {
     int depth = 0;
     bool in_string = false;
     std::uint32_t e = v;

@@ -118,6 +118,11 @@ bool Linearizer::check(const Block& b, const Motion& m) {
     refuse(b, at, "an arc whose axis words are not work coordinates (Fanuc G16 polar or G51.1 mirror image)");
     return false;
   }
+  if (track_.motion == GMeaning::arc_cip || track_.motion == GMeaning::arc_tangent) {
+    // The chords would be written under the modal CIP / CT, which reads them as arcs.
+    refuse(b, at, "a Sinumerik CIP / CT arc (its chords would need the motion mode changed to G1 and back)");
+    return false;
+  }
   for (const Word& w : b.words) {
     if (!plain_letter(w)) {
       if (upper(b.text(w.name)) == "CR" && w.kind == ValueKind::number) continue;

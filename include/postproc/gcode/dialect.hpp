@@ -29,6 +29,8 @@ enum class GMeaning : std::uint8_t {
   polar_interp_on, polar_interp_off,  ///< G12.1/G112 and G13.1/G113
   cylindrical_interp,     ///< Fanuc G7.1/G107: unresolved
   nurbs_or_ai_contour,    ///< Fanuc G05.1 Q1 (AI contour control): state only
+  arc_cip,                ///< Sinumerik CIP: circle through an intermediate point (modal, group 1)
+  arc_tangent,            ///< Sinumerik CT: circle tangent to the previous path element (modal, group 1)
   // planes
   plane_xy, plane_zx, plane_yz,
   // distance
@@ -121,6 +123,12 @@ struct Dialect {
   /// Fanuc: canned cycles are a modal group of their own, so G80 leaves the G00/G01/G02/G03 that was
   /// active before the cycle; LinuxCNC: G80 leaves no motion mode.
   bool g80_keeps_motion = false;
+  /// Sinumerik basic system (MD10240 $MN_SCALING_SYSTEM_IS_METRIC): false = metric (assumed). G70/G71
+  /// leave feeds in the basic system; only G700/G710 change them too.
+  bool basic_inch = false;
+  /// Motion mode in force before the program's first G0/G1/G2/G3 (Sinumerik: reset value of G group 1,
+  /// MD20150 $MC_GCODE_RESET_VALUES[0], factory setting G1). cancel_motion = none (axis words refused).
+  GMeaning reset_motion = GMeaning::cancel_motion;
   /// Table indexed by code10; GMeaning::unknown where the dialect has no such code.
   std::vector<GCodeDef> gcodes;
 
@@ -140,6 +148,10 @@ struct DialectOptions {
   std::map<std::uint32_t, double> tool_radii;    ///< mm, see Dialect::tool_radii
   /// Fanuc only: power-on motion mode, 0 = G00 (factory setting) or 1 = G01 (parameter 3402#0 G01).
   int power_on_motion = 0;
+  /// Siemens only: basic system inch (MD10240 = 0); default metric.
+  bool basic_inch = false;
+  /// Siemens only: reset motion mode of G group 1 (MD20150[0]): '0' G0, '1' G1; 0 = factory setting (G1).
+  char reset_motion = 0;
 };
 
 /// Builds the dialect named `name` (fanuc, siemens, linuxcnc, heidenhain-iso); nullopt if unknown.

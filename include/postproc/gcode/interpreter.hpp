@@ -30,6 +30,7 @@ struct ModalState {
   bool absolute = true;
   bool arc_absolute = false;        ///< G90.1 (LinuxCNC); IJK incremental by default
   bool inch = false;
+  bool feed_inch = false;           ///< F in inch/min (inch/rev); Sinumerik: only after G700 (G70 keeps the basic system)
   FeedMode feed_mode = FeedMode::per_minute;
   double feed = 0;                  ///< in program units (mm or inch per min/rev; 1/min inverse time)
   bool feed_known = false;
@@ -76,6 +77,14 @@ struct ModalState {
   AxisMask home_mid_known = 0;
   Eigen::Vector3d circle_centre = Eigen::Vector3d::Zero();  ///< Heidenhain CC (I J K), mm, modal
   std::uint8_t circle_centre_known = 0;  ///< bits 0..2 = X Y Z components set
+  Eigen::Vector2d pole = Eigen::Vector2d::Zero();  ///< Siemens polar pole in the plane's (first, second) axes, mm
+  Plane pole_plane = Plane::xy;
+  bool pole_defined = false;        ///< G110/G111/G112 seen (else the work origin is the pole)
+  bool pole_known = true;
+  double polar_angle = 0, polar_radius = 0;  ///< modal AP= (deg) and RP= (mm)
+  bool polar_angle_set = false, polar_radius_set = false;
+  Eigen::Vector3d tangent = Eigen::Vector3d::UnitX();  ///< direction at the end of the last motion (Siemens CT)
+  bool tangent_known = false;
   AxisVector position = AxisVector::Zero();  ///< current point, active work coordinates, mm / deg
   AxisMask known = 0;
 };
@@ -104,6 +113,17 @@ class Interpreter {
   void do_motion(const Block& b, BlockWords& w, MotionSink& out);
   bool target(const Block& b, const BlockWords& w, Motion& m);
   bool arc(const Block& b, const BlockWords& w, Motion& m, AxisMask start_known);
+  bool check_arc_words(const Block& b, const BlockWords& w);
+  bool turn_fraction(const Block& b, const BlockWords& w);
+  bool siemens_motion_words(const Block& b, const BlockWords& w, GMeaning mode);
+  void corner_words(const Block& b, const BlockWords& w);
+  void siemens_pole(const Block& b, const BlockWords& w, std::uint16_t code10, Span at);
+  bool siemens_polar_end(const Block& b, const BlockWords& w, GMeaning mode, Eigen::Vector2d& end);
+  bool cip_arc(const Block& b, const BlockWords& w, Motion& m, AxisMask start_known);
+  bool tangent_arc(const Block& b, const BlockWords& w, Motion& m, AxisMask start_known,
+                   const Eigen::Vector3d& tangent, bool tangent_known);
+  bool set_plane_arc(const Block& b, Span at, Motion& m, Plane plane, const Eigen::Vector2d& c, double sweep);
+  void emit(Motion& m, const Block& b, MotionSink& out);
   bool radii_agree(const Block& b, Span at, const Eigen::Vector2d& s, const Eigen::Vector2d& e,
                    const Eigen::Vector2d& c);
   void drill(const Block& b, const BlockWords& w, Motion& m, MotionSink& out);

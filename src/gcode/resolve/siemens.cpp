@@ -42,9 +42,7 @@ double* Siemens::var_slot(const Pool& p, const Node& n, Var** whole_out, VType* 
   Frame& fr = *frames_.back();
   const std::string& name = p.names[n.name];
   auto it = fr.vars.find(name);
-  if (it == fr.vars.end())
-    throw Fail{"PP-E703", n.span, fmt::format("'{}' is not a known variable; declare it with DEF at the top of the program, or check the spelling", name)};
-  Var& v = it->second;
+  Var& v = it != fr.vars.end() ? it->second : global(name, n.span, false, n.count);
   if (!numeric(v.type))
     throw Fail{"PP-E709", n.span, fmt::format("{} is a {} variable; the resolver evaluates only REAL, INT and BOOL values", name, type_name(v.type))};
   if (type_out) *type_out = v.type;
@@ -53,6 +51,31 @@ double* Siemens::var_slot(const Pool& p, const Node& n, Var** whole_out, VType* 
     return nullptr;
   }
   return element(v, p, n, p.kids.data() + n.first, n.count, n.span);
+}
+
+Var& Siemens::global(const std::string& name, Span span, bool write, std::size_t indices) {
+  // A name the program uses without DEF: a global user variable (GUD) or another variable defined on
+  // the controller, not in the program (Job planning, "Global user data (GUD)"). Its value is the
+  // controller's: known only when the program writes it first or the user gives it (--set).
+  if (auto g = globals_.find(name); g != globals_.end()) return g->second;
+  const auto make = [&](double value) -> Var& {
+    Var v;
+    v.own = std::make_shared<std::vector<double>>(1, value);
+    v.p = v.own->data();
+    return globals_.emplace(name, std::move(v)).first->second;
+  };
+  if (indices == 0) {
+    for (const auto& [key, value] : opt_.set)
+      if (text::iequals(key, name)) {
+        r_.used_settings[key] = value;
+        return make(value);
+      }
+    if (write) return make(0.0);
+  }
+  throw Fail{"PP-U242", span,
+             fmt::format("'{}' is not defined in this program: a global user variable (GUD) or machine data whose value "
+                         "is known only on the controller; give it with --set {}=… (or DEF it in the program){}",
+                         name, name, indices ? " — an undeclared array cannot be given this way" : "")};
 }
 
 double Siemens::read_var(const Pool& p, const Node& n) { return *var_slot(p, n, nullptr, nullptr); }
@@ -175,9 +198,7 @@ void Siemens::assign(const Pool& p, const Target& t, double v) {
     case Target::var: {
       Frame& fr = *frames_.back();
       auto it = fr.vars.find(t.name);
-      if (it == fr.vars.end())
-        throw Fail{"PP-E703", t.span, fmt::format("'{}' is not a known variable; declare it with DEF at the top of the program, or check the spelling", t.name)};
-      Var& var = it->second;
+      Var& var = it != fr.vars.end() ? it->second : global(t.name, t.span, true, t.index.size());
       if (!numeric(var.type))
         throw Fail{"PP-E709", t.span, fmt::format("{} is a {} variable; the resolver evaluates only REAL, INT and BOOL values", t.name, type_name(var.type))};
       Node dummy;
@@ -432,7 +453,14 @@ bool Siemens::step(Frame& fr, Line& L) {
         }
         case Item::word: {
           const WordSub& s = L.subs[it.index];
-          edits_.push_back({s.edit, format_value(eval(L.pool, s.expr), s.letter)});
+          try {
+            edits_.push_back({s.edit, format_value(eval(L.pool, s.expr), s.letter)});
+          } catch (const Fail& e) {
+            if (std::string_view(e.code) != "PP-U242") throw;
+            // Only this word depends on the unknown value: it stays as written, and the
+            // interpreter reads its effect as unknown (this block is refused, not the program).
+            report(f, i, L, e.span, Severity::warning, e.code, e.message);
+          }
           break;
         }
         case Item::decl: declare(fr, L.pool, L.decls[it.index]); break;
@@ -577,8 +605,7 @@ bool Siemens::step(Frame& fr, Line& L) {
           const Target& t = H.for_var;
           if (t.kind == Target::var) {
             auto it = fr.vars.find(t.name);
-            if (it == fr.vars.end()) throw Fail{"PP-E703", L.ctl_span, fmt::format("FOR variable '{}' is not declared; declare it with DEF INT", t.name)};
-            Var& var = it->second;
+            Var& var = it != fr.vars.end() ? it->second : global(t.name, L.ctl_span, false, t.index.size());
             Node dummy;
             cur_line_ = head;
             v = *element(var, H.pool, dummy, t.index.data(), t.index.size(), t.span);

@@ -118,6 +118,7 @@ class Siemens {
   double eval(const Pool& p, std::uint32_t n);
   double read_var(const Pool& p, const Node& n);
   double* var_slot(const Pool& p, const Node& n, Var** whole_out, VType* type_out);
+  Var& global(const std::string& name, Span span, bool write, std::size_t indices);
   double* element(Var& v, const Pool& p, const Node& n, const std::uint32_t* idx, std::size_t count, Span span);
   double* r_slot(int r, Span span);
   void assign(const Pool& p, const Target& t, double v);
@@ -144,6 +145,12 @@ class Siemens {
   SourceFile* find_file(const std::string& name);
   void report(SourceFile& f, std::size_t i, const Line& L, Span span, Severity sev, std::string_view code, std::string msg);
   void fail(SourceFile& f, std::size_t i, const Line& L, const Fail& e) {
+    if (std::string_view(e.code) == "PP-U242") {
+      // An unknown GUD value decides an assignment, a condition or a call: the run cannot go on.
+      report(f, i, L, e.span, Severity::error, "PP-E241",
+             e.message + "; here it decides an assignment, condition or call, so the program cannot be followed past it");
+      return;
+    }
     report(f, i, L, e.span, Severity::error, e.code, e.message);
   }
 
@@ -158,6 +165,7 @@ class Siemens {
   std::vector<std::uint8_t> rstate_;  ///< 0 never assigned, 1 assigned, 2 from --set (not yet read)
   std::vector<std::unique_ptr<Frame>> frames_;
   std::unordered_map<std::string, SourceFile*> file_cache_;
+  std::unordered_map<std::string, Var> globals_;  ///< GUD names the program writes or --set gives
   std::vector<Edit> edits_;
   SourceFile* cur_file_ = nullptr;
   std::size_t cur_line_ = 0;
