@@ -158,6 +158,15 @@ struct Program : gc::BlockVisitor {
   int lex_errors = 0;
 };
 
+/// Expects a diagnostic `code` (the first one stored) at line:column.
+template <class Run>
+void expect_diag_at(const Run& r, std::string_view code, std::uint64_t line, std::uint32_t column) {
+  const gc::Diagnostic* d = r.find(code);
+  ASSERT_NE(d, nullptr) << "no " << code << "; got " << r.all_codes();
+  EXPECT_EQ(d->where.line, line) << code;
+  EXPECT_EQ(d->where.column, column) << code;
+}
+
 /// A fresh folder under the system temp dir, removed with its contents at the end of the test.
 class TempDir {
  public:

@@ -32,14 +32,6 @@ bool known(const gc::Motion& m, Axis a) { return (m.known & gc::bit(a)) != 0; }
     EXPECT_NEAR((m).end[2], (z), kTol); \
   } while (0)
 
-/// Expects a diagnostic `code` at line:column.
-void expect_diag(const Program& r, std::string_view code, std::uint64_t line, std::uint32_t column) {
-  const gc::Diagnostic* d = r.find(code);
-  ASSERT_NE(d, nullptr) << "no " << code << "; got " << r.all_codes();
-  EXPECT_EQ(d->where.line, line) << code;
-  EXPECT_EQ(d->where.column, column) << code;
-}
-
 // ---- 1. G16/G15 polar coordinate command --------------------------------------------------------
 
 // B-64484EN II "Polar coordinate command (G15, G16)" (Series 16/18-C: section 9.2): G90 makes the
@@ -81,7 +73,7 @@ TEST(ReaderFanuc, PolarOmittedAngleAndNormalAxis) {
 // the radius word (PP-U230) and the plane position becomes unknown.
 TEST(ReaderFanuc, PolarIncrementalRadiusRefused) {
   const Program r(dialect("fanuc"), "G90 G0 X0 Y0\nG16 G91 G1 X10. Y45. F100.\nG15 G90 G0 X1. Y2.\n");
-  expect_diag(r, "PP-U230", 2, 12);
+  expect_diag_at(r, "PP-U230", 2, 12);
   EXPECT_EQ(r.at_line(2), nullptr);
   EXPECT_XYZ(*r.at_line(3), 1, 2, 0);
 }
@@ -107,7 +99,7 @@ TEST(ReaderFanuc, ScalingRefusedWhileActive) {
   const Program r(dialect("fanuc"), "G90 G0 X1. Y1.\nG51 X0 Y0 P2.\nG1 X10. Y10. F100.\nG50\nG1 X5. Y6.\n");
   ASSERT_EQ(r.motions.size(), 2u) << r.all_codes();
   EXPECT_XYZ(r.motions[0], 1, 1, 0);  // the G51 block is not a move
-  expect_diag(r, "PP-U231", 3, 4);
+  expect_diag_at(r, "PP-U231", 3, 4);
   EXPECT_EQ(r.at_line(3), nullptr);
   EXPECT_XYZ(*r.at_line(5), 5, 6, 0);
   EXPECT_TRUE(known(*r.at_line(5), Axis::x));
@@ -147,7 +139,7 @@ TEST(ReaderFanuc, MirrorArcCentreWords) {
 // position, which this version does not follow: refused at the word (PP-U232).
 TEST(ReaderFanuc, MirrorIncrementalRefused) {
   const Program r(dialect("fanuc"), "G90 G0 X0 Y0\nG51.1 X5.\nG91 G1 X2. Y3. F100.\nG90 G1 X1. Y1.\n");
-  expect_diag(r, "PP-U232", 3, 8);
+  expect_diag_at(r, "PP-U232", 3, 8);
   EXPECT_EQ(r.at_line(3), nullptr);
   EXPECT_XYZ(*r.at_line(4), 9, 1, 0);
 }
@@ -176,7 +168,7 @@ TEST(ReaderFanuc, G29ThroughIntermediatePoint) {
 // Same section: G91 G29 for an axis without a known intermediate point is refused (PP-U234).
 TEST(ReaderFanuc, G29IncrementalWithoutIntermediateRefused) {
   const Program r(dialect("fanuc"), "G90 G0 X10. Y10.\nG28 Z0\nG91 G29 X5.\n");
-  expect_diag(r, "PP-U234", 3, 5);
+  expect_diag_at(r, "PP-U234", 3, 5);
   ASSERT_NE(r.at_line(3), nullptr);
   EXPECT_FALSE(known(*r.at_line(3), Axis::x));
 }
@@ -229,7 +221,7 @@ TEST(ReaderFanuc, ArcRadiusWinsOverCentreWords) {
 // LinuxCNC docs G-code "G2, G3 Arc": radius format and centre format are exclusive; both is an error.
 TEST(ReaderFanuc, LinuxcncArcRadiusAndCentreIsAnError) {
   const Program r(dialect("linuxcnc"), "G17 G90 G0 X0 Y0\nG2 X10 Y0 R5 I5 F100\n");
-  expect_diag(r, "PP-E301", 2, 11);
+  expect_diag_at(r, "PP-E301", 2, 11);
   EXPECT_EQ(r.at_line(2), nullptr);
 }
 
@@ -250,7 +242,7 @@ TEST(ReaderFanuc, PowerOnMotionIsG00OrG01ByParameter) {
   EXPECT_EQ(linear.motions[0].type, MotionType::linear);
   // LinuxCNC powers on in G80: axis words need a motion G first.
   const Program lc(dialect("linuxcnc"), "G90 X10 Y5\n");
-  expect_diag(lc, "PP-E204", 1, 5);
+  expect_diag_at(lc, "PP-E204", 1, 5);
 }
 
 // B-64484EN II "Canned cycle for drilling": canned cycles are group 09, G80 cancels them and the
@@ -275,7 +267,7 @@ TEST(ReaderFanuc, G80ReturnsToPreviousGroup01Motion) {
 // radius); both motions are refused at the word (PP-U233); the end of the next block is exact again.
 TEST(ReaderFanuc, CornerRoundingRefusedAtItsWord) {
   const Program r(dialect("fanuc"), "G90 G0 X0 Y0\nG1 X10. ,R2. F100.\nY10.\nX20.\n");
-  expect_diag(r, "PP-U233", 2, 9);
+  expect_diag_at(r, "PP-U233", 2, 9);
   EXPECT_EQ(r.at_line(2), nullptr);
   EXPECT_EQ(r.at_line(3), nullptr);  // its start is moved by the rounding
   ASSERT_NE(r.at_line(4), nullptr) << r.all_codes();
@@ -295,7 +287,7 @@ TEST(ReaderFanuc, CornerRoundingRefusedAtItsWord) {
 // angle makes the omitted axis unknown.
 TEST(ReaderFanuc, LatheDirectDrawingRefused) {
   const Program r(dialect("fanuc", true), "G0 X20. Z0\nG1 Z-10. R2. F0.2\nX40.\nG1 X60. A30.\nZ-40.\nZ-50.\n");
-  expect_diag(r, "PP-U233", 2, 10);
+  expect_diag_at(r, "PP-U233", 2, 10);
   EXPECT_EQ(r.at_line(2), nullptr);
   EXPECT_EQ(r.at_line(3), nullptr);
   EXPECT_EQ(r.at_line(4), nullptr);
@@ -397,7 +389,7 @@ TEST(ReaderFanuc, LatheGCodeSystemB) {
   ASSERT_NE(r.at_line(2), nullptr) << r.all_codes();
   EXPECT_NEAR(r.at_line(2)->end[0], 8, kTol);  // diameter 20 - 4 = 16: radius 8
   EXPECT_NEAR(r.at_line(2)->end[2], -5, kTol);
-  expect_diag(r, "PP-U235", 3, 8);
+  expect_diag_at(r, "PP-U235", 3, 8);
   ASSERT_NE(r.at_line(3), nullptr);
   EXPECT_NEAR(r.at_line(3)->end[0], 8, kTol);  // X unchanged: U is not incremental X in system B
   const Program a(dialect("fanuc", true), "G91 G1 X2.\n");

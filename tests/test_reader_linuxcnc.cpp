@@ -14,15 +14,6 @@ using gc::Axis;
 using gc::MotionType;
 constexpr double kTol = 1e-9;
 
-bool known(const gc::Motion& m, Axis a) { return (m.known & gc::bit(a)) != 0; }
-
-void expect_at(const Program& r, std::string_view code, std::uint64_t line, std::uint32_t column) {
-  const gc::Diagnostic* d = r.find(code);
-  ASSERT_NE(d, nullptr) << "no " << code << "; got " << r.all_codes();
-  EXPECT_EQ(d->where.line, line) << code;
-  EXPECT_EQ(d->where.column, column) << code;
-}
-
 // LinuxCNC G-code reference "G4 Dwell": P is the time; rs274 runs "G4 P1 X20" as DWELL(1) then
 // STRAIGHT_FEED to X20 in the modal G1.
 TEST(ReaderLinuxcnc, DwellAxisWordsBelongToTheModalMotion) {
@@ -41,7 +32,7 @@ TEST(ReaderLinuxcnc, FanucDwellXIsATimeAndOtherAxesAreRefused) {
   const Program r(dialect("fanuc"), "G90 G1 X1 Y1 F100\nG04 X200.\nG04 X1. Y5.\n");
   ASSERT_EQ(r.motions.size(), 1u) << r.all_codes();
   EXPECT_NEAR(r.motions[0].end[0], 1, kTol);
-  expect_at(r, "PP-E206", 3, 9);
+  expect_diag_at(r, "PP-E206", 3, 9);
   const Program lathe(dialect("fanuc", true), "G0 X20. Z5.\nG04 U1.5\nG1 Z0 F0.1\n");
   ASSERT_EQ(lathe.motions.size(), 2u) << lathe.all_codes();
   EXPECT_NEAR(lathe.motions[1].end[0], 10, kTol);  // X stays at diameter 20: U was the dwell
@@ -50,7 +41,7 @@ TEST(ReaderLinuxcnc, FanucDwellXIsATimeAndOtherAxesAreRefused) {
 // Sinumerik Fundamentals, "Dwell time (G4)": G4 F/S in a block of its own.
 TEST(ReaderLinuxcnc, SiemensDwellWithAxisWordsIsRefused) {
   const Program r(dialect("siemens"), "G1 X1 F100\nG4 F2 X5\n");
-  expect_at(r, "PP-E206", 2, 7);
+  expect_diag_at(r, "PP-E206", 2, 7);
   ASSERT_EQ(r.motions.size(), 1u);
 }
 
@@ -93,9 +84,9 @@ TEST(ReaderLinuxcnc, ModalStateSaveAndRestore) {
   EXPECT_NEAR(r.motions[2].end[2], 10, kTol); // the offset is gone again
   EXPECT_NEAR(r.motions[3].end[2], 1, kTol);  // G99 restored: the hole ends at R
   const Program bad(dialect("linuxcnc"), "G0 X0\nM70\nM71\nM72\n");
-  expect_at(bad, "PP-E207", 4, 1);
+  expect_diag_at(bad, "PP-E207", 4, 1);
   const Program auto_restore(dialect("linuxcnc"), "G0 X0\nM73\n");
-  expect_at(auto_restore, "PP-U222", 2, 1);
+  expect_diag_at(auto_restore, "PP-U222", 2, 1);
 }
 
 // rs274: G92 X10 at X0 then G52 X5 gives a G92 offset of 5 (G52 replaces it), G92.1 clears both.
@@ -112,7 +103,7 @@ TEST(ReaderLinuxcnc, G52AndG92ShareOneOffset) {
 TEST(ReaderLinuxcnc, G53UnderG91IsRefused) {
   for (const char* d : {"linuxcnc", "fanuc"}) {
     const Program r(dialect(d), "G21 G90\nG0 X1 Y1\nG91 G53 G0 X1\n");
-    expect_at(r, "PP-E207", 3, 5);
+    expect_diag_at(r, "PP-E207", 3, 5);
     EXPECT_EQ(r.motions.size(), 1u) << d;
   }
 }
@@ -120,9 +111,9 @@ TEST(ReaderLinuxcnc, G53UnderG91IsRefused) {
 // rs274 stops at a feed move after G93 → G94 without a new F, and at a G93 feed move without F.
 TEST(ReaderLinuxcnc, InverseTimeFeedRules) {
   const Program r(dialect("linuxcnc"), "G21 G90\nG0 X1 Y1\nG93 G1 X2 F10\nG94\nG1 X3\n");
-  expect_at(r, "PP-E207", 5, 1);
+  expect_diag_at(r, "PP-E207", 5, 1);
   const Program g93(dialect("linuxcnc"), "G21 G90\nG0 X1 Y1\nG93 G1 X2 F10\nX3\n");
-  expect_at(g93, "PP-E207", 4, 1);
+  expect_diag_at(g93, "PP-E207", 4, 1);
   const Program ok(dialect("linuxcnc"), "G21 G90\nG0 X1 Y1\nG93 G1 X2 F10\nG94 G1 X3 F200\nG0 X4\n");
   EXPECT_EQ(ok.motions.size(), 4u) << ok.all_codes();
   EXPECT_FALSE(ok.has("PP-E207"));
@@ -141,9 +132,9 @@ TEST(ReaderLinuxcnc, PolarWords) {
   EXPECT_NEAR(r.motions[4].end[0], 5, kTol);
   EXPECT_NEAR(r.motions[4].end[1], 0, kTol);
   const Program mixed(dialect("linuxcnc"), "G21 G90\nG0 X3 Y4\nG0 @1 X1\n");
-  expect_at(mixed, "PP-E207", 3, 4);
+  expect_diag_at(mixed, "PP-E207", 3, 4);
   const Program origin(dialect("linuxcnc"), "G21 G90\nG0 X0 Y0\nG91 G0 @1\n");
-  expect_at(origin, "PP-E207", 3, 8);
+  expect_diag_at(origin, "PP-E207", 3, 8);
 }
 
 // Editors on Windows write a UTF-8 byte-order mark; the controllers skip it.

@@ -40,7 +40,7 @@ struct Interpreter::BlockWords {
   std::uint8_t ip_present = 0, ip_absolute = 0, ip_incremental = 0;  ///< bits 0..2 = I1 J1 K1
   std::uint8_t ext_unresolved = 0;        ///< bits: 1 CR, 2 AR, 4 TURN, 8 I1/J1/K1, 16 AP, 32 RP not literal
   std::int16_t cr_word = -1, ar_word = -1, turn_word = -1, ip_word = -1;
-  std::int16_t corner_word = -1;          ///< CHF= CHR= RND= RNDM= (first of them)
+  std::int16_t siemens_corner_word = -1;          ///< CHF= CHR= RND= RNDM= (first of them)
   double ap = 0, rp = 0;                  ///< AP= polar angle (deg), RP= polar radius (program units)
   bool has_ap = false, has_rp = false, ap_incremental = false, rp_incremental = false;
   int m_count = 0;

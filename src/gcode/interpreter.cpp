@@ -195,7 +195,7 @@ bool Interpreter::collect(const Block& b, BlockWords& w) {
       } else if (iequals(nm, "CHF") || iequals(nm, "CHR") || iequals(nm, "RND") || iequals(nm, "RNDM")) {
         // RNDM=0 switches modal rounding off: nothing is inserted.
         const bool off = iequals(nm, "RNDM") && resolved && v == 0;
-        if (w.corner_word < 0 && !off) w.corner_word = wi;
+        if (w.siemens_corner_word < 0 && !off) w.siemens_corner_word = wi;
       } else if (d_.id == DialectId::siemens && word.index == 1 && word.name_len == 2 && word.letter >= 'I' &&
                  word.letter <= 'K') {
         // I1= J1= K1=: the intermediate point of CIP.

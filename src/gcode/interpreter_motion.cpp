@@ -992,12 +992,12 @@ bool Interpreter::siemens_motion_words(const Block& b, const BlockWords& w, GMea
 
 void Interpreter::corner_words(const Block& b, const BlockWords& w) {
   const auto at = [&](std::int16_t word) { return b.words[static_cast<std::size_t>(word)].span; };
-  if (w.corner_word >= 0) {
+  if (w.siemens_corner_word >= 0) {
     // CHF=/CHR=/RND= insert a chamfer or rounding between this block's move and the next one and
     // shorten both; RNDM= does so at every following corner (840D sl Fundamentals, "Chamfer,
     // rounding: CHF, CHR, RND, RNDM").
-    const std::string_view text = b.text(at(w.corner_word));
-    report(b, at(w.corner_word), Severity::warning, codes::kSiemensCorner,
+    const std::string_view text = b.text(at(w.siemens_corner_word));
+    report(b, at(w.siemens_corner_word), Severity::warning, codes::kSiemensCorner,
            fmt::format("'{}' inserts a chamfer or rounding at the corner after this block, which this version does "
                        "not compute: the tool does not reach the programmed corner point (compensation refuses the "
                        "program unless --pass-through; write the chamfer or arc out as its own blocks)",

@@ -237,6 +237,10 @@ std::optional<Machine> parse_machine(std::string file, std::string text, gcode::
     // Fanuc parameter 3402#0 (G01): the motion mode at power-on / reset, G0 unless the machine says G1.
     static constexpr std::string_view kPowerOn[] = {"G0", "G1"};
     if (auto pm = f.text("power_on_motion", false, kPowerOn)) m.dialect_options.power_on_motion = *pm == "G1" ? 1 : 0;
+    // Sinumerik MD20150[0] (reset value of G group 1) and MD10240 (basic system metric / inch).
+    if (auto rm = f.text("reset_motion", false, kPowerOn)) m.dialect_options.reset_motion = *rm == "G0" ? '0' : '1';
+    static constexpr std::string_view kBasic[] = {"metric", "inch"};
+    if (auto bs = f.text("basic_system", false, kBasic)) m.dialect_options.basic_inch = *bs == "inch";
     m.model_kind = f.text("model", true, kModels).value_or("serial");
     const auto coords = f.text("program", false, kCoordinates).value_or(m.model_kind == "serial" ? "axes" : "tool-tip");
     m.coordinates = coords == "axes" ? ProgramCoordinates::axes : ProgramCoordinates::tool_tip;
