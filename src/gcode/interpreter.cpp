@@ -547,7 +547,7 @@ void Interpreter::apply_modes(const Block& b, BlockWords& w) {
     }
   }
   tool_offsets(b, w);
-  modal_save_restore(b, w);
+  if (w.m_count != 0) modal_save_restore(b, w);
   if (d_.id == DialectId::heidenhain_iso) {
     // Heidenhain ISO: I J K set the modal circle centre / pole (absolute, or from the current point
     // in G91); the tool does not move to it.

@@ -426,7 +426,7 @@ void Interpreter::do_motion(const Block& b, BlockWords& w, MotionSink& out_all) 
   m.column = b.words[static_cast<std::size_t>(first_word)].span.begin + 1;
   fill_state(m);
   const Span motion_at = b.words[static_cast<std::size_t>(first_word)].span;
-  if (mode != GMeaning::rapid) cutter_comp_motion(b, motion_at);
+  if (s_.cutter_comp != 0 && mode != GMeaning::rapid) cutter_comp_motion(b, motion_at);
   if (mode != GMeaning::rapid && (d_.id == DialectId::linuxcnc || d_.id == DialectId::fanuc) && !w.has('F') &&
       (s_.feed_undefined || s_.feed_mode == FeedMode::inverse_time)) {
     report(b, motion_at, Severity::error, codes::kControllerRefuses,
@@ -950,6 +950,10 @@ void Interpreter::drill(const Block& b, const BlockWords& w, Motion& m, MotionSi
 namespace postproc::gcode {
 
 void Interpreter::emit(Motion& m, const Block& b, MotionSink& out) {
+  if (d_.id != DialectId::siemens) {  // only a Sinumerik CT reads the direction: keep the hot path short
+    out.motion(m, b);
+    return;
+  }
   // Direction at the end of the motion, for a following CT (tangential arc).
   const Eigen::Vector3d start = m.start.head<3>(), end = m.end.head<3>();
   Eigen::Vector3d dir = end - start;

@@ -63,6 +63,8 @@ void Interpreter::tool_length_change(const Block& b, const BlockWords& w, Span a
 }
 
 void Interpreter::tool_offsets(const Block& b, BlockWords& w) {
+  // Most blocks are bare moves: nothing here can apply to them.
+  if (w.ng == 0 && w.m_count == 0 && !w.has('T') && !w.has('D')) return;
   // Tool numbers (LinuxCNC): T selects, M6 loads the selected tool, M61 Q sets the tool in the spindle.
   if (w.has('T') && !w.unresolved('T') && d_.id != DialectId::siemens) s_.selected_tool = static_cast<int>(w.whole_or('T', 0, 99999, -1));
   for (int i = 0; i < w.m_count; ++i) {
