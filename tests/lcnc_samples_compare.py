@@ -1,0 +1,101 @@
+#!/usr/bin/env python3
+"""LinuxCNC's own sample programs through LinuxCNC's interpreter (`rs274 -g`) and `postproc dump`.
+
+Usage: lcnc_samples_compare.py POSTPROC FILE.ngc...
+
+Per program LinuxCNC runs without an error: postproc must either agree move for move (straight
+moves and arcs: end points of X Y Z within 2 µm and A B C within 0.002°, after converting rs274's inch output to mm; G53 rows and
+axes postproc reports as unknown are not compared; a program with G53 moves is not compared) or say that it did not resolve something (exit
+code 1 or 2 with a located PP-U/PP-E code). A program read differently without a word fails the
+test. rs274 also prints a zero-length move for a block holding only G0 or G1 (no axis words),
+where postproc has no motion: straight moves that end where the previous move ended are dropped
+from both lists before comparing.
+Prints the counts and every disagreement; exit 1 when a program disagrees silently.
+"""
+import csv, io, os, re, subprocess, sys
+
+def rs274(path):
+    try:
+        out = subprocess.run(["rs274", "-g", os.path.basename(path)], cwd=os.path.dirname(path) or ".",
+                             capture_output=True, text=True, timeout=30)
+    except subprocess.TimeoutExpired:
+        return None
+    txt = out.stdout + out.stderr
+    for line in txt.splitlines():
+        if line.strip() and not re.match(r"\s*\d+ N", line) and line.strip() != "executing":
+            return None  # LinuxCNC stops with an error: not a program it accepts
+    moves, units, plane = [], 1.0, "XY"
+    for line in txt.splitlines():
+        m = re.search(r"USE_LENGTH_UNITS\(CANON_UNITS_(\w+)\)", line)
+        if m: units = 25.4 if m.group(1) == "INCHES" else 1.0
+        m = re.search(r"SELECT_PLANE\(CANON_PLANE_(\w+)\)", line)
+        if m: plane = m.group(1)
+        m = re.search(r"(STRAIGHT_TRAVERSE|STRAIGHT_FEED|STRAIGHT_PROBE)\(([^)]*)\)", line)
+        if m:
+            v = [float(x) for x in m.group(2).split(",")[:6]]
+            moves.append(("L", [x * units for x in v[:3]] + v[3:6]))
+        m = re.search(r"ARC_FEED\(([^)]*)\)", line)
+        if m:
+            v = [float(x) for x in m.group(1).split(",")]
+            e = (v[0], v[1], v[5]) if plane == "XY" else (v[1], v[5], v[0]) if plane == "XZ" else (v[5], v[0], v[1])
+            moves.append(("A", [x * units for x in e] + v[6:9]))
+    return without_zero_length(moves, [0.0] * 6)
+
+def without_zero_length(moves, start):
+    """Drops straight moves that end where the previous one ended (None = not known: not compared)."""
+    out, last = [], list(start)
+    for t, p in moves:
+        if t == "L" and any(a is not None for a in p) and all(
+                a is None or b is None or abs(a - b) < 1e-6 for a, b in zip(p, last)):
+            last = [b if a is None else a for a, b in zip(p, last)]
+            continue
+        out.append((t, p))
+        last = [b if a is None else a for a, b in zip(p, last)]
+    return out
+
+def dump(postproc, path):
+    out = subprocess.run([postproc, "dump", os.path.basename(path), "--dialect", "linuxcnc", "--format", "csv"],
+                         cwd=os.path.dirname(path) or ".", capture_output=True, text=True, timeout=120)
+    rows = list(csv.DictReader(io.StringIO(out.stdout))) if out.stdout.startswith("line") else []
+    return rows, out.returncode, out.stderr
+
+def main():
+    postproc, files = os.path.realpath(sys.argv[1]), sys.argv[2:]
+    counts = {"agree": 0, "refused or unresolved (located)": 0, "LinuxCNC error": 0, "silent disagreement": 0}
+    silent = []
+    for f in sorted(files):
+        ref = rs274(f)
+        if ref is None:
+            counts["LinuxCNC error"] += 1; continue
+        rows, rc, err = dump(postproc, f)
+        located = rc in (1, 2) and re.search(r":\d+:\d+: (warning|error): PP-[UE]\d+", err)
+        if not located and any(r.get("frame") == "machine" for r in rows):
+            # G53 rows are machine coordinates in postproc, program coordinates in rs274's output.
+            counts["not compared (G53)"] = counts.get("not compared (G53)", 0) + 1
+            continue
+        got = []
+        for r in rows:
+            if r["motion"] not in ("rapid", "linear", "cw", "ccw"):
+                got = None; break  # drilling rows are one per hole; rs274 prints each move
+            p = [float(r[a]) if r.get(a) not in (None, "") and r.get("frame") != "machine" else None for a in "xyzabc"]
+            got.append(("A" if r["motion"] in ("cw", "ccw") else "L", p))
+        if got is not None: got = without_zero_length(got, [0.0] * 6)
+        same = got is not None and len(got) == len(ref) and all(
+            ta == tb and all(y is None or abs(x - y) <= 2e-3 for x, y in zip(a, b)) for (ta, a), (tb, b) in zip(ref, got))
+        if same and rc == 0:
+            counts["agree"] += 1
+        elif located:
+            counts["refused or unresolved (located)"] += 1
+        elif got is None and rc == 0:
+            counts["not compared (drilling rows)"] = counts.get("not compared (drilling rows)", 0) + 1
+        elif same:
+            counts["agree"] += 1
+        else:
+            counts["silent disagreement"] += 1
+            silent.append(f"{f}: rs274 {len(ref)} moves, postproc {len(got) if got else 0} (exit {rc})")
+    print(", ".join(f"{k}: {v}" for k, v in counts.items()))
+    for s in silent: print("SILENT:", s)
+    return 1 if silent else 0
+
+if __name__ == "__main__":
+    sys.exit(main())
