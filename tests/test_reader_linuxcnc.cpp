@@ -72,6 +72,29 @@ TEST(ReaderLinuxcnc, CannedCycleRetractLevels) {
   EXPECT_NEAR(fanuc.motions[1].end[2], 20, kTol);  // Fanuc powers on in G98
 }
 
+// rs274: L repeats the hole; under G91 the plane move is repeated, R and the bottom are computed
+// once from the block's start (Z10 R-2 Z-5: every hole from 8 down to 3, back to 8); under G90 the
+// same hole is drilled again. Fanuc K is the same repeat count (B-64484EN "Canned cycle": K, number
+// of repeats) and a plain number even with standard (increment) input.
+TEST(ReaderLinuxcnc, DrillingRepeatCount) {
+  const Program r(dialect("linuxcnc"), "G21 G90\nG0 X0 Y0 Z10\nG91 G99 G81 X10 Y5 R-2 Z-5 L3 F100\n"
+                                       "G90 G80\nG0 X0\nG98 G81 X1 Y1 R2 Z-1 L2\n");
+  ASSERT_EQ(r.motions.size(), 7u) << r.all_codes();
+  for (int k = 0; k < 3; ++k) {
+    EXPECT_NEAR(r.motions[1 + k].end[0], 10.0 * (k + 1), kTol);
+    EXPECT_NEAR(r.motions[1 + k].end[1], 5.0 * (k + 1), kTol);
+    EXPECT_NEAR(r.motions[1 + k].end[2], 8, kTol);
+    EXPECT_NEAR(r.motions[1 + k].cycle_bottom, 3, kTol);
+  }
+  EXPECT_NEAR(r.motions[5].end[0], 1, kTol);
+  EXPECT_NEAR(r.motions[6].end[0], 1, kTol);
+  EXPECT_NEAR(r.motions[6].end[2], 8, kTol);
+  const Program f(dialect("fanuc", false, gc::Dialect::IntegerInput::increment),
+                  "G90 G0 X0 Y0 Z10.\nG91 G99 G81 X10. Y5. R-2. Z-5. K3 F100.\nG80\n");
+  ASSERT_EQ(f.motions.size(), 4u) << f.all_codes();
+  EXPECT_NEAR(f.motions[3].end[0], 30, kTol);
+}
+
 // LinuxCNC M-code reference "M70–M73", checked with rs274: M72 restores units, distance modes,
 // plane, feed mode and F, G98/G99 and the tool length offset; not the motion mode.
 TEST(ReaderLinuxcnc, ModalStateSaveAndRestore) {

@@ -141,7 +141,10 @@ bool Interpreter::collect(const Block& b, BlockWords& w) {
       fn_inc = !fn_abs;
     }
     if (resolved && word.kind == ValueKind::number && d_.integer_input != Dialect::IntegerInput::calculator &&
-        v != 0 && word.whole && (is_length_or_angle(word.letter) || (word.letter == 'Q' && drilling))) {
+        v != 0 && word.whole &&
+        ((is_length_or_angle(word.letter) && !(word.letter == 'K' && drilling && d_.id == DialectId::fanuc)) ||
+         (word.letter == 'Q' && drilling))) {
+      // (In a Fanuc drilling cycle K is the repeat count, a plain number.)
       // Fanuc with standard input (DPI=0): X100 means 100 least input increments.
       const bool angle = word.letter >= 'A' && word.letter <= 'C';
       v *= angle ? 0.001 : (inch ? 0.0001 : 0.001);

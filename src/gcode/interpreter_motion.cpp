@@ -917,13 +917,23 @@ void Interpreter::drill(const Block& b, const BlockWords& w, Motion& m, MotionSi
   }
   // A repeat count that is not a small whole number is treated like any repeat (not expanded).
   const long repeats = w.has('L') ? w.whole_or('L', 0, 100000, -1) : (w.has('K') ? w.whole_or('K', 0, 100000, -1) : 1);
-  if (repeats != 1) {
+  // L (LinuxCNC) / K (Fanuc) repeats the hole: in G91 the plane move is repeated each time, in G90
+  // the same hole is drilled again; R and the bottom are those computed once above (rs274 agrees).
+  // L0/K0 (store the cycle without drilling) and polar repeats are not followed.
+  if (repeats < 1 || repeats > 10000 || (repeats > 1 && w.polar_words != 0)) {
     report(b, b.words[static_cast<std::size_t>(w.letter_word[(w.has('L') ? 'L' : 'K') - 'A'])].span,
            Severity::warning, codes::kCycleRepeat,
-           "drilling cycle with a repeat count other than 1 is not expanded; positions after it are unknown");
+           "drilling cycle with this repeat count is not expanded (L0/K0, above 10000, or repeated polar "
+           "moves); positions after it are unknown");
     s_.known &= static_cast<AxisMask>(~(w.axis_present | normal_bit));
     return;
   }
+  for (long k = 1; k < repeats; ++k) drill_hole(b, w, m, out, normal_bit, p);
+  drill_hole(b, w, m, out, normal_bit, p);
+}
+
+void Interpreter::drill_hole(const Block& b, const BlockWords& w, Motion& m, MotionSink& out, AxisMask normal_bit,
+                             const PlaneAxes& p) {
   // Position in the plane (incremental in G91), then the cycle; it ends at R (G99) or initial level.
   BlockWords plane_only = w;
   plane_only.axis_present = static_cast<AxisMask>(w.axis_present & ~normal_bit);

@@ -127,6 +127,8 @@ class Interpreter {
   bool radii_agree(const Block& b, Span at, const Eigen::Vector2d& s, const Eigen::Vector2d& e,
                    const Eigen::Vector2d& c);
   void drill(const Block& b, const BlockWords& w, Motion& m, MotionSink& out);
+  void drill_hole(const Block& b, const BlockWords& w, Motion& m, MotionSink& out, AxisMask normal_bit,
+                  const PlaneAxes& p);
   void fill_state(Motion& m) const;
   void tool_vector(const BlockWords& w, Motion& m) const;
   void dwell(const Block& b, BlockWords& w);
