@@ -20,6 +20,7 @@
 #include "postproc/gcode/lexer.hpp"
 #include "postproc/gcode/line_reader.hpp"
 #include "postproc/gcode/program.hpp"
+#include "postproc/gcode/resolve.hpp"
 
 namespace pptest {
 
@@ -121,12 +122,8 @@ inline ::testing::AssertionResult spans_within(const gc::Block& b) {
   return ::testing::AssertionSuccess();
 }
 
-/// A whole program run through reader, lexer and interpreter from memory.
-struct Program : gc::BlockVisitor {
-  Program(const gc::Dialect& d, std::string program, gc::InterpreterOptions opt = {}) : text(std::move(program)) {
-    gc::LineReader reader{std::string_view(text)};
-    stats = gc::run_program(reader, d, "t.nc", sink, *this, opt);
-  }
+/// What a run leaves behind: its motions and diagnostics, with lookups.
+struct RunOutput : gc::BlockVisitor {
   void block(const gc::Block&, std::span<const gc::Motion> ms, bool lexed_ok) override {
     for (const auto& m : ms) motions.push_back(m);
     if (!lexed_ok) ++lex_errors;
@@ -151,11 +148,28 @@ struct Program : gc::BlockVisitor {
     return found;
   }
 
-  std::string text;
   gc::DiagnosticSink sink;
   std::vector<gc::Motion> motions;
-  gc::ProgramStats stats;
   int lex_errors = 0;
+};
+
+/// A whole program run through reader, lexer and interpreter from memory.
+struct Program : RunOutput {
+  Program(const gc::Dialect& d, std::string program, gc::InterpreterOptions opt = {}) : text(std::move(program)) {
+    gc::LineReader reader{std::string_view(text)};
+    stats = gc::run_program(reader, d, "t.nc", sink, *this, opt);
+  }
+  std::string text;
+  gc::ProgramStats stats;
+};
+
+/// A program run as `postproc check` runs it: the resolver (parameters, variables, control flow,
+/// subprograms), then the interpreter.
+struct ResolvedProgram : RunOutput {
+  ResolvedProgram(const gc::Dialect& d, std::string program, gc::ResolveOptions opt = {}) : text(std::move(program)) {
+    gc::run_program_text(text, d, "t.nc", sink, *this, opt);
+  }
+  std::string text;
 };
 
 /// Expects a diagnostic `code` (the first one stored) at line:column.

@@ -29,29 +29,10 @@ constexpr double kPi = std::numbers::pi;
 
 gc::Dialect siemens(gc::DialectOptions o = {}) { return gc::make_dialect(gc::DialectId::siemens, o); }
 
-/// A program run as `postproc check` runs it: resolver (parameters, variables, control flow), then
-/// the interpreter.
-struct Resolved : gc::BlockVisitor {
-  explicit Resolved(std::string program, gc::ResolveOptions opt = {}) : text(std::move(program)) {
-    gc::run_program_text(text, siemens(), "t.nc", sink, *this, opt);
-  }
-  void block(const gc::Block&, std::span<const gc::Motion> ms, bool) override {
-    for (const auto& m : ms) motions.push_back(m);
-  }
-  [[nodiscard]] const gc::Diagnostic* find(std::string_view code) const {
-    for (const auto& d : sink.stored())
-      if (d.code == code) return &d;
-    return nullptr;
-  }
-  [[nodiscard]] std::string all_codes() const {
-    std::string s;
-    for (const auto& d : sink.stored())
-      s += d.code + "@" + std::to_string(d.where.line) + ":" + std::to_string(d.where.column) + " ";
-    return s;
-  }
-  std::string text;
-  gc::DiagnosticSink sink;
-  std::vector<gc::Motion> motions;
+/// A Sinumerik program run as `postproc check` runs it (resolver, then interpreter).
+struct Resolved : ResolvedProgram {
+  explicit Resolved(std::string program, gc::ResolveOptions opt = {})
+      : ResolvedProgram(siemens(), std::move(program), std::move(opt)) {}
 };
 
 // ---- 1. units -----------------------------------------------------------------------------------
