@@ -288,4 +288,42 @@ TEST(LatheCyclesLinuxcnc, SubroutineSkippedWithoutResolvingIsReported) {
   EXPECT_EQ(r.at_line(3), nullptr);
 }
 
+TEST(LatheCyclesLinuxcnc, G70ApproachRunningAwayFromTheProfileStartsLevelWithItsEnd) {
+  // LinuxCNC docs, G70: "a rapid move to the start of the profile" after the move to X/Z. rs274
+  // (LinuxCNC 2.9, sample program lathe_g7x_quadrants.ngc) decides whether to finish along X on
+  // the profile without its approach; an approach that runs against the profile's direction
+  // (here towards -Z before a profile that runs towards +Z) is cut short: rapid along Z to the
+  // level of its end, then to the profile's first point (checked with rs274 -g, also in
+  // tests/resolve/linuxcnc/lathe_g70_entry.ngc).
+  LatheRun r(
+      "G18 G21 G90 G8\nG0 X30 Z10\nF200\n"
+      "O100 sub\nG0 Z-20 X18\nG1 Z-16\nG1 X8\nG1 Z-10\nG1 X-1\nG1 Z1\nO100 endsub\n"  // 4-11
+      "G70 Q100 X20 Z5\n"                                                                    // 12
+      "O101 sub\nG0 X-1 Z42\nG1 Z44\nX6\nZ49\nX15\nZ56\nO101 endsub\n"                        // 13-20
+      "G70 Q101 X17 Z40\nM2\n");                                                            // 21
+  ASSERT_EQ(r.sink.count(gc::Severity::error), 0u) << r.sink.stored().front().message;
+  ASSERT_EQ(r.sink.count(gc::Severity::warning), 0u) << r.sink.stored().front().message;
+  using T = gc::MotionType;
+  struct Want {
+    T type;
+    double x, z;
+  };
+  const auto check = [&](std::uint64_t line, const std::vector<Want>& want) {
+    const auto ms = r.of_line(line);
+    ASSERT_EQ(ms.size(), want.size()) << "line " << line;
+    for (std::size_t i = 0; i < want.size(); ++i) {
+      EXPECT_EQ(ms[i]->type, want[i].type) << "line " << line << " move " << i;
+      EXPECT_NEAR(ms[i]->end[0], want[i].x, kEps) << "line " << line << " move " << i;
+      EXPECT_NEAR(ms[i]->end[2], want[i].z, kEps) << "line " << line << " move " << i;
+    }
+  };
+  // Not a rapid straight from X20 Z5 to X18 Z-20: first along Z to Z-20, then to X18.
+  check(12, {{T::rapid, 20, 5}, {T::rapid, 20, -20}, {T::rapid, 18, -20}, {T::linear, 18, -16},
+             {T::linear, 8, -16}, {T::linear, 8, -10}, {T::linear, -1, -10}, {T::linear, -1, 1}});
+  // An approach that runs with the profile is followed as written, and the profile is finished
+  // along Z although the approach's X falls below the profile's.
+  check(21, {{T::rapid, 17, 40}, {T::rapid, 17, 40}, {T::rapid, -1, 42}, {T::linear, -1, 44},
+             {T::linear, 6, 44}, {T::linear, 6, 49}, {T::linear, 15, 49}, {T::linear, 15, 56}});
+}
+
 }  // namespace

@@ -420,15 +420,29 @@ void straighten_entry(Profile& prof) {
     if (!monotonic(s)) throw Failure{"Not monotonic"};
 }
 
+/// G70: whether the profile is finished along X (turned by 90°) is decided on the profile without
+/// its approach, normalised on its own first and last element; the approach then joins it and the
+/// whole path is normalised (on the approach's end) and straightened as for roughing. So an
+/// approach that runs away from the profile's direction (`G0 Z-12 X14` from Z4 before a profile
+/// that runs towards +Z) does not turn the profile; it starts level with its end instead (rs274
+/// 2.9: rapids Z first, then X).
 void finish(const CycleWords& w, Profile& prof, std::vector<Move>& out) {
-  for (const Segment& s : prof.segs)
+  if (prof.segs.size() < 2) throw Failure{"the profile needs at least two moves"};
+  Profile body = prof;
+  body.segs.pop_front();
+  body.normalise();
+  bool turned = false;
+  for (const Segment& s : body.segs)
     if (!monotonic(s)) {
-      prof.turn();
+      body.turn();
+      body.normalise();
+      turned = true;
       break;
     }
+  straighten_entry(body);
+  if (turned) prof.turn();
   prof.normalise();
   straighten_entry(prof);
-  if (prof.segs.size() < 2) throw Failure{"the profile needs at least two moves"};
   const int passes = static_cast<int>(w.passes);
   for (int pass = passes; pass > 0; --pass) {
     const double distance = (pass - 1) * (w.d - w.e) / w.passes + w.e;
