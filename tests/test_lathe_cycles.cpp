@@ -326,4 +326,21 @@ TEST(LatheCyclesLinuxcnc, G70ApproachRunningAwayFromTheProfileStartsLevelWithIts
              {T::linear, 6, 44}, {T::linear, 6, 49}, {T::linear, 15, 49}, {T::linear, 15, 56}});
 }
 
+TEST(LatheCyclesLinuxcnc, CycleArcWithUnequalRadiiIsRefusedAsRs274Does) {
+  // rs274 (LinuxCNC 2.9) makes each arc of the cycle as a G2/G3 with its radius check (LinuxCNC
+  // docs, G2 G3 "It is an error if"): here the first roughing arc of the offset profile runs from
+  // X28 Z20 about X26 Z20 (radius 2) to a point 1.8369 from it, and rs274 stops the program
+  // ("Radius to end of arc differs from radius to start"): refused at the cycle's word.
+  LatheRun r(
+      "G18 G21 G90 G8\nF100\nG0 X50 Z50\n"
+      "O100 sub\nG1 X28 Z20\nG2 X26 Z22 R2\nG1 X23 Z24\nG1 X20 Z24\nG1 X20 Z28\nG1 X17 Z30\nG1 X16 Z32\nO100 endsub\n"
+      "G71 Q100 X28 Z20 D0.2 I0.7 R0.2\nM2\n");  // line 13
+  const gc::Diagnostic* d = r.find("PP-E250");
+  ASSERT_NE(d, nullptr);
+  EXPECT_EQ(d->where.line, 13u);
+  EXPECT_EQ(d->where.column, 1u);
+  EXPECT_NE(d->message.find("Radius to end of arc differs"), std::string::npos) << d->message;
+  EXPECT_TRUE(r.of_line(13).empty());
+}
+
 }  // namespace
