@@ -343,4 +343,33 @@ TEST(LatheCyclesLinuxcnc, CycleArcWithUnequalRadiiIsRefusedAsRs274Does) {
   EXPECT_TRUE(r.of_line(13).empty());
 }
 
+TEST(LatheCyclesLinuxcnc, RoughingLayerReachingAnElementOfNoWidthGoesOn) {
+  // LinuxCNC docs, G72 "the facing cycle"; rs274 (LinuxCNC 2.9) moves on where a layer meets the
+  // profile at the point reached (the profile runs down and up along X30 here) instead of failing
+  // ("How did we get here?"): 44 moves, first layer along X at Z3 to X43, the profile followed at
+  // the end (tests/resolve/linuxcnc/lathe_rough_levels.ngc compares it move for move).
+  LatheRun r(
+      "G18 G21 G90 G8\nF100\nG0 X50 Z50\n"
+      "O100 sub\nG1 X30 Z18\nG1 X30 Z16\nG1 X30 Z12\nG1 X32 Z12\nG1 X34 Z11\nG2 X38 Z7 R4\nG1 X43 Z7\nO100 endsub\n"
+      "G72 Q100 X45 Z3 I1.5\nM2\n");  // line 13
+  ASSERT_EQ(r.sink.count(gc::Severity::error), 0u) << r.sink.stored().front().message;
+  const auto ms = r.of_line(13);
+  ASSERT_EQ(ms.size(), 44u);
+  using T = gc::MotionType;
+  const struct {
+    T type;
+    double x, z;
+  } want[] = {{T::rapid, 45, 3}, {T::rapid, 30, 3}, {T::rapid, 30, 3}, {T::linear, 43, 3}, {T::rapid, 42.5, 2.5}};
+  for (std::size_t i = 0; i < std::size(want); ++i) {
+    EXPECT_EQ(ms[i]->type, want[i].type) << i;
+    EXPECT_NEAR(ms[i]->end[0], want[i].x, kEps) << i;
+    EXPECT_NEAR(ms[i]->end[2], want[i].z, kEps) << i;
+  }
+  EXPECT_EQ(ms[41]->type, T::arc_cw);
+  EXPECT_NEAR(ms[41]->arc.centre[0], 38, kEps);
+  EXPECT_NEAR(ms[41]->arc.centre[2], 11, kEps);
+  EXPECT_NEAR(ms[43]->end[0], 43, kEps);
+  EXPECT_NEAR(ms[43]->end[2], 3, kEps);
+}
+
 }  // namespace

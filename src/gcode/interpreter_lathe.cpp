@@ -280,6 +280,14 @@ void Interpreter::lathe_cycle(const Block& b, const BlockWords& w, MotionSink& o
   }
   std::vector<turning::Move> moves;
   const std::string failure = turning::expand_linuxcnc(cw, profile, moves);
+  if (failure == "roughing does not end") {
+    // rs274 2.9 cuts such a cycle without end (its layers never reach the profile's end).
+    refuse(codes::kLatheCycleRejected,
+           fmt::format("{}: the controller cannot run this cycle: rs274 keeps cutting layers without end here; "
+                       "change the profile, I or D",
+                       name));
+    return;
+  }
   if (!failure.empty()) {
     refuse(codes::kLatheCycleRejected, fmt::format("{}: the controller rejects this cycle (rs274: G7X error: {})", name, failure));
     return;

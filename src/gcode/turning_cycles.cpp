@@ -19,6 +19,7 @@ namespace postproc::gcode::turning {
 namespace {
 
 constexpr Point kI{0, 1};
+constexpr double kTol = 1e-6;  ///< rs274's tolerance in the roughing steps
 
 struct Failure {
   std::string what;
@@ -253,7 +254,7 @@ class Rougher {
     }
     while (p < segs_.size()) {
       if (++guard_ > 10000000) throw Failure{"roughing does not end"};
-      while (x > loc.imag()) x -= delta_;
+      while (x - kTol > loc.imag()) x -= delta_;
       if (dive(p, loc, x, p == 0)) {
         if (variant == 1) {
           for (; p < segs_.size(); ++p) climb_only(p, loc);
@@ -266,7 +267,7 @@ class Rougher {
         }
         return;
       }
-      if (loc.imag() > x || std::abs(loc.imag() - x) > 1e-6) {
+      if (std::abs(loc.imag() - x) > kTol) {
         ++p;
         continue;
       }
@@ -276,9 +277,15 @@ class Rougher {
         if (zs.empty()) continue;
         const double dest_z = ip != p ? zs.front() : zs.back();
         const double dist = std::abs(dest_z - loc.real());
-        if (dist < 1e-6) {
-          if (p == ip) continue;
-          ++p;
+        // Only a crossing that lies ahead (towards -Z) ends the layer.
+        if (dest_z - kTol > loc.real()) continue;
+        if (dist < kTol) {
+          if (p == ip) continue;  // the diving element itself, at the point reached
+          if (std::abs(loc - segs_[ip].a) < kTol) {
+            p = ip;  // another element starts here: continue along it
+            break;
+          }
+          x -= delta_;  // an element of no length at this level: the layer is done
           break;
         }
         Point dest = loc;
@@ -303,7 +310,7 @@ class Rougher {
   bool dive(std::size_t i, Point& loc, double x, bool fast) {
     const Segment& s = segs_[i];
     if (!s.arc) {
-      if (s.a.imag() <= s.b.imag()) return true;
+      if (s.a.imag() <= s.b.imag() + kTol) return true;
       Point to = s.b;
       if (x >= s.b.imag()) {
         std::deque<double> zs;
@@ -347,8 +354,8 @@ class Rougher {
   bool climb(std::size_t i, Point& loc) {
     const Segment& s = segs_[i];
     if (!s.arc) {
-      if (s.b.imag() < s.a.imag()) return true;
-      if (std::abs(loc - s.a) > 1e-6) throw Failure{"How did we get here?"};
+      if (s.b.imag() + kTol < s.a.imag()) return true;
+      if (std::abs(loc - s.a) > kTol) throw Failure{"How did we get here?"};
       prof_.line(out_, s.b);
       loc = s.b;
       return false;
