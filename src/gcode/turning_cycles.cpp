@@ -465,8 +465,9 @@ void rough(const CycleWords& w, Profile& prof, std::vector<Move>& out) {
   if (w.cycle == 72) prof.turn();
   prof.normalise();
   straighten_entry(prof);
+  // Not normalised again after the offset (rs274 2.9): an offset approach whose end passes the
+  // profile's end in X keeps the frame it was cut in.
   prof.offset(w.d);
-  prof.normalise();
   prof.rapid(out, prof.segs.front().a);
   const Segment last = prof.segs.back();
   if (last.b.imag() < prof.segs.front().a.imag()) {
