@@ -372,4 +372,21 @@ TEST(LatheCyclesLinuxcnc, RoughingLayerReachingAnElementOfNoWidthGoesOn) {
   EXPECT_NEAR(ms[43]->end[2], 3, kEps);
 }
 
+TEST(LatheCyclesLinuxcnc, RoughingPassesAnArcWhoseEndLiesBehindWithoutAMove) {
+  // rs274 (LinuxCNC 2.9) passes a falling arc whose end the layer already lies beyond without
+  // cutting it; the next arc then starts away from its circle and rs274 stops the program
+  // ("Radius to end of arc differs from radius to start: ... r1=8.0777 r2=4.5000", rs274 -g on
+  // this program; LinuxCNC docs, G2 G3 "It is an error if"): refused at the cycle's word.
+  LatheRun r(
+      "G18 G21 G90 G8\nF100\nG0 X50 Z50\n"
+      "O100 sub\nG1 X28 Z20\nG1 X28 Z15\nG1 X25 Z15\nG3 X21 Z11 R4\nG2 X18 Z8 R3\nG2 X14 Z4 R4\nG1 X11 Z4\n"
+      "O100 endsub\nG72 Q100 X20 Z35 D0.5 I1 R0.3\nM2\n");  // line 13
+  const gc::Diagnostic* d = r.find("PP-E250");
+  ASSERT_NE(d, nullptr);
+  EXPECT_EQ(d->where.line, 13u);
+  EXPECT_NE(d->message.find("8.0777"), std::string::npos) << d->message;
+  EXPECT_NE(d->message.find("4.5000"), std::string::npos) << d->message;
+  EXPECT_TRUE(r.of_line(13).empty());
+}
+
 }  // namespace

@@ -151,6 +151,10 @@ class Profile {
   void rapid(std::vector<Move>& out, Point p) const { out.push_back({Move::Kind::rapid, back(p), {}}); }
   void line(std::vector<Move>& out, Point p) const { out.push_back({Move::Kind::line, back(p), {}}); }
   void arc(std::vector<Move>& out, bool ccw, Point c, Point p) const {
+    // rs274 2.9 makes no arc that ends where the tool stands (0.0001 in program units).
+    if (!out.empty() && std::abs(out.back().end.real() - back(p).real()) < 1e-4 &&
+        std::abs(out.back().end.imag() - back(p).imag()) < 1e-4)
+      return;
     const bool mirrored = m_[0] * m_[3] - m_[1] * m_[2] < 0;
     out.push_back({(ccw != mirrored) ? Move::Kind::arc_ccw : Move::Kind::arc_cw, back(p), back(c)});
   }
@@ -323,30 +327,36 @@ class Rougher {
       loc = to;
       return false;
     }
-    if (std::abs(loc - s.b) < 1e-3) return false;
+    // An arc whose end is reached, or lies behind, is passed without a move (rs274 2.9).
+    if (std::abs(loc - s.b) < kTol || (loc - s.b).real() <= kTol) {
+      loc = s.b;
+      return false;
+    }
     std::deque<double> zs;
     crossings(s, x, zs);
+    if (zs.empty()) crossings(s, x - kTol, zs);
     if (s.ccw) {
-      if (loc.real() > s.c.real()) return true;
+      if (loc.real() - kTol > s.c.real()) return true;
       if (zs.empty() || zs.back() > s.c.real()) {
         prof_.arc(out_, true, s.c, s.b);
         loc = s.b;
       } else {
         const Point ep(zs.back(), x);
-        if (std::abs(loc - ep) > 1e-3) prof_.arc(out_, true, s.c, ep);
+        prof_.arc(out_, true, s.c, ep);
         loc = ep;
       }
       return false;
     }
     if (loc.real() <= s.c.real()) return true;
-    if (zs.empty() || zs.front() < s.c.real()) {
+    if (zs.empty()) {
       prof_.arc(out_, false, s.c, s.b);
       loc = s.b;
-    } else {
+    } else if (zs.front() >= s.c.real()) {
       const Point ep(zs.front(), x);
-      if (std::abs(loc - ep) > 1e-3) prof_.arc(out_, false, s.c, ep);
+      prof_.arc(out_, false, s.c, ep);
       loc = ep;
     }
+    // else: met on its rising side only; the layer level steps on.
     return false;
   }
 
