@@ -14,7 +14,7 @@ trap 'rm -rf "$T"' EXIT
 fails=0
 # lathe_*: LinuxCNC G70/G71/G72 turning cycles and G33 (docs/lathe-cycles.md); their arcs (G18: ARC_FEED
 # first axis Z, second X) are compared too: end point, centre and direction.
-for prog in control_flow expressions subroutines lathe_g70 lathe_g71 lathe_g72 lathe_pocket lathe_g33 reader_dwell reader_modal_state; do
+for prog in control_flow expressions subroutines lathe_g70 lathe_g70_entry lathe_rough_levels lathe_g71 lathe_g72 lathe_pocket lathe_g33 reader_dwell reader_modal_state; do
   (cd "$D" && timeout 60 rs274 -g "$prog.ngc") > "$T/$prog.rs274" 2>&1
   (cd "$D" && "$P" dump "$prog.ngc" --dialect linuxcnc --format csv) > "$T/$prog.csv" 2> "$T/$prog.err" ||
     { echo "FAIL: $prog: dump failed: $(cat "$T/$prog.err")"; fails=$((fails + 1)); continue; }

@@ -288,4 +288,105 @@ TEST(LatheCyclesLinuxcnc, SubroutineSkippedWithoutResolvingIsReported) {
   EXPECT_EQ(r.at_line(3), nullptr);
 }
 
+TEST(LatheCyclesLinuxcnc, G70ApproachRunningAwayFromTheProfileStartsLevelWithItsEnd) {
+  // LinuxCNC docs, G70: "a rapid move to the start of the profile" after the move to X/Z. rs274
+  // (LinuxCNC 2.9, sample program lathe_g7x_quadrants.ngc) decides whether to finish along X on
+  // the profile without its approach; an approach that runs against the profile's direction
+  // (here towards -Z before a profile that runs towards +Z) is cut short: rapid along Z to the
+  // level of its end, then to the profile's first point (checked with rs274 -g, also in
+  // tests/resolve/linuxcnc/lathe_g70_entry.ngc).
+  LatheRun r(
+      "G18 G21 G90 G8\nG0 X30 Z10\nF200\n"
+      "O100 sub\nG0 Z-20 X18\nG1 Z-16\nG1 X8\nG1 Z-10\nG1 X-1\nG1 Z1\nO100 endsub\n"  // 4-11
+      "G70 Q100 X20 Z5\n"                                                                    // 12
+      "O101 sub\nG0 X-1 Z42\nG1 Z44\nX6\nZ49\nX15\nZ56\nO101 endsub\n"                        // 13-20
+      "G70 Q101 X17 Z40\nM2\n");                                                            // 21
+  ASSERT_EQ(r.sink.count(gc::Severity::error), 0u) << r.sink.stored().front().message;
+  ASSERT_EQ(r.sink.count(gc::Severity::warning), 0u) << r.sink.stored().front().message;
+  using T = gc::MotionType;
+  struct Want {
+    T type;
+    double x, z;
+  };
+  const auto check = [&](std::uint64_t line, const std::vector<Want>& want) {
+    const auto ms = r.of_line(line);
+    ASSERT_EQ(ms.size(), want.size()) << "line " << line;
+    for (std::size_t i = 0; i < want.size(); ++i) {
+      EXPECT_EQ(ms[i]->type, want[i].type) << "line " << line << " move " << i;
+      EXPECT_NEAR(ms[i]->end[0], want[i].x, kEps) << "line " << line << " move " << i;
+      EXPECT_NEAR(ms[i]->end[2], want[i].z, kEps) << "line " << line << " move " << i;
+    }
+  };
+  // Not a rapid straight from X20 Z5 to X18 Z-20: first along Z to Z-20, then to X18.
+  check(12, {{T::rapid, 20, 5}, {T::rapid, 20, -20}, {T::rapid, 18, -20}, {T::linear, 18, -16},
+             {T::linear, 8, -16}, {T::linear, 8, -10}, {T::linear, -1, -10}, {T::linear, -1, 1}});
+  // An approach that runs with the profile is followed as written, and the profile is finished
+  // along Z although the approach's X falls below the profile's.
+  check(21, {{T::rapid, 17, 40}, {T::rapid, 17, 40}, {T::rapid, -1, 42}, {T::linear, -1, 44},
+             {T::linear, 6, 44}, {T::linear, 6, 49}, {T::linear, 15, 49}, {T::linear, 15, 56}});
+}
+
+TEST(LatheCyclesLinuxcnc, CycleArcWithUnequalRadiiIsRefusedAsRs274Does) {
+  // rs274 (LinuxCNC 2.9) makes each arc of the cycle as a G2/G3 with its radius check (LinuxCNC
+  // docs, G2 G3 "It is an error if"): here the first roughing arc of the offset profile runs from
+  // X28 Z20 about X26 Z20 (radius 2) to a point 1.8369 from it, and rs274 stops the program
+  // ("Radius to end of arc differs from radius to start"): refused at the cycle's word.
+  LatheRun r(
+      "G18 G21 G90 G8\nF100\nG0 X50 Z50\n"
+      "O100 sub\nG1 X28 Z20\nG2 X26 Z22 R2\nG1 X23 Z24\nG1 X20 Z24\nG1 X20 Z28\nG1 X17 Z30\nG1 X16 Z32\nO100 endsub\n"
+      "G71 Q100 X28 Z20 D0.2 I0.7 R0.2\nM2\n");  // line 13
+  const gc::Diagnostic* d = r.find("PP-E250");
+  ASSERT_NE(d, nullptr);
+  EXPECT_EQ(d->where.line, 13u);
+  EXPECT_EQ(d->where.column, 1u);
+  EXPECT_NE(d->message.find("Radius to end of arc differs"), std::string::npos) << d->message;
+  EXPECT_TRUE(r.of_line(13).empty());
+}
+
+TEST(LatheCyclesLinuxcnc, RoughingLayerReachingAnElementOfNoWidthGoesOn) {
+  // LinuxCNC docs, G72 "the facing cycle"; rs274 (LinuxCNC 2.9) moves on where a layer meets the
+  // profile at the point reached (the profile runs down and up along X30 here) instead of failing
+  // ("How did we get here?"): 44 moves, first layer along X at Z3 to X43, the profile followed at
+  // the end (tests/resolve/linuxcnc/lathe_rough_levels.ngc compares it move for move).
+  LatheRun r(
+      "G18 G21 G90 G8\nF100\nG0 X50 Z50\n"
+      "O100 sub\nG1 X30 Z18\nG1 X30 Z16\nG1 X30 Z12\nG1 X32 Z12\nG1 X34 Z11\nG2 X38 Z7 R4\nG1 X43 Z7\nO100 endsub\n"
+      "G72 Q100 X45 Z3 I1.5\nM2\n");  // line 13
+  ASSERT_EQ(r.sink.count(gc::Severity::error), 0u) << r.sink.stored().front().message;
+  const auto ms = r.of_line(13);
+  ASSERT_EQ(ms.size(), 44u);
+  using T = gc::MotionType;
+  const struct {
+    T type;
+    double x, z;
+  } want[] = {{T::rapid, 45, 3}, {T::rapid, 30, 3}, {T::rapid, 30, 3}, {T::linear, 43, 3}, {T::rapid, 42.5, 2.5}};
+  for (std::size_t i = 0; i < std::size(want); ++i) {
+    EXPECT_EQ(ms[i]->type, want[i].type) << i;
+    EXPECT_NEAR(ms[i]->end[0], want[i].x, kEps) << i;
+    EXPECT_NEAR(ms[i]->end[2], want[i].z, kEps) << i;
+  }
+  EXPECT_EQ(ms[41]->type, T::arc_cw);
+  EXPECT_NEAR(ms[41]->arc.centre[0], 38, kEps);
+  EXPECT_NEAR(ms[41]->arc.centre[2], 11, kEps);
+  EXPECT_NEAR(ms[43]->end[0], 43, kEps);
+  EXPECT_NEAR(ms[43]->end[2], 3, kEps);
+}
+
+TEST(LatheCyclesLinuxcnc, RoughingPassesAnArcWhoseEndLiesBehindWithoutAMove) {
+  // rs274 (LinuxCNC 2.9) passes a falling arc whose end the layer already lies beyond without
+  // cutting it; the next arc then starts away from its circle and rs274 stops the program
+  // ("Radius to end of arc differs from radius to start: ... r1=8.0777 r2=4.5000", rs274 -g on
+  // this program; LinuxCNC docs, G2 G3 "It is an error if"): refused at the cycle's word.
+  LatheRun r(
+      "G18 G21 G90 G8\nF100\nG0 X50 Z50\n"
+      "O100 sub\nG1 X28 Z20\nG1 X28 Z15\nG1 X25 Z15\nG3 X21 Z11 R4\nG2 X18 Z8 R3\nG2 X14 Z4 R4\nG1 X11 Z4\n"
+      "O100 endsub\nG72 Q100 X20 Z35 D0.5 I1 R0.3\nM2\n");  // line 13
+  const gc::Diagnostic* d = r.find("PP-E250");
+  ASSERT_NE(d, nullptr);
+  EXPECT_EQ(d->where.line, 13u);
+  EXPECT_NE(d->message.find("8.0777"), std::string::npos) << d->message;
+  EXPECT_NE(d->message.find("4.5000"), std::string::npos) << d->message;
+  EXPECT_TRUE(r.of_line(13).empty());
+}
+
 }  // namespace

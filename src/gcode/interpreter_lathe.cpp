@@ -280,12 +280,42 @@ void Interpreter::lathe_cycle(const Block& b, const BlockWords& w, MotionSink& o
   }
   std::vector<turning::Move> moves;
   const std::string failure = turning::expand_linuxcnc(cw, profile, moves);
+  if (failure == "roughing does not end") {
+    // rs274 2.9 cuts such a cycle without end (its layers never reach the profile's end).
+    refuse(codes::kLatheCycleRejected,
+           fmt::format("{}: the controller cannot run this cycle: rs274 keeps cutting layers without end here; "
+                       "change the profile, I or D",
+                       name));
+    return;
+  }
   if (!failure.empty()) {
     refuse(codes::kLatheCycleRejected, fmt::format("{}: the controller rejects this cycle (rs274: G7X error: {})", name, failure));
     return;
   }
   // Preliminary rapid to the cycle's X/Z (or the current point), then the cycle's moves.
   moves.insert(moves.begin(), turning::Move{turning::Move::Kind::rapid, cw.start, {}});
+  // rs274 makes each arc of the cycle with G2/G3 and their radius check; an arc of the offset
+  // path whose ends lie at different distances from its centre (the algorithm's join of an arc
+  // with a following element can leave one) stops the program there ("Radius to end of arc
+  // differs from radius to start"). Same tolerance as for the profile's own arcs above.
+  {
+    turning::Point at_pt(s_.position[2] / scale, s_.position[0] / scale);
+    for (const turning::Move& mv : moves) {
+      if (mv.kind == turning::Move::Kind::arc_cw || mv.kind == turning::Move::Kind::arc_ccw) {
+        const double r1 = std::abs(at_pt - mv.centre), r2 = std::abs(mv.end - mv.centre), diff = std::abs(r1 - r2);
+        const double big = s_.inch ? 0.05 : 0.5, small = s_.inch ? 0.0005 : 0.005;
+        if (diff > big || (diff > small && diff > 0.001 * r1)) {
+          refuse(codes::kLatheCycleRejected,
+                 fmt::format("{}: the controller rejects this cycle: one of its arcs (to X{:.4f} Z{:.4f}) has radius "
+                             "{:.4f} at its start and {:.4f} at its end (rs274: \"Radius to end of arc differs from "
+                             "radius to start\")",
+                             name, mv.end.imag() * xdiv, mv.end.real(), r1, r2));
+          return;
+        }
+      }
+      at_pt = mv.end;
+    }
+  }
   const PlaneAxes pa = plane_axes(Plane::zx);
   for (const turning::Move& mv : moves) {
     Motion m;

@@ -19,6 +19,7 @@ namespace postproc::gcode::turning {
 namespace {
 
 constexpr Point kI{0, 1};
+constexpr double kTol = 1e-6;  ///< rs274's tolerance in the roughing steps
 
 struct Failure {
   std::string what;
@@ -150,6 +151,10 @@ class Profile {
   void rapid(std::vector<Move>& out, Point p) const { out.push_back({Move::Kind::rapid, back(p), {}}); }
   void line(std::vector<Move>& out, Point p) const { out.push_back({Move::Kind::line, back(p), {}}); }
   void arc(std::vector<Move>& out, bool ccw, Point c, Point p) const {
+    // rs274 2.9 makes no arc that ends where the tool stands (0.0001 in program units).
+    if (!out.empty() && std::abs(out.back().end.real() - back(p).real()) < 1e-4 &&
+        std::abs(out.back().end.imag() - back(p).imag()) < 1e-4)
+      return;
     const bool mirrored = m_[0] * m_[3] - m_[1] * m_[2] < 0;
     out.push_back({(ccw != mirrored) ? Move::Kind::arc_ccw : Move::Kind::arc_cw, back(p), back(c)});
   }
@@ -253,7 +258,7 @@ class Rougher {
     }
     while (p < segs_.size()) {
       if (++guard_ > 10000000) throw Failure{"roughing does not end"};
-      while (x > loc.imag()) x -= delta_;
+      while (x - kTol > loc.imag()) x -= delta_;
       if (dive(p, loc, x, p == 0)) {
         if (variant == 1) {
           for (; p < segs_.size(); ++p) climb_only(p, loc);
@@ -266,7 +271,7 @@ class Rougher {
         }
         return;
       }
-      if (loc.imag() > x || std::abs(loc.imag() - x) > 1e-6) {
+      if (std::abs(loc.imag() - x) > kTol) {
         ++p;
         continue;
       }
@@ -276,9 +281,15 @@ class Rougher {
         if (zs.empty()) continue;
         const double dest_z = ip != p ? zs.front() : zs.back();
         const double dist = std::abs(dest_z - loc.real());
-        if (dist < 1e-6) {
-          if (p == ip) continue;
-          ++p;
+        // Only a crossing that lies ahead (towards -Z) ends the layer.
+        if (dest_z - kTol > loc.real()) continue;
+        if (dist < kTol) {
+          if (p == ip) continue;  // the diving element itself, at the point reached
+          if (std::abs(loc - segs_[ip].a) < kTol) {
+            p = ip;  // another element starts here: continue along it
+            break;
+          }
+          x -= delta_;  // an element of no length at this level: the layer is done
           break;
         }
         Point dest = loc;
@@ -303,7 +314,7 @@ class Rougher {
   bool dive(std::size_t i, Point& loc, double x, bool fast) {
     const Segment& s = segs_[i];
     if (!s.arc) {
-      if (s.a.imag() <= s.b.imag()) return true;
+      if (s.a.imag() <= s.b.imag() + kTol) return true;
       Point to = s.b;
       if (x >= s.b.imag()) {
         std::deque<double> zs;
@@ -316,30 +327,36 @@ class Rougher {
       loc = to;
       return false;
     }
-    if (std::abs(loc - s.b) < 1e-3) return false;
+    // An arc whose end is reached, or lies behind, is passed without a move (rs274 2.9).
+    if (std::abs(loc - s.b) < kTol || (loc - s.b).real() <= kTol) {
+      loc = s.b;
+      return false;
+    }
     std::deque<double> zs;
     crossings(s, x, zs);
+    if (zs.empty()) crossings(s, x - kTol, zs);
     if (s.ccw) {
-      if (loc.real() > s.c.real()) return true;
+      if (loc.real() - kTol > s.c.real()) return true;
       if (zs.empty() || zs.back() > s.c.real()) {
         prof_.arc(out_, true, s.c, s.b);
         loc = s.b;
       } else {
         const Point ep(zs.back(), x);
-        if (std::abs(loc - ep) > 1e-3) prof_.arc(out_, true, s.c, ep);
+        prof_.arc(out_, true, s.c, ep);
         loc = ep;
       }
       return false;
     }
     if (loc.real() <= s.c.real()) return true;
-    if (zs.empty() || zs.front() < s.c.real()) {
+    if (zs.empty()) {
       prof_.arc(out_, false, s.c, s.b);
       loc = s.b;
-    } else {
+    } else if (zs.front() >= s.c.real()) {
       const Point ep(zs.front(), x);
-      if (std::abs(loc - ep) > 1e-3) prof_.arc(out_, false, s.c, ep);
+      prof_.arc(out_, false, s.c, ep);
       loc = ep;
     }
+    // else: met on its rising side only; the layer level steps on.
     return false;
   }
 
@@ -347,8 +364,8 @@ class Rougher {
   bool climb(std::size_t i, Point& loc) {
     const Segment& s = segs_[i];
     if (!s.arc) {
-      if (s.b.imag() < s.a.imag()) return true;
-      if (std::abs(loc - s.a) > 1e-6) throw Failure{"How did we get here?"};
+      if (s.b.imag() + kTol < s.a.imag()) return true;
+      if (std::abs(loc - s.a) > kTol) throw Failure{"How did we get here?"};
       prof_.line(out_, s.b);
       loc = s.b;
       return false;
@@ -420,15 +437,29 @@ void straighten_entry(Profile& prof) {
     if (!monotonic(s)) throw Failure{"Not monotonic"};
 }
 
+/// G70: whether the profile is finished along X (turned by 90°) is decided on the profile without
+/// its approach, normalised on its own first and last element; the approach then joins it and the
+/// whole path is normalised (on the approach's end) and straightened as for roughing. So an
+/// approach that runs away from the profile's direction (`G0 Z-12 X14` from Z4 before a profile
+/// that runs towards +Z) does not turn the profile; it starts level with its end instead (rs274
+/// 2.9: rapids Z first, then X).
 void finish(const CycleWords& w, Profile& prof, std::vector<Move>& out) {
-  for (const Segment& s : prof.segs)
+  if (prof.segs.size() < 2) throw Failure{"the profile needs at least two moves"};
+  Profile body = prof;
+  body.segs.pop_front();
+  body.normalise();
+  bool turned = false;
+  for (const Segment& s : body.segs)
     if (!monotonic(s)) {
-      prof.turn();
+      body.turn();
+      body.normalise();
+      turned = true;
       break;
     }
+  straighten_entry(body);
+  if (turned) prof.turn();
   prof.normalise();
   straighten_entry(prof);
-  if (prof.segs.size() < 2) throw Failure{"the profile needs at least two moves"};
   const int passes = static_cast<int>(w.passes);
   for (int pass = passes; pass > 0; --pass) {
     const double distance = (pass - 1) * (w.d - w.e) / w.passes + w.e;
@@ -444,8 +475,9 @@ void rough(const CycleWords& w, Profile& prof, std::vector<Move>& out) {
   if (w.cycle == 72) prof.turn();
   prof.normalise();
   straighten_entry(prof);
+  // Not normalised again after the offset (rs274 2.9): an offset approach whose end passes the
+  // profile's end in X keeps the frame it was cut in.
   prof.offset(w.d);
-  prof.normalise();
   prof.rapid(out, prof.segs.front().a);
   const Segment last = prof.segs.back();
   if (last.b.imag() < prof.segs.front().a.imag()) {
