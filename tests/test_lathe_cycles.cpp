@@ -17,28 +17,14 @@ namespace gc = postproc::gcode;
 using pptest::dialect;
 
 /// A LinuxCNC program run as the CLI runs it (resolved first: the profile is an O-word sub).
-struct LatheRun : gc::BlockVisitor {
-  explicit LatheRun(std::string program) : text(std::move(program)) {
-    gc::ResolveOptions opt;
-    gc::run_program_text(text, dialect("linuxcnc"), "t.ngc", sink, *this, opt);
-  }
-  void block(const gc::Block&, std::span<const gc::Motion> ms, bool) override {
-    for (const auto& m : ms) motions.push_back(m);
-  }
+struct LatheRun : pptest::ResolvedProgram {
+  explicit LatheRun(std::string program) : ResolvedProgram(dialect("linuxcnc"), std::move(program)) {}
   [[nodiscard]] std::vector<const gc::Motion*> of_line(std::uint64_t line) const {
     std::vector<const gc::Motion*> out;
     for (const auto& m : motions)
       if (m.line == line) out.push_back(&m);
     return out;
   }
-  [[nodiscard]] const gc::Diagnostic* find(std::string_view code) const {
-    for (const auto& d : sink.stored())
-      if (d.code == code) return &d;
-    return nullptr;
-  }
-  std::string text;
-  gc::DiagnosticSink sink;
-  std::vector<gc::Motion> motions;
 };
 
 constexpr double kEps = 1e-6;

@@ -7,6 +7,9 @@
 
 namespace postproc::gcode {
 
+/// Centre-offset letters for each plane axis (I J K belong to X Y Z).
+constexpr char centre_letter(int axis) { return static_cast<char>('I' + axis); }
+
 struct Interpreter::BlockWords {
   struct G {
     const GCodeDef* def = nullptr;
@@ -60,6 +63,13 @@ struct Interpreter::BlockWords {
   bool words_transformed = false;         ///< Fanuc G16/G51.1: axis values were converted to the work frame
   bool axes_consumed = false;             ///< axis words were data for G10/G52/G92/… (no motion)
 
+  /// True when the block gives axis `a` as an absolute literal (not G91, IC() or lathe U/W, not
+  /// an expression), so that its position after the block is stated whatever came before.
+  [[nodiscard]] bool states_absolutely(Axis a, bool absolute_mode) const {
+    const AxisMask ab = bit(a);
+    return (axis_present & ab) && !(axis_unresolved & ab) && !(axis_incremental & ab) &&
+           (absolute_mode || (axis_absolute & ab));
+  }
   [[nodiscard]] bool has(char L) const { return (letter_present >> (L - 'A')) & 1u; }
   [[nodiscard]] double get(char L) const { return letter[static_cast<std::size_t>(L - 'A')]; }
   [[nodiscard]] bool unresolved(char L) const { return (letter_unresolved >> (L - 'A')) & 1u; }

@@ -571,22 +571,6 @@ void Interpreter::apply_modes(const Block& b, BlockWords& w) {
       s_.circle_centre_known = static_cast<std::uint8_t>(s_.circle_centre_known | (1u << a));
     }
   }
-  if (d_.id == DialectId::siemens && w.has('D')) {
-    // Sinumerik: T selects the tool, D its cutting edge, and D carries the tool length offset; D0
-    // switches it off (840D sl Fundamentals, "Tool offset call (D)"). The active edge number is kept
-    // in tool_length_h so that a change of D is a change of tool length for the interpreter.
-    const Span at = b.words[static_cast<std::size_t>(w.letter_word['D' - 'A'])].span;
-    const long dn = w.whole_or('D', 0, 32000, -1);
-    if (w.unresolved('D')) {
-      s_.known &= static_cast<AxisMask>(~(bit(Axis::x) | bit(Axis::y) | bit(Axis::z)));
-    } else if (dn < 0) {
-      report(b, at, Severity::error, codes::kOutOfRange,
-             fmt::format("'{}': a cutting edge number is a whole number from 0 (no offset) to 32000", b.text(at)));
-    } else {
-      s_.tool_length_active = dn != 0;
-      s_.tool_length_h = static_cast<std::uint16_t>(dn);
-    }
-  }
   if (d_.id == DialectId::siemens && w.has('L')) {
     report(b, b.words[static_cast<std::size_t>(w.letter_word['L' - 'A'])].span, Severity::warning,
            codes::kSubprogramCall, "subprogram call (L word) is not followed by this version");

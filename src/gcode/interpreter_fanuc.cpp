@@ -242,4 +242,32 @@ bool Interpreter::corner_refused(const Block& b, const BlockWords& w, GMeaning m
   return false;
 }
 
+void Interpreter::fanuc_g29(const Block& b, BlockWords& w, Span at, MotionSink& out) {
+  // B-64484EN "Return from reference position (G29)": the named axes move at rapid from the reference
+  // position through the intermediate point of the last G28/G30 to the commanded point; in G91 the
+  // command is the distance from the intermediate point. Axes not named do not move. The leg from
+  // the reference position (unknown in the work frame) is not a resolved motion; the second leg is.
+  const AxisMask named = w.axis_present;
+  if (named == 0) return;
+  Motion m;
+  m.line = b.line;
+  m.column = at.begin + 1;
+  m.type = MotionType::rapid;
+  fill_state(m);
+  for (int a = 0; a < kAxisCount; ++a) m.word_index[static_cast<std::size_t>(a)] = w.axis_word[static_cast<std::size_t>(a)];
+  m.words_transformed = true;  // in G91 the words are relative to the intermediate point
+  for (int a = 0; a < kAxisCount; ++a) {
+    const AxisMask bitmask = static_cast<AxisMask>(1u << a);
+    if (!(named & bitmask)) continue;
+    s_.position[a] = s_.home_mid[a];
+    s_.known = static_cast<AxisMask>((s_.known & ~bitmask) | (s_.home_mid_known & bitmask));
+  }
+  target(b, w, m);
+  if ((s_.known & named) != named)
+    report(b, at, Severity::warning, codes::kFanucReturn,
+           "G29 end point is not known: in G91 it is relative to the intermediate point of the last G28/G30, which "
+           "was not given (or not known) for every named axis; program G29 in G90");
+  out.motion(m, b);
+}
+
 }  // namespace postproc::gcode

@@ -40,9 +40,7 @@ void Interpreter::tool_length_change(const Block& b, const BlockWords& w, Span a
     s_.position[2] -= mm - old;
     return;
   }
-  const bool z_absolute = (w.axis_present & kZ) && !w.axes_consumed && !(w.axis_unresolved & kZ) &&
-                          !(w.axis_incremental & kZ) && (s_.absolute || (w.axis_absolute & kZ));
-  if (z_absolute) return;
+  if (!w.axes_consumed && w.states_absolutely(Axis::z, s_.absolute)) return;
   // Where Z was already unknown (e.g. after G28 Z) the change adds nothing the program could state.
   if (!(s_.known & kZ)) return;
   if (d_.id == DialectId::fanuc) {
@@ -72,21 +70,30 @@ void Interpreter::tool_offsets(const Block& b, BlockWords& w) {
     if (m == 6 && s_.selected_tool >= 0) s_.current_tool = s_.selected_tool;
     if (m == 61 && d_.id == DialectId::linuxcnc) s_.current_tool = static_cast<int>(w.whole_or('Q', 0, 99999, -1));
   }
-  if (d_.id == DialectId::siemens) {
-    // Sinumerik (Fundamentals, "Tool offsets"): D selects the cutting edge whose length and radius
-    // apply (D0: none); a new T brings the default edge of the new tool. Their values live in the
-    // control's tool management: the change is exact only for D0 or a D the tool table gives.
-    const long d = w.has('D') ? (w.unresolved('D') ? -2 : w.whole_or('D', 0, 99999, -1)) : -1;
-    const bool new_tool = w.has('T');
-    if (d != -1 || new_tool) {
-      const Span at = b.words[static_cast<std::size_t>(w.letter_word[(d != -1 ? 'D' : 'T') - 'A'])].span;
-      double mm = 0;
-      const bool known = d >= 0 && table_length(d, mm);
-      if (d >= 0) s_.siemens_d = static_cast<int>(d);
-      else if (new_tool) s_.siemens_d = -1;
-      if (!(d >= 0 && d == s_.siemens_d && !new_tool && s_.tool_length_known && known && mm == s_.tool_length))
-        tool_length_change(b, w, at, mm, known);
+  if (d_.id == DialectId::siemens && (w.has('D') || w.has('T'))) {
+    // Sinumerik (840D sl Fundamentals, "Tool offset call (D)"): D selects the cutting edge whose
+    // length and radius apply (D0: none) and a new T brings the default edge of the new tool. Their
+    // values live in the control's tool management: the change is exact only for D0 or a D the
+    // tool table gives. The edge number stays in tool_length_h for the machine file's lookup.
+    long d = -1;  // no D in this block
+    Span at = b.words[static_cast<std::size_t>(w.letter_word[(w.has('D') ? 'D' : 'T') - 'A'])].span;
+    if (w.has('D')) {
+      d = w.unresolved('D') ? -2 : w.whole_or('D', 0, 32000, -2);
+      if (d == -2 && !w.unresolved('D'))
+        report(b, at, Severity::error, codes::kOutOfRange,
+               fmt::format("'{}': a cutting edge number is a whole number from 0 (no offset) to 32000", b.text(at)));
+      if (d == -2) s_.known &= static_cast<AxisMask>(~(bit(Axis::x) | bit(Axis::y) | kZ));  // radius and length unknown
     }
+    if (d >= 0) {
+      s_.siemens_d = static_cast<int>(d);
+      s_.tool_length_active = d != 0;
+      s_.tool_length_h = static_cast<std::uint16_t>(d);
+    } else if (d == -2 || w.has('T')) {
+      s_.siemens_d = -1;
+    }
+    double mm = 0;
+    const bool known = d >= 0 && table_length(d, mm);
+    tool_length_change(b, w, at, mm, known);
   }
   for (int k = 0; k < w.ng; ++k) {
     const auto& g = w.g[static_cast<std::size_t>(k)];

@@ -1,6 +1,7 @@
 #pragma once
 // rs274ngc expressions for the LinuxCNC resolver (linuxcnc.cpp): parsed once per line into a
 // small stack program. Internal to src/gcode/resolve.
+#include <algorithm>
 #include <cctype>
 #include <cstdint>
 #include <map>
@@ -27,6 +28,15 @@ struct Instr {
 struct Code {
   std::vector<Instr> ops;
 };
+
+/// An error while evaluating: the diagnostic code and what happened.
+struct EvalError {
+  std::string code, what;
+};
+
+/// Applies a function or binary operator (op >= Op::add, not neg/exists) to the evaluation stack
+/// `st` holding `sp` values, as rs274ngc does; throws EvalError on arithmetic LinuxCNC refuses.
+void apply_operator(Op op, double* st, int& sp);
 
 struct ParseError {
   std::size_t pos;
