@@ -80,11 +80,10 @@ class Compensator final : public gcode::BlockVisitor {
     block_error_ = false;
     // A block that moves to the reference point or changes the work offset without moving: the
     // corrected position the controller holds is no longer known in the program's coordinates.
-    // Likewise a block whose axis words moved the machine without a motion record (a construct the
-    // reader does not resolve, e.g. a Sinumerik TURN=.5 helix): where it ends is not what was written.
-    if (motions.empty() && (!keeps_coordinates() || moved_unresolved(b))) written_known_ = 0;
-    // Axis words that produced no motion (a move the reader refused, e.g. an arc from an unknown start
-    // or a Fanuc ,R corner): what the controller holds on those axes is not the last written value.
+    if (motions.empty() && !keeps_coordinates()) written_known_ = 0;
+    // Axis words that produced no motion (a move the reader refused or does not resolve: an arc from
+    // an unknown start, a Fanuc ,R corner, a Sinumerik TURN=.5 helix): what the controller holds on
+    // those axes is not the last written value.
     if (motions.empty() && track_.axis_consumer() == nullptr)
       for (const gcode::Word& w : b.words)
         if (const int a = track_.axis_of(w); a >= 0) written_known_ &= static_cast<gcode::AxisMask>(~(1u << a));
@@ -114,12 +113,6 @@ class Compensator final : public gcode::BlockVisitor {
  private:
   /// False for blocks that change what the program's coordinates mean (G28/G30, a work offset,
   /// G10 offset writes).
-  bool moved_unresolved(const Block& b) const {
-    if (track_.axis_consumer() != nullptr) return false;
-    for (const Word& w : b.words)
-      if (track_.axis_of(w) >= 0) return true;
-    return false;
-  }
   bool keeps_coordinates() const {
     return !(track_.has(gcode::GMeaning::home_return) || track_.has(gcode::GMeaning::work_offset) ||
              track_.has(gcode::GMeaning::set_offsets_g10));
