@@ -18,8 +18,10 @@ void add_dialect_options(CLI::App& cmd, DialectArgs& a, bool required) {
                "lathe programs: Fanuc G-code system A (G98/G99 feed modes, U/W incremental, G70–G76 cycles), X "
                "programmed as diameter");
   cmd.add_option("--gcode-system", a.gcode_system,
-                 "Fanuc lathe G-code system: A (G98/G99 feed per min/rev, U/W incremental) or B (G90/G91, G94/G95)")
-      ->check(CLI::IsMember({"A", "B"}))
+                 "Fanuc lathe G-code system (parameters GSB/GSC): A (G98/G99 feed per min/rev, U/W incremental), B "
+                 "(G90/G91, G94/G95), or auto: read off the program (G90 beside G00, G99 beside a feed, …; refused "
+                 "when the program shows both)")
+      ->check(CLI::IsMember({"A", "B", "auto"}))
       ->capture_default_str();
   cmd.add_option("--integer-input", a.integer_input,
                  "Fanuc: how axis words without a decimal point are read: increment (X100 = 0.1 mm, the factory "
@@ -53,7 +55,7 @@ gcode::Dialect make_dialect(const DialectArgs& a) {
   if (a.integer_input == "increment") o.integer_input = gcode::Dialect::IntegerInput::increment;
   if (a.integer_input == "calculator") o.integer_input = gcode::Dialect::IntegerInput::calculator;
   o.power_on_motion = a.power_on_motion == "G1" || a.power_on_motion == "G01" ? 1 : 0;
-  o.gcode_system = a.gcode_system.empty() ? 'A' : a.gcode_system[0];
+  o.gcode_system = a.gcode_system.empty() || a.gcode_system == "auto" ? '?' : a.gcode_system[0];
   if (a.diameter_axis == "X" || a.diameter_axis == "x") o.diameter_axis = 'X';
   if (!a.tool_table.empty()) {
     gcode::DiagnosticSink sink;

@@ -17,7 +17,7 @@ namespace postproc::cli {
 struct DialectArgs {
   std::string dialect;       ///< empty = not given
   bool lathe = false;
-  std::string gcode_system = "A";
+  std::string gcode_system = "auto";  ///< "A", "B" or "auto" (Fanuc lathe)
   std::string diameter_axis; ///< "X" or empty
   std::string integer_input; ///< "", "increment" or "calculator" (Fanuc)
   std::string tool_table;    ///< LinuxCNC tool table file (lengths and diameters by tool number), "" = none

@@ -64,6 +64,17 @@ TEST(Detect, FirstMarkingLineWins) {
   EXPECT_EQ(g->id, DialectId::fanuc);
 }
 
+TEST(Detect, LinuxcncOWordLoopIsNotFanucWhile) {
+  // "o1 while [...]" is a LinuxCNC o-word loop; Fanuc writes "WHILE [...] DO1" without an o-word.
+  const auto g = gc::guess_dialect("G20\nO1 while [#9 lt #6]\nO1 endwhile\nM2\n");
+  ASSERT_TRUE(g.has_value());
+  EXPECT_EQ(g->id, DialectId::linuxcnc);
+  EXPECT_EQ(g->line, 3u);
+  const auto f = gc::guess_dialect("O0001\nWHILE [#1 LT 10] DO1\nEND1\nM30\n");
+  ASSERT_TRUE(f.has_value());
+  EXPECT_EQ(f->id, DialectId::fanuc);
+}
+
 TEST(Detect, CommentTextIsNotEvidence) {
   // A Fanuc comment such as "(ROUGH SUB-PROGRAM)" says nothing about the dialect.
   const auto g = gc::guess_dialect("O1000 (ROUGH SUB-PROGRAM)\nG0 X0\n");

@@ -142,3 +142,37 @@ TEST(LineReader, ViewsStayValidUntilNextCall) {
 }
 
 }  // namespace
+
+namespace {
+// rewind() starts again at line 1 with the same lines and byte counts (memory and files, any
+// chunk size, also after a partial read); a stream that cannot be read twice says so.
+TEST(LineReader, RewindReadsTheSameLinesAgain) {
+  const std::string text = "G0 X1\r\nG1 X2\n\rG2 X3\rlast";
+  const Lines expected = from_memory(text);
+  gc::LineReader m{std::string_view(text)};
+  std::string_view line, eol;
+  ASSERT_TRUE(m.next(line, eol));
+  ASSERT_TRUE(m.rewind());
+  EXPECT_EQ(m.line_number(), 0u);
+  EXPECT_EQ(read_all(m), expected);
+  TempDir dir;
+  const std::string path = dir.file("in.nc");
+  write_file(path, text);
+  for (std::size_t chunk : {1u, 3u, 1u << 20}) {
+    gc::LineReader f(path, chunk);
+    std::uint64_t bytes = 0;
+    EXPECT_EQ(read_all(f, &bytes), expected);
+    ASSERT_TRUE(f.rewind());
+    EXPECT_EQ(read_all(f, &bytes), expected) << "chunk " << chunk;
+    EXPECT_EQ(bytes, text.size());
+  }
+  int fds[2];
+  ASSERT_EQ(::pipe(fds), 0);
+  ASSERT_EQ(::write(fds[1], "G0\n", 3), 3);
+  ::close(fds[1]);
+  gc::LineReader p("/dev/fd/" + std::to_string(fds[0]));
+  ASSERT_TRUE(p.next(line, eol));
+  EXPECT_FALSE(p.rewind());
+  ::close(fds[0]);
+}
+}  // namespace

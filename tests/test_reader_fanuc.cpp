@@ -265,13 +265,20 @@ TEST(ReaderFanuc, G80ReturnsToPreviousGroup01Motion) {
 // B-64484EN II "Chamfering and corner rounding (,C ,R)": ,C / ,R on a G01 moves the end of that block
 // and the start of the next. ",C" and ",R" are lexed as their own address (never a C axis or an arc
 // radius); both motions are refused at the word (PP-U233); the end of the next block is exact again.
-TEST(ReaderFanuc, CornerRoundingRefusedAtItsWord) {
-  const Program r(dialect("fanuc"), "G90 G0 X0 Y0\nG1 X10. ,R2. F100.\nY10.\nX20.\n");
+TEST(ReaderFanuc, CornerRoundingBuiltOrRefusedAtItsWord) {
+  // Between two straight moves the rounding is built (tests/test_corners.cpp); before an arc it is
+  // refused at its word and the arc's start is moved by it, so the arc is refused too.
+  const Program built(dialect("fanuc"), "G90 G0 X0 Y0\nG1 X10. ,R2. F100.\nY10.\nX20.\n");
+  EXPECT_FALSE(built.has("PP-U233")) << built.all_codes();
+  ASSERT_NE(built.at_line(2), nullptr);
+  EXPECT_EQ(built.at_line(2)->type, gc::MotionType::arc_ccw);
+  EXPECT_XYZ(*built.at_line(2), 10, 2, 0);
+  const Program r(dialect("fanuc"), "G90 G0 X0 Y0\nG1 X10. ,R2. F100.\nG3 X20. Y10. R10.\nG1 X30. Y10.\n");
   expect_diag_at(r, "PP-U233", 2, 9);
   EXPECT_EQ(r.at_line(2), nullptr);
   EXPECT_EQ(r.at_line(3), nullptr);  // its start is moved by the rounding
   ASSERT_NE(r.at_line(4), nullptr) << r.all_codes();
-  EXPECT_XYZ(*r.at_line(4), 20, 10, 0);
+  EXPECT_XYZ(*r.at_line(4), 30, 10, 0);
   EXPECT_TRUE(known(*r.at_line(4), Axis::x) && known(*r.at_line(4), Axis::y));
   EXPECT_NEAR(r.at_line(4)->start[1], 10, kTol);
   EXPECT_EQ(r.sink.count(gc::Severity::error), 0u);
@@ -402,6 +409,74 @@ TEST(ReaderFanuc, LatheGCodeSystemB) {
   ASSERT_NE(t, nullptr) << g90.all_codes();
   EXPECT_EQ(t->where.column, 1u);
   EXPECT_NE(t->message.find("--gcode-system B"), std::string::npos);
+}
+
+// B-64484EN "G code system" (lathe; parameters GSB/GSC No. 3401): system A has no G90/G91 modes and
+// feeds by G98/G99; systems B/C use G90/G91 and G94/G95, and G98/G99 there only choose the canned
+// cycle return level. With the system not stated ('?', the CLI's "auto"), the reader takes it from a
+// block that only one system reads without contradiction, says so (PP-N004), and refuses a program
+// that shows both (PP-E209).
+TEST(ReaderFanuc, LatheGCodeSystemReadOffTheProgram) {
+  gc::DialectOptions o;
+  o.lathe = true;
+  o.gcode_system = '?';
+  o.integer_input = gc::Dialect::IntegerInput::calculator;
+  const gc::Dialect autod = gc::make_dialect(gc::DialectId::fanuc, o);
+  // "G90 G0" in one block: system B (absolute); G91 then makes X incremental.
+  const Program b(autod, "G0 X30. Z10.\nG90 G0 X20. Z5.\nG91 G1 X-4. Z-10. F0.2\n");
+  expect_diag_at(b, "PP-N004", 2, 1);
+  EXPECT_FALSE(b.sink.has_errors()) << b.all_codes();
+  ASSERT_NE(b.at_line(3), nullptr) << b.all_codes();
+  EXPECT_NEAR(b.at_line(3)->end[0], 8, kTol);  // diameter 20 - 4 = 16: radius 8
+  EXPECT_NEAR(b.at_line(3)->end[2], -5, kTol);
+  // "G95" alone: feed per revolution of systems B/C (system A has no G95).
+  const Program b2(autod, "G21 G95\nG0 X20. Z5.\nG1 Z-10. F0.2\n");
+  expect_diag_at(b2, "PP-N004", 1, 5);
+  ASSERT_NE(b2.at_line(3), nullptr) << b2.all_codes();
+  EXPECT_EQ(b2.at_line(3)->feed_mode, gc::FeedMode::per_rev);
+  // "G99 G1 … F": feed per revolution of system A; U is then incremental X.
+  const Program a(autod, "G0 X20. Z5.\nG99 G1 U-4. W-10. F0.2\n");
+  expect_diag_at(a, "PP-N004", 2, 1);
+  ASSERT_NE(a.at_line(2), nullptr) << a.all_codes();
+  EXPECT_NEAR(a.at_line(2)->end[0], 8, kTol);
+  EXPECT_NEAR(a.at_line(2)->end[2], -5, kTol);
+  // Nothing decides: system A, the factory setting, without a note.
+  const Program none(autod, "G0 X20. Z5.\nG1 Z-10. F0.2\n");
+  EXPECT_EQ(none.find("PP-N004"), nullptr);
+  EXPECT_FALSE(none.sink.has_errors()) << none.all_codes();
+  // Both: refused at the later evidence, naming the earlier one (a Mazak-style mix of G90 and G99).
+  const Program both(autod, "G00 G90 X20. Z5.\nG96 S200\nG01 G99 X10. F.03\n");
+  expect_diag_at(both, "PP-E209", 3, 5);
+  const gc::Diagnostic* e = both.find("PP-E209");
+  ASSERT_NE(e, nullptr);
+  EXPECT_NE(e->message.find("line 1"), std::string::npos) << e->message;
+  EXPECT_NE(e->message.find("--gcode-system"), std::string::npos) << e->message;
+  // "G00 G90 G99": G99 is a return level beside absolute mode in B; the block is evidence for B.
+  const Program mixed(autod, "G00 G90 G99 X20. Z5.\n");
+  expect_diag_at(mixed, "PP-N004", 1, 5);
+  EXPECT_FALSE(mixed.sink.has_errors()) << mixed.all_codes();
+}
+
+// A lathe post for a radius-programmed machine writes X as a radius: the refused arc says that it
+// closes so and names --diameter-axis none (B-64484EN "Diameter and radius programming").
+TEST(ReaderFanuc, LatheArcThatClosesInRadiusNamesTheSetting) {
+  // From X1.055 (diameter) to X1.0143 Z+.0407 around I-.0407: a quarter circle only if X is a radius.
+  const Program r(dialect("fanuc", true), "G20\nG0 X1.055 Z4.7043\nG3 X1.0143 Z4.745 I-.0407 K0. F.02\n");
+  const gc::Diagnostic* d = r.find("PP-E301");
+  ASSERT_NE(d, nullptr) << r.all_codes();
+  EXPECT_NE(d->message.find("--diameter-axis none"), std::string::npos) << d->message;
+  gc::DialectOptions o;
+  o.lathe = true;
+  o.integer_input = gc::Dialect::IntegerInput::calculator;
+  gc::Dialect radius = gc::make_dialect(gc::DialectId::fanuc, o);
+  radius.diameter_axis = 0;
+  const Program ok(radius, "G20\nG0 X1.055 Z4.7043\nG3 X1.0143 Z4.745 I-.0407 K0. F.02\n");
+  EXPECT_FALSE(ok.sink.has_errors()) << ok.all_codes();
+  // An arc that closes neither way carries no hint.
+  const Program bad(dialect("fanuc", true), "G0 X20. Z0.\nG3 X30. Z-3. I5. K0. F.1\n");
+  const gc::Diagnostic* b = bad.find("PP-E301");
+  ASSERT_NE(b, nullptr) << bad.all_codes();
+  EXPECT_EQ(b->message.find("--diameter-axis"), std::string::npos) << b->message;
 }
 
 // ---- Writers -----------------------------------------------------------------------------------------

@@ -235,14 +235,18 @@ TEST(ReaderSiemens, TangentialArcWithoutKnownDirectionIsRefused) {
   expect_diag_at(straight, "PP-E301", 3, 1);
 }
 
-TEST(ReaderSiemens, ChamferAndRoundingAreRefusedAtTheirWord) {
+TEST(ReaderSiemens, ChamferAndRoundingBuiltOrRefusedAtTheirWord) {
   // Fundamentals, "Chamfer, rounding: CHF, CHR, RND, RNDM": a chamfer or rounding is inserted
-  // between two blocks and shortens both. Not computed here: refused (PP-U240) at the word;
-  // RNDM=0 switches modal rounding off and is not refused.
+  // between two blocks and shortens both. Between two straight moves it is built (tests/test_corners.cpp);
+  // RNDM= (modal) and a corner without a next move are refused (PP-U240) at the word; RNDM=0
+  // switches modal rounding off and is not refused.
   const Program chf(siemens(), "G0 X0 Y0\nG1 X10 Y0 CHF=2 F100\nY10\n");
-  expect_diag_at(chf, "PP-U240", 2, 11);
-  EXPECT_EQ(chf.motions.size(), 3u);
-  EXPECT_VEC(chf.motions[1].end, 10, 0, 0);
+  EXPECT_TRUE(chf.sink.stored().empty()) << chf.all_codes();
+  ASSERT_EQ(chf.motions.size(), 4u);
+  const double leg = 2 / (2 * std::cos(std::numbers::pi / 4));  // CHF is the chamfer's own length
+  EXPECT_VEC(chf.motions[1].end, 10 - leg, 0, 0);
+  EXPECT_VEC(chf.motions[2].end, 10, leg, 0);
+  EXPECT_VEC(chf.motions[3].end, 10, 10, 0);
   const Program rndm(siemens(), "G0 X0 Y0\nRNDM=2\nG1 X10 F100\nRNDM=0\nY10\n");
   expect_diag_at(rndm, "PP-U240", 2, 1);
   EXPECT_EQ(rndm.sink.stored().size(), 1u) << rndm.all_codes();

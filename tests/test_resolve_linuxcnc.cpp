@@ -154,6 +154,23 @@ TEST(ResolveLinuxcnc, RuntimeParametersAreRefusedUnlessSet) {
   EXPECT_EQ(codes(resolve_text("G1 X#<_x>\n").sink), "PP-E701@1:5 ");
 }
 
+// LinuxCNC G-code "G38.x Straight Probe": the probe writes #5061–#5070 when it runs (modal group 1:
+// axis words after G38.2 probe again). A value the program set before a probe is gone: a loop on
+// #5070 (smartprobe.ngc in LinuxCNC's samples) is refused at the read, not run to the block limit.
+TEST(ResolveLinuxcnc, ProbingForgetsTheProbeResultsTheProgramSet) {
+  const auto loop = resolve_text("#5070=1\no4 while [#5070 NE 0]\n  G38.5 Z1 F20\n  G38.3 X2\no4 endwhile\nM2\n");
+  EXPECT_EQ(codes(loop.sink), "PP-E701@2:1 ");
+  // Set and read before any probe: the program's value.
+  const auto before = resolve_text("#5070=1\nG1 X#5070 F10\nM2\n");
+  EXPECT_FALSE(before.sink.has_errors()) << codes(before.sink);
+  EXPECT_EQ(before.r.text, "G1 X1. F10\nM2\n");  // the assignment line is consumed
+  // Modal: a line of axis words after G38.2 probes again; after G1 it does not.
+  const auto modal = resolve_text("G38.2 Z-1 F10\n#5063=2\nZ-2\nG1 X#5063\nM2\n");
+  EXPECT_EQ(codes(modal.sink), "PP-E701@4:5 ");
+  const auto ended = resolve_text("G38.2 Z-1 F10\nG1 X0\n#5063=2\nZ-2\nG1 X#5063\nM2\n");
+  EXPECT_FALSE(ended.sink.has_errors()) << codes(ended.sink);
+}
+
 TEST(ResolveLinuxcnc, ErrorsAreLocated) {
   EXPECT_EQ(codes(resolve_text("G1 X#<undefined>\n").sink), "PP-E703@1:5 ");
   EXPECT_EQ(codes(resolve_text("G1 X[1/0]\n").sink), "PP-E707@1:5 ");

@@ -14,6 +14,7 @@ inline constexpr std::string_view kMissingWord = "PP-E204";
 inline constexpr std::string_view kOutOfRange = "PP-E205";
 inline constexpr std::string_view kWordNotAllowed = "PP-E206";  // a word the block's G code does not take
 inline constexpr std::string_view kControllerRefuses = "PP-E207";  // a state the controller itself refuses
+inline constexpr std::string_view kGCodeSystemAmbiguous = "PP-E209";  // Fanuc lathe G-code system A and B both evidenced
 inline constexpr std::string_view kArcGeometry = "PP-E301";
 inline constexpr std::string_view kRenumberRefused = "PP-E501";
 inline constexpr std::string_view kUnitsRefused = "PP-E502";
@@ -63,4 +64,5 @@ inline constexpr std::string_view kSiemensGlobalFlow = "PP-E241";  ///< GUD valu
 inline constexpr std::string_view kDialectGuess = "PP-N001";
 inline constexpr std::string_view kDialectMismatch = "PP-N002";
 inline constexpr std::string_view kTapeLeader = "PP-N003";
+inline constexpr std::string_view kGCodeSystemFound = "PP-N004";  ///< Fanuc lathe G-code system read off the program
 }  // namespace postproc::gcode::codes

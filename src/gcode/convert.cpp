@@ -1,6 +1,7 @@
 // postproc convert: the passes that rewrite a program block by block (identity, --strip-comments,
 // --renumber, --decimals/--units, --linearize) and the second pass that re-reads converted text.
 #include "postproc/gcode/convert.hpp"
+#include "postproc/gcode/detect.hpp"
 
 #include <functional>
 #include <memory>
@@ -217,8 +218,10 @@ class Pass final : public BlockVisitor {
 
 }  // namespace
 
-ConvertResult convert(LineReader& in, std::string_view file, const Dialect& dialect, const ConvertOptions& opt,
+ConvertResult convert(LineReader& in, std::string_view file, const Dialect& given, const ConvertOptions& opt,
                       io::OutputFile& out, DiagnosticSink& sink) {
+  // The writer and the interpreter must read the program in the same G-code system.
+  const Dialect dialect = given.gcode_system == '?' ? settle_gcode_system(given, in, file, sink) : given;
   ConvertResult result;
   const Writer to_file = [&out](std::string_view s) { out.write(s); };
   ConvertOptions first = opt;

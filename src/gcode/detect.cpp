@@ -1,6 +1,13 @@
 #include "postproc/gcode/detect.hpp"
 
 #include <array>
+#include <cmath>
+
+#include <fmt/format.h>
+
+#include "postproc/gcode/lexer.hpp"
+#include "postproc/gcode/motion.hpp"
+#include "src/gcode/codes.hpp"
 
 #include "src/gcode/text.hpp"
 
@@ -37,6 +44,15 @@ bool match_at(std::string_view line, std::size_t pos, std::string_view pat) {
   return true;
 }
 
+/// LinuxCNC writes its loops as o-words ("o101 while [...]"): a Fanuc marker that follows one is
+/// LinuxCNC's.
+bool after_o_word(std::string_view before, const Marker& m) {
+  if (m.id != DialectId::fanuc) return false;
+  std::size_t i = before.find_first_not_of(" \t");
+  if (i == std::string_view::npos || (before[i] != 'o' && before[i] != 'O')) return false;
+  return i + 1 < before.size() && (before[i + 1] == '<' || (before[i + 1] >= '0' && before[i + 1] <= '9'));
+}
+
 }  // namespace
 
 std::optional<DialectGuess> guess_dialect(std::string_view text, std::size_t max_lines) {
@@ -51,7 +67,7 @@ std::optional<DialectGuess> guess_dialect(std::string_view text, std::size_t max
       int depth = 0;
       for (std::size_t p = 0; p <= last && p < line.size(); ++p) {
         if (line[p] == '(' && !m.at_line_start) ++depth;
-        if (depth == 0 && match_at(line, p, m.text))
+        if (depth == 0 && match_at(line, p, m.text) && !after_o_word(line.substr(0, p), m))
           return DialectGuess{m.id, std::string(m.text), ln, static_cast<std::uint32_t>(p + 1)};
         if (line[p] == ')' && depth > 0) --depth;
       }
@@ -59,6 +75,146 @@ std::optional<DialectGuess> guess_dialect(std::string_view text, std::size_t max
     start = end + 1;
   }
   return std::nullopt;
+}
+
+}  // namespace postproc::gcode
+
+// ---- Fanuc lathe G-code system ----------------------------------------------------------------
+
+namespace postproc::gcode {
+namespace {
+
+bool is_motion(int code10) { return code10 == 0 || code10 == 10 || code10 == 20 || code10 == 30; }
+
+/// Evidence in one lexed block, or nullopt.
+std::optional<GCodeSystemEvidence> evidence_of(const Block& b, const Word* g9x, int motion, bool axis, bool f, bool s);
+
+std::optional<GCodeSystemEvidence> evidence_in(const Block& b) {
+  int motion = -1;
+  bool axis = false, f = false, s = false;
+  for (const Word& w : b.words) {
+    if (w.letter == 'F' && w.name_len == 1) f = true;
+    if (w.letter == 'S' && w.name_len == 1) s = true;
+    if (w.name_len == 1 && axis_index(w.letter) >= 0) axis = true;
+    if (w.letter != 'G' || w.name_len != 1 || w.kind != ValueKind::number) continue;
+    const long c = std::lround(w.number * 10);
+    if (is_motion(static_cast<int>(c))) motion = static_cast<int>(c);
+  }
+  // A block may hold both (G00 G90 G99: G99 is a return level beside absolute mode in system B): B first.
+  std::optional<GCodeSystemEvidence> found;
+  for (const Word& w : b.words) {
+    if (w.letter != 'G' || w.name_len != 1 || w.kind != ValueKind::number) continue;
+    const long c = std::lround(w.number * 10);
+    if (c != 900 && c != 910 && c != 940 && c != 950 && c != 920 && c != 980 && c != 990) continue;
+    auto e = evidence_of(b, &w, motion, axis, f, s);
+    if (e && e->system == 'B') return e;
+    if (e && !found) found = std::move(e);
+  }
+  return found;
+}
+
+std::optional<GCodeSystemEvidence> evidence_of(const Block& b, const Word* g9x, int motion, bool axis, bool f, bool s) {
+  const long c = std::lround(g9x->number * 10);
+  GCodeSystemEvidence e;
+  e.line = b.line;
+  e.column = g9x->span.begin + 1;
+  e.text = std::string(b.text(g9x->span));
+  e.source = std::string(b.raw);
+  if ((c == 900 || c == 910) && motion >= 0) {
+    e.system = 'B';
+    e.why = fmt::format("'{}' beside G0{}: {} mode of systems B/C (in system A both are group-01 motion codes)", e.text,
+                        motion / 10, c == 900 ? "absolute" : "incremental");
+  } else if ((c == 900 || c == 940) && !axis) {
+    e.system = 'B';
+    e.why = fmt::format("'{}' without axis words: {} of systems B/C (in system A, {} is a turning cycle that needs "
+                        "X/U and Z/W)",
+                        e.text, c == 900 ? "absolute mode" : "feed per minute", e.text);
+  } else if ((c == 910 || c == 950) && !axis) {
+    e.system = 'B';
+    e.why = fmt::format("'{}': {} of systems B/C (system A has no {})", e.text,
+                        c == 910 ? "incremental mode" : "feed per revolution", e.text);
+  } else if (c == 920 && s && !axis) {
+    e.system = 'B';
+    e.why = fmt::format("'{}' with S: spindle speed clamp of systems B/C (system A: G50 S; G92 is its threading "
+                        "cycle)",
+                        e.text);
+  } else if ((c == 980 || c == 990) && (motion >= 0 || f)) {
+    e.system = 'A';
+    e.why = fmt::format("'{}' beside a {}: feed per {} of system A (in systems B/C G98/G99 only choose a canned "
+                        "cycle's return level)",
+                        e.text, motion >= 0 ? "motion" : "feed", c == 980 ? "minute" : "revolution");
+  } else {
+    return std::nullopt;
+  }
+  return e;
+}
+
+}  // namespace
+
+GCodeSystemScan scan_lathe_gcode_system(LineReader& in, const Dialect& d) {
+  GCodeSystemScan scan;
+  Block b;
+  std::string_view line, eol;
+  while ((!scan.a || !scan.b) && in.next(line, eol)) {
+    if (line.find('G') == std::string_view::npos && line.find('g') == std::string_view::npos) continue;
+    b.clear();
+    b.raw = line;
+    b.line = in.line_number();
+    (void)lex_block(d, b, LexContext{});
+    if (auto e = evidence_in(b)) {
+      auto& slot = e->system == 'A' ? scan.a : scan.b;
+      if (!slot) slot = std::move(e);
+    }
+  }
+  return scan;
+}
+
+Dialect settle_gcode_system(const Dialect& d, LineReader& in, std::string_view file, DiagnosticSink& sink) {
+  if (d.id != DialectId::fanuc || !d.lathe || d.gcode_system != '?') return d;
+  Dialect settled = d;
+  const auto report = [&](Severity sev, std::string_view code, std::uint64_t line, std::uint32_t column,
+                          std::string msg, const std::string& source = {}, std::uint32_t length = 1) {
+    Diagnostic diag;
+    diag.file = std::string(file);
+    diag.where.line = line;
+    diag.where.column = column;
+    diag.source_line = source;
+    diag.length = length;
+    diag.severity = sev;
+    diag.code = std::string(code);
+    diag.message = std::move(msg);
+    sink.report(std::move(diag));
+  };
+  const std::uint64_t start = in.line_number();
+  GCodeSystemScan scan = scan_lathe_gcode_system(in, d);
+  if (start != 0 || !in.rewind()) {
+    report(Severity::error, codes::kGCodeSystemAmbiguous, 1, 1,
+           "the Fanuc lathe G-code system (A or B/C) is not stated and a program read from a stream cannot be "
+           "scanned for it; pass --gcode-system A or B (machine file: gcode_system)");
+    set_gcode_system(settled, 'A');
+    return settled;
+  }
+  if (scan.a && scan.b) {
+    const auto& later = scan.a->line > scan.b->line ? *scan.a : *scan.b;
+    const auto& earlier = scan.a->line > scan.b->line ? *scan.b : *scan.a;
+    report(Severity::error, codes::kGCodeSystemAmbiguous, later.line, later.column,
+           fmt::format("the program is written for two Fanuc lathe G-code systems: {}, but line {}: {}; pass "
+                       "--gcode-system A or B as the control is set (parameters GSB/GSC, No. 3401)",
+                       later.why, earlier.line, earlier.why),
+           later.source, static_cast<std::uint32_t>(later.text.size()));
+    set_gcode_system(settled, 'A');
+    return settled;
+  }
+  const char sys = scan.b ? 'B' : 'A';
+  if (scan.a || scan.b) {
+    const auto& e = scan.b ? *scan.b : *scan.a;
+    report(Severity::note, codes::kGCodeSystemFound, e.line, e.column,
+           fmt::format("read as Fanuc lathe G-code system {}: {}; pass --gcode-system to state it", sys == 'A' ? "A" : "B",
+                       e.why),
+           e.source, static_cast<std::uint32_t>(e.text.size()));
+  }
+  set_gcode_system(settled, sys);
+  return settled;
 }
 
 }  // namespace postproc::gcode

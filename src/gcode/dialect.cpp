@@ -257,6 +257,14 @@ Dialect make_dialect(DialectId id, const DialectOptions& opt) {
   return d;
 }
 
+void set_gcode_system(Dialect& d, char system) {
+  d.gcode_system = system;
+  if (d.id != DialectId::fanuc) return;
+  d.gcodes.clear();
+  base_table(d.gcodes);
+  fanuc(d.gcodes, d.lathe, system);
+}
+
 std::optional<Dialect> make_dialect(std::string_view name, const DialectOptions& opt) {
   if (name == "fanuc") return make_dialect(DialectId::fanuc, opt);
   if (name == "siemens") return make_dialect(DialectId::siemens, opt);

@@ -65,7 +65,7 @@ bool siemens_state_keyword(std::string_view name) {
 }
 
 Interpreter::Interpreter(const Dialect& dialect, std::string file, DiagnosticSink& sink, InterpreterOptions opt)
-    : d_(dialect), file_(std::move(file)), sink_(sink), opt_(opt) {
+    : d_(dialect), file_(std::move(file)), sink_(&sink), opt_(opt) {
   s_.diameter_mode = d_.diameter_axis != 0;
   s_.motion = s_.interp_motion = d_.power_on_motion;
   s_.motion_code10 = s_.interp_code10 = d_.power_on_motion == GMeaning::linear ? 10 : 0;
@@ -82,7 +82,7 @@ Interpreter::Interpreter(const Dialect& dialect, std::string file, DiagnosticSin
 }
 
 void Interpreter::report(const Block& b, Span at, Severity sev, std::string_view code, std::string msg) {
-  const LexContext ctx{file_, &sink_};
+  const LexContext ctx{file_, sink_};
   report_at(ctx, b, at, sev, code, std::move(msg));
 }
 

@@ -200,9 +200,11 @@ bool Interpreter::corner_refused(const Block& b, const BlockWords& w, GMeaning m
   // this block is moved back and a chamfer line or rounding arc is inserted before the next block.
   // This version does not build that geometry: the motions of both blocks are refused (their end
   // points stay exact for the blocks that follow).
-  int here = w.corner_word;
+  // ,C and ,R between two straight moves are built (interpreter_corner.cpp).
+  if (d_.id == DialectId::fanuc && corner_pending_line_ == 0 && corner_word(b, w, mode)) return false;
+  int here = d_.id == DialectId::fanuc ? w.corner_word : -1;
   // (Under G12.1/G112 polar interpolation C is the rotary axis of the polar plane, not a chamfer.)
-  if (here < 0 && d_.lathe && mode == GMeaning::linear && !s_.polar_interp) {
+  if (here < 0 && d_.id == DialectId::fanuc && d_.lathe && mode == GMeaning::linear && !s_.polar_interp) {
     const auto letter = [&](char L) { return w.has(L) ? static_cast<int>(w.letter_word[static_cast<std::size_t>(L - 'A')]) : -1; };
     const bool xz = (w.axis_present & (bit(Axis::x) | bit(Axis::z))) != 0;
     if (letter('R') >= 0) here = letter('R');
@@ -232,7 +234,7 @@ bool Interpreter::corner_refused(const Block& b, const BlockWords& w, GMeaning m
         at = b.words[static_cast<std::size_t>(w.axis_word[static_cast<std::size_t>(a)])].span;
         break;
       }
-    report(b, at, Severity::warning, codes::kFanucCorner,
+    report(b, at, Severity::warning, d_.id == DialectId::siemens ? codes::kSiemensCorner : codes::kFanucCorner,
            fmt::format("the start of this motion is moved by the chamfer / corner rounding of line {}, which this "
                        "version does not resolve; the motion is refused",
                        corner_pending_line_));

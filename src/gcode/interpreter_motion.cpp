@@ -36,7 +36,7 @@ void Interpreter::fill_state(Motion& m) const {
   m.inch_source = s_.inch;
 }
 
-void Interpreter::execute(const Block& b, MotionSink& out) {
+void Interpreter::execute_block(const Block& b, MotionSink& out) {
   if (b.empty()) return;
   if (d_.id == DialectId::linuxcnc && lathe_profile_line(b)) return;
   BlockWords w;
@@ -55,7 +55,8 @@ void Interpreter::execute(const Block& b, MotionSink& out) {
       if (mc == 3 || mc == 4) spindle_turning_ = true;
       if (mc == 5) spindle_turning_ = false;
     }
-  if (d_.id == DialectId::siemens) corner_words(b, w);
+  if (d_.id == DialectId::siemens && !corner_word(b, w, w.motion.def ? w.motion.def->meaning : s_.motion))
+    corner_words(b, w);
   if (!w.axes_consumed) do_motion(b, w, out);
 }
 
@@ -329,7 +330,8 @@ void Interpreter::do_motion(const Block& b, BlockWords& w, MotionSink& out_all) 
                         : w.motion.def                                  ? w.motion.def->meaning
                                                                         : s_.motion;
   NullSink refused;
-  const bool corner = d_.id == DialectId::fanuc && corner_refused(b, w, w.motion.def ? w.motion.def->meaning : s_.motion);
+  const bool corner = (d_.id == DialectId::fanuc || (d_.id == DialectId::siemens && corner_pending_line_ != 0)) &&
+                      corner_refused(b, w, w.motion.def ? w.motion.def->meaning : s_.motion);
   MotionSink& out = corner ? static_cast<MotionSink&>(refused) : out_all;
   if (w.motion.def) {
     const bool was_cycle = s_.motion == GMeaning::drill_cycle;
@@ -604,15 +606,15 @@ bool Interpreter::target(const Block&, const BlockWords& w, Motion& m) {
 }
 
 bool Interpreter::radii_agree(const Block& b, Span at, const Eigen::Vector2d& s, const Eigen::Vector2d& e,
-                              const Eigen::Vector2d& c) {
+                              const Eigen::Vector2d& c, std::string_view hint) {
   const double r1 = (s - c).norm(), r2 = (e - c).norm();
   const double diff = std::abs(r1 - r2);
   // Inch programs print one decimal more: allow 0.0002 in instead of 0.002 mm.
   if (diff > opt_.arc_radius_tolerance_mm * (s_.inch ? 2.54 : 1.0) && diff > 1e-3 * std::max(r1, r2)) {
     report(b, at, Severity::error, codes::kArcGeometry,
            fmt::format("arc radius at start {:.6f} mm and at end {:.6f} mm differ by {:.6f} mm; fix the centre "
-                       "words or the end point",
-                       r1, r2, diff));
+                       "words or the end point{}",
+                       r1, r2, diff, hint));
     return false;
   }
   return true;
@@ -734,7 +736,18 @@ bool Interpreter::arc(const Block& b, const BlockWords& w, Motion& m, AxisMask s
     const bool abs_u = s_.arc_absolute || ((w.letter_absolute >> (cu - 'A')) & 1u);
     const bool abs_v = s_.arc_absolute || ((w.letter_absolute >> (cv - 'A')) & 1u);
     c = Eigen::Vector2d(abs_u ? iu : s.x() + iu, abs_v ? iv : s.y() + iv);
-    if (!radii_agree(b, at, s, e, c)) return false;
+    // A lathe post for a radius-programmed machine (parameter DIA, No. 1006#3 = 0) writes X as a
+    // radius: say so when the arc closes that way.
+    std::string_view hint;
+    if (s_.diameter_mode && (p.u == 0 || p.v == 0) && !abs_u && !abs_v) {
+      const Eigen::Vector2d k = p.u == 0 ? Eigen::Vector2d(2, 1) : Eigen::Vector2d(1, 2);
+      const Eigen::Vector2d s2 = s.cwiseProduct(k), e2 = e.cwiseProduct(k), c2(s2.x() + iu, s2.y() + iv);
+      const double r1 = (s2 - c2).norm(), r2 = (e2 - c2).norm();
+      if (std::abs(r1 - r2) <= opt_.arc_radius_tolerance_mm * (s_.inch ? 2.54 : 1.0) || std::abs(r1 - r2) <= 1e-3 * std::max(r1, r2))
+        hint = "; the arc closes if X is a radius: if the machine is programmed in radius (parameter DIA "
+               "No. 1006#3 = 0), pass --diameter-axis none";
+    }
+    if (!radii_agree(b, at, s, e, c, hint)) return false;
   }
   if ((s - c).norm() < 1e-9) {
     report(b, at, Severity::error, codes::kArcGeometry,

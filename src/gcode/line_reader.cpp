@@ -27,6 +27,19 @@ LineReader::~LineReader() {
   if (owns_file_ && file_ != nullptr) std::fclose(file_);
 }
 
+bool LineReader::rewind() {
+  if (!from_memory_) {
+    if (!owns_file_ || file_ == nullptr || std::fseek(file_, 0, SEEK_SET) != 0) return false;
+    std::clearerr(file_);
+    eof_ = false;
+    end_ = 0;
+  }
+  begin_ = 0;
+  line_no_ = 0;
+  consumed_ = 0;
+  return true;
+}
+
 bool LineReader::refill() {
   if (eof_ || from_memory_) return false;
   // Move the unread tail to the front; grow when one line fills the whole buffer.

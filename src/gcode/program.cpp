@@ -1,6 +1,9 @@
 #include "postproc/gcode/program.hpp"
+#include "postproc/gcode/detect.hpp"
 
+#include <array>
 #include <deque>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -87,20 +90,60 @@ Lookahead read_leader(LineReader& reader, const Dialect& d, std::size_t max_line
 
 }  // namespace
 
-ProgramStats run_program(LineReader& reader, const Dialect& dialect, std::string_view file, DiagnosticSink& sink,
+ProgramStats run_program(LineReader& reader, const Dialect& given, std::string_view file, DiagnosticSink& sink,
                          BlockVisitor& visitor, InterpreterOptions opt) {
+  // A Fanuc lathe program whose G-code system is not stated: read it off the program first.
+  const Dialect settled = given.gcode_system == '?' ? settle_gcode_system(given, reader, file, sink) : Dialect{};
+  const Dialect& dialect = given.gcode_system == '?' ? settled : given;
   Interpreter interp(dialect, std::string(file), sink, opt);
   const LexContext ctx{file, &sink};
   Block b;
   Collect collect;
   ProgramStats st;
-  auto process = [&](std::string_view line, std::string_view eol, std::uint64_t number, bool leader) {
-    b.raw = line;
-    b.eol = eol;
-    b.line = number;
+  // Lines come from the Fanuc leader look-ahead first, then from the reader. A chamfer or corner
+  // rounding needs the next line before its own block is passed on: that line is read ahead and
+  // held (both lines are copied, since a read may reuse the reader's buffer).
+  struct Source {
+    std::string_view line, eol;
+    std::uint64_t number = 0;
+    bool leader = false;
+    int buffer = -1;  ///< index into `copies` when the line lives there
+  };
+  Lookahead la;
+  std::size_t la_next = 0;
+  std::uint64_t number = 0;
+  std::optional<Source> held;
+  std::array<std::string, 2> copies;
+  const auto fetch = [&](Source& src) {
+    if (held) {
+      src = *held;
+      held.reset();
+      return true;
+    }
+    if (la_next < la.lines.size()) {
+      src = {la.lines[la_next].first, la.lines[la_next].second, ++number, la_next < la.leader_lines, -1};
+      ++la_next;
+      return true;
+    }
+    std::string_view l, e;
+    if (!reader.next(l, e)) return false;
+    src = {l, e, reader.line_number(), false, -1};
+    return true;
+  };
+  const auto keep = [&](Source& src, int k) {
+    copies[static_cast<std::size_t>(k)].assign(src.line).append(src.eol);
+    const std::string_view all = copies[static_cast<std::size_t>(k)];
+    src.line = all.substr(0, src.line.size());
+    src.eol = all.substr(src.line.size());
+    src.buffer = k;
+  };
+  const auto process = [&](Source& src) {
+    b.raw = src.line;
+    b.eol = src.eol;
+    b.line = src.number;
     bool ok = true;
     collect.motions.clear();
-    if (leader) {
+    if (src.leader) {
       b.words.clear();
       b.tokens.clear();
       b.has_n = false;
@@ -108,15 +151,31 @@ ProgramStats run_program(LineReader& reader, const Dialect& dialect, std::string
     } else {
       ok = lex_block(dialect, b, ctx);
       interp.execute(b, collect);
+      if (interp.corner_pending()) {
+        if (src.buffer < 0) {
+          keep(src, 0);
+          b.raw = src.line;
+          b.eol = src.eol;
+        }
+        Source ahead;
+        Block next;
+        if (fetch(ahead)) {
+          keep(ahead, 1 - src.buffer);
+          held = ahead;
+          next.raw = ahead.line;
+          next.line = ahead.number;
+          (void)lex_block(dialect, next, LexContext{file, nullptr});
+        }
+        interp.resolve_corner(b, next, collect.motions);
+      }
     }
-    b.leader = leader;
+    b.leader = src.leader;
     visitor.block(b, collect.motions, ok);
     b.leader = false;
     ++st.blocks;
   };
-  std::uint64_t number = 0;
   if (dialect.id == DialectId::fanuc) {
-    Lookahead la = read_leader(reader, dialect);
+    la = read_leader(reader, dialect);
     if (la.leader_lines > 0) {
       Block first;
       first.raw = la.lines.front().first;
@@ -127,11 +186,9 @@ ProgramStats run_program(LineReader& reader, const Dialect& dialect, std::string
                             "unchanged",
                             la.leader_lines));
     }
-    for (std::size_t i = 0; i < la.lines.size(); ++i)
-      process(la.lines[i].first, la.lines[i].second, ++number, i < la.leader_lines);
   }
-  std::string_view line, eol;
-  while (reader.next(line, eol)) process(line, eol, reader.line_number(), false);
+  Source src;
+  while (fetch(src)) process(src);
   st.bytes = reader.bytes_read();
   return st;
 }

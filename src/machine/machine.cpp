@@ -21,7 +21,7 @@ constexpr std::string_view kModels[] = {"serial", "prs-hybrid", "hexapod"};
 constexpr std::string_view kCoordinates[] = {"axes", "tool-tip"};
 constexpr std::string_view kOrientations[] = {"rotary-axes", "vector", "virtual-ab"};
 constexpr std::string_view kFeeds[] = {"combined-axes", "tool-tip"};
-constexpr std::string_view kGSystems[] = {"A", "B"};
+constexpr std::string_view kGSystems[] = {"A", "B", "auto"};
 
 void read_axis(Fields& f, AxisSettings& a, bool rotary) {
   using R = Fields::Range;
@@ -229,7 +229,8 @@ std::optional<Machine> parse_machine(std::string file, std::string text, gcode::
     if (auto v = f.integer("schema", false, 1, 1)) (void)v;
     m.dialect_name = f.text("dialect", true, kDialects).value_or("fanuc");
     m.dialect_options.lathe = f.boolean("lathe", false).value_or(false);
-    m.dialect_options.gcode_system = f.text("gcode_system", false, kGSystems).value_or("A")[0];
+    const std::string gsys = std::string(f.text("gcode_system", false, kGSystems).value_or("auto"));
+    m.dialect_options.gcode_system = gsys == "auto" ? '?' : gsys[0];
     static constexpr std::string_view kIntegerInput[] = {"increment", "calculator"};
     if (auto ii = f.text("integer_input", false, kIntegerInput))
       m.dialect_options.integer_input =

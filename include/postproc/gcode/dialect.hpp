@@ -109,7 +109,7 @@ struct Dialect {
   /// unknown (warn, read as increments), increment (×0.001 mm / 0.0001 in / 0.001°), calculator (whole units).
   enum class IntegerInput : std::uint8_t { unknown, increment, calculator } integer_input = IntegerInput::calculator;
   bool lathe = false;                ///< lathe: G70–G76 turning cycles, U/W incremental, X diameter
-  char gcode_system = 'A';           ///< Fanuc lathe G-code system, 'A' or 'B'
+  char gcode_system = 'A';           ///< Fanuc lathe G-code system, 'A' or 'B'; '?' = not stated (read off the program)
   char diameter_axis = 0;            ///< axis programmed as diameter from the start ('X' on lathes)
   AssignmentTiming assignment_timing = AssignmentTiming::immediate;
   /// The controller's tool table, where the machine file (or a tool table file) gives it: tool length
@@ -140,7 +140,9 @@ struct Dialect {
 /// Options that refine a dialect (later also read from the machine file).
 struct DialectOptions {
   bool lathe = false;           ///< Fanuc lathe / Siemens turning
-  char gcode_system = 'A';      ///< Fanuc lathe G-code system: 'A' (G98/G99 feeds) or 'B' (G94/G95, G90/G91)
+  /// Fanuc lathe G-code system: 'A' (G98/G99 feeds) or 'B' (G94/G95, G90/G91); '?' = not stated:
+  /// `settle_gcode_system` (detect.hpp) reads it off the program before it is run.
+  char gcode_system = 'A';
   char diameter_axis = 0;       ///< 0 = dialect default
   /// Fanuc only: how whole numbers without a point are read; unknown = warn once (PP-U218).
   Dialect::IntegerInput integer_input = Dialect::IntegerInput::unknown;
@@ -157,6 +159,8 @@ struct DialectOptions {
 /// Builds the dialect named `name` (fanuc, siemens, linuxcnc, heidenhain-iso); nullopt if unknown.
 [[nodiscard]] std::optional<Dialect> make_dialect(std::string_view name, const DialectOptions& opt = {});
 [[nodiscard]] Dialect make_dialect(DialectId id, const DialectOptions& opt = {});
-[[nodiscard]] std::string_view dialect_names();  ///< "fanuc|siemens|linuxcnc|heidenhain-iso"
+[[nodiscard]] std::string_view dialect_names();
+/// Rebuilds a Fanuc lathe dialect's G-code table for G-code system `system` ('A' or 'B').
+void set_gcode_system(Dialect& d, char system);  ///< "fanuc|siemens|linuxcnc|heidenhain-iso"
 
 }  // namespace postproc::gcode

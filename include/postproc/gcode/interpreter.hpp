@@ -4,6 +4,7 @@
 /// work coordinate system) and reports every construct it cannot resolve with a stable code.
 
 #include <memory>
+#include <optional>
 #include <string>
 #include <string_view>
 
@@ -101,6 +102,15 @@ class Interpreter {
   Interpreter(const Dialect& dialect, std::string file, DiagnosticSink& sink, InterpreterOptions opt = {});
   /// Executes one lexed block. Motions are passed to `out` in order.
   void execute(const Block& block, MotionSink& out);
+  /// True after execute() when the block's move ends in a chamfer or corner rounding (Fanuc ,C ,R;
+  /// Sinumerik CHF= CHR= RND=) whose geometry needs the next block: run_program then calls
+  /// resolve_corner with the next line before it hands this block on.
+  [[nodiscard]] bool corner_pending() const { return corner_.has_value(); }
+  /// Builds the pending corner of `current` with `next` (the following line, lexed): shortens the
+  /// last motion in `motions` and appends the chamfer line or rounding arc; the next block's move
+  /// then starts where the corner ends. Where it cannot (the next line is not a straight move in the
+  /// plane, the corner is too large), both moves are refused, located.
+  void resolve_corner(const Block& current, const Block& next, std::vector<Motion>& motions);
   [[nodiscard]] const ModalState& state() const { return s_; }
   [[nodiscard]] const Dialect& dialect() const { return d_; }
 
@@ -125,7 +135,8 @@ class Interpreter {
   bool set_plane_arc(const Block& b, Span at, Motion& m, Plane plane, const Eigen::Vector2d& c, double sweep);
   void emit(Motion& m, const Block& b, MotionSink& out);
   bool radii_agree(const Block& b, Span at, const Eigen::Vector2d& s, const Eigen::Vector2d& e,
-                   const Eigen::Vector2d& c);
+                   const Eigen::Vector2d& c,
+                   std::string_view hint = {});
   void drill(const Block& b, const BlockWords& w, Motion& m, MotionSink& out);
   void drill_hole(const Block& b, const BlockWords& w, Motion& m, MotionSink& out, AxisMask normal_bit,
                   const PlaneAxes& p);
@@ -154,12 +165,24 @@ class Interpreter {
 
   Dialect d_;
   std::string file_;
-  DiagnosticSink& sink_;
+  DiagnosticSink* sink_;  ///< a pointer: resolve_corner runs a quiet copy of the interpreter
   InterpreterOptions opt_;
   ModalState s_;
   ModalState saved_;           ///< LinuxCNC M70 saved state, valid when saved_valid_
   bool saved_valid_ = false;
   bool warned_integer_input_ = false;
+  /// A chamfer or rounding at the end of this block's straight move, waiting for the next block.
+  struct Corner {
+    enum class Kind : std::uint8_t { leg, length, radius } kind = Kind::leg;  ///< ,C/CHR · CHF · ,R/RND
+    double size_mm = 0;
+    Span at;                ///< the corner word
+    Plane plane = Plane::xy;
+  };
+  std::optional<Corner> corner_;
+  /// Where the next block's move starts (the end of the corner), set by resolve_corner.
+  std::optional<AxisVector> corner_start_;
+  bool corner_word(const Block& b, const BlockWords& w, GMeaning mode);
+  void execute_block(const Block& block, MotionSink& out);
   std::uint64_t corner_pending_line_ = 0;
   bool corner_angle_ = false;  ///< this block's refused corner word is a direct-drawing angle  ///< Fanuc: line of a ,C/,R whose next motion is moved by it
   bool corner_refused(const Block& b, const BlockWords& w, GMeaning mode);

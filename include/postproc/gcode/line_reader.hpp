@@ -26,6 +26,9 @@ class LineReader {
   /// Next line without its EOL in `line`, the EOL itself in `eol`. False at end of input.
   /// Views stay valid until the next call.
   bool next(std::string_view& line, std::string_view& eol);
+  /// Starts again at the first line (memory buffers and regular files). False, leaving the reader
+  /// where it was, when the input cannot be read twice (stdin, a pipe).
+  bool rewind();
   [[nodiscard]] std::uint64_t line_number() const { return line_no_; }
   [[nodiscard]] std::uint64_t bytes_read() const { return consumed_; }
 

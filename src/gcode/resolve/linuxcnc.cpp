@@ -80,6 +80,9 @@ struct Line {
   std::vector<Assign> assigns;
   std::vector<Span> deletions;  // assignment tokens
   bool ends_program = false;    // M2 / M30
+  // Probing (G38.2–G38.5, modal group 1): a line that probes leaves #5061–#5070 to the run.
+  enum class Probe : std::uint8_t { none, starts, ends } probe = Probe::none;  ///< G38.x / another group-1 G
+  bool axis_words = false;
   bool abort = false;           // (abort, …)
   bool cycle_profile = false;   // G70–G72: profile in a subroutine
   Span cycle_span;
@@ -212,6 +215,14 @@ class Machine {
     }
     for (const Word& w : b.words) {
       if (w.letter == 'M' && w.kind == ValueKind::number && (w.number == 2 || w.number == 30)) l.ends_program = true;
+      if (w.letter == 'G' && w.kind == ValueKind::number) {
+        const long g10 = std::lround(w.number * 10);
+        if (g10 >= 382 && g10 <= 385) l.probe = Line::Probe::starts;
+        else if (g10 == 0 || g10 == 10 || g10 == 20 || g10 == 30 || g10 == 330 || g10 == 730 || g10 == 760 ||
+                 (g10 >= 800 && g10 <= 890 && g10 % 10 == 0))
+          l.probe = Line::Probe::ends;
+      }
+      if (std::string_view("XYZABCUVW").find(w.letter) != std::string_view::npos && w.name_len == 1) l.axis_words = true;
       // G70–G72 take their profile from a subroutine (Q): resolving would drop the sub the
       // cycle needs.
       if (w.letter == 'G' && w.kind == ValueKind::number && w.number >= 70 && w.number < 73) {
@@ -481,6 +492,16 @@ class Machine {
     if (runtime_numbered(n)) set_numbered_.insert(n);
   }
 
+  /// A line that probes (G38.x, or axis words while G38.x is the modal motion) fills #5061–#5070
+  /// when it runs (LinuxCNC G-code "G38.x Straight Probe"): values the program set before are gone,
+  /// so a later read is refused (PP-E701) unless --set gives it.
+  void probe_results(const Line& l) {
+    if (l.probe == Line::Probe::starts) probing_ = true;
+    if (l.probe == Line::Probe::ends) probing_ = false;
+    if (!probing_ || (l.probe != Line::Probe::starts && !l.axis_words)) return;
+    for (int n = 5061; n <= 5070; ++n) set_numbered_.erase(n);
+  }
+
   // -- execute -------------------------------------------------------------------------------
   enum class Flow { next, jump, ret };
 
@@ -495,6 +516,7 @@ class Machine {
       if (!l.ok) throw Stop{};
       if (l.plain) {
         if (!out_.emit(f, pc, {})) runaway(f, pc);
+        probe_results(l);
         if (l.ends_program) throw Stop{};
         ++pc;
         continue;
@@ -524,6 +546,7 @@ class Machine {
       for (const Span& d : l.deletions) edits.push_back({d, ""});
       std::sort(edits.begin(), edits.end(), [](const Edit& x, const Edit& y) { return x.span.begin < y.span.begin; });
       if (!out_.emit(f, pc, edits)) runaway(f, pc);
+      probe_results(l);
       for (std::size_t k = 0; k < l.assigns.size(); ++k) assign(l.assigns[k], pending[k], f, pc, l.assigns[k].span);
       if (l.ends_program) throw Stop{};
       ++pc;
@@ -734,6 +757,7 @@ class Machine {
   Names names_;
   std::vector<double> numbered_;
   std::set<int> set_numbered_;
+  bool probing_ = false;  ///< G38.x is the modal motion
   std::unordered_map<int, double> globals_;
   std::vector<Frame> frames_;
   std::map<std::string, Sub> subs_;

@@ -1,0 +1,211 @@
+// Modal interpreter: chamfers and corner roundings between two straight moves.
+//
+// Fanuc (B-64484EN II "Chamfering and corner R": ",C" is the distance from the virtual corner to
+// the start and end of the chamfer, ",R" the radius of the rounding arc tangent to both moves) and
+// Sinumerik (840D sl Fundamentals, "Chamfer, rounding: CHF, CHR, RND": CHR= the leg length as ,C,
+// CHF= the length of the chamfer itself, RND= the rounding radius) insert the element at the end of
+// the block that carries the word: that block's move stops short of the programmed corner and the
+// next block's move starts where the element ends. Its end point is still the programmed one, and
+// the programmed corner stays the reference of the next block's incremental words.
+//
+// The element needs the next block's move, so run_program hands the next line to resolve_corner
+// before the block is passed on; a quiet copy of the interpreter reads it. This version builds the
+// element between two straight moves in the active plane; beside an arc, outside the plane, or when
+// the next line is not the move, both moves are refused at their words (as before).
+#include <cctype>
+#include <cmath>
+#include <numbers>
+
+#include <fmt/format.h>
+
+#include "postproc/gcode/interpreter.hpp"
+#include "src/gcode/block_words.hpp"
+#include "src/gcode/codes.hpp"
+
+namespace postproc::gcode {
+namespace {
+
+/// Passes motions on, the first one starting at `start` in the plane (the end of a corner element).
+struct StartFromCorner final : MotionSink {
+  StartFromCorner(MotionSink& o, const AxisVector& s, PlaneAxes p) : out(o), start(s), plane(p) {}
+  void motion(const Motion& m, const Block& b) override {
+    if (done) {
+      out.motion(m, b);
+      return;
+    }
+    Motion c = m;
+    c.start[plane.u] = start[plane.u];
+    c.start[plane.v] = start[plane.v];
+    done = true;
+    out.motion(c, b);
+  }
+  MotionSink& out;
+  AxisVector start;
+  PlaneAxes plane;
+  bool done = false;
+};
+
+struct Collect final : MotionSink {
+  void motion(const Motion& m, const Block&) override { motions.push_back(m); }
+  std::vector<Motion> motions;
+};
+
+/// True when the move changes no axis but the plane's two.
+bool in_plane(const Motion& m, PlaneAxes p) {
+  for (int a = 0; a < kAxisCount; ++a)
+    if (a != p.u && a != p.v && std::abs(m.end[a] - m.start[a]) > 1e-9) return false;
+  return true;
+}
+
+}  // namespace
+
+void Interpreter::execute(const Block& b, MotionSink& out) {
+  corner_.reset();
+  if (!corner_start_) {
+    execute_block(b, out);
+    return;
+  }
+  StartFromCorner from(out, *corner_start_, plane_axes(s_.plane));
+  corner_start_.reset();
+  execute_block(b, from);
+}
+
+bool Interpreter::corner_word(const Block& b, const BlockWords& w, GMeaning mode) {
+  // Which word asks for a corner element, and is it one this version builds?
+  int word = -1;
+  Corner::Kind kind = Corner::Kind::leg;
+  if (d_.id == DialectId::fanuc && !d_.lathe && w.corner_word >= 0) {
+    word = w.corner_word;
+    const std::string_view name = b.text(b.words[static_cast<std::size_t>(word)].name);
+    if (name.size() != 2 || (std::toupper(static_cast<unsigned char>(name[1])) != 'C' &&
+                             std::toupper(static_cast<unsigned char>(name[1])) != 'R'))
+      return false;  // ,A (an angle) stays refused
+    kind = std::toupper(static_cast<unsigned char>(name[1])) == 'C' ? Corner::Kind::leg : Corner::Kind::radius;
+  } else if (d_.id == DialectId::siemens && w.siemens_corner_word >= 0) {
+    word = w.siemens_corner_word;
+    const std::string_view name = b.text(b.words[static_cast<std::size_t>(word)].name);
+    const auto is = [&](std::string_view n) {
+      if (name.size() != n.size()) return false;
+      for (std::size_t i = 0; i < n.size(); ++i)
+        if (std::toupper(static_cast<unsigned char>(name[i])) != n[i]) return false;
+      return true;
+    };
+    if (is("CHR")) kind = Corner::Kind::leg;
+    else if (is("CHF")) kind = Corner::Kind::length;
+    else if (is("RND")) kind = Corner::Kind::radius;
+    else return false;  // RNDM= (modal rounding) stays refused
+  } else {
+    return false;
+  }
+  const Word& cw = b.words[static_cast<std::size_t>(word)];
+  if (mode != GMeaning::linear || cw.kind != ValueKind::number || w.polar || w.machine_frame) return false;
+  double v = cw.number;
+  if (d_.id == DialectId::fanuc && cw.whole && d_.integer_input != Dialect::IntegerInput::calculator) {
+    if (d_.integer_input == Dialect::IntegerInput::unknown) return false;
+    v *= s_.inch ? 0.0001 : 0.001;  // least input increments, like the axis words
+  }
+  if (!(v > 0) || !(v < 1e6)) return false;
+  corner_ = Corner{kind, s_.inch ? v * 25.4 : v, cw.span, s_.plane};
+  return true;
+}
+
+void Interpreter::resolve_corner(const Block& current, const Block& next, std::vector<Motion>& motions) {
+  if (!corner_) return;
+  const Corner c = *corner_;
+  corner_.reset();
+  const std::string word(current.text(c.at));
+  const auto refuse = [&](std::string why) {
+    report(current, c.at, Severity::warning, d_.id == DialectId::siemens ? codes::kSiemensCorner : codes::kFanucCorner,
+           fmt::format("'{}': {}; this version does not build it, both moves are refused — write the chamfer or "
+                       "rounding as its own block",
+                       word, why));
+    std::erase_if(motions, [&](const Motion& m) { return m.line == current.line; });
+    corner_pending_line_ = current.line;
+  };
+  const PlaneAxes p = plane_axes(c.plane);
+  if (motions.empty() || motions.back().type != MotionType::linear || motions.back().line != current.line) {
+    refuse("the block's own move is not a straight move");
+    return;
+  }
+  Motion& m = motions.back();
+  const AxisMask need = static_cast<AxisMask>((1u << p.u) | (1u << p.v));
+  if ((m.known & need) != need || !in_plane(m, p)) {
+    refuse("the move is not known, or leaves the plane of the corner");
+    return;
+  }
+  // Read the next line as the controller will: a quiet copy of this interpreter.
+  DiagnosticSink quiet(0);
+  Interpreter probe(*this);
+  probe.sink_ = &quiet;
+  Collect after;
+  probe.execute(next, after);
+  if (after.motions.size() != 1 || quiet.has_errors()) {
+    refuse(fmt::format("the chamfer or rounding goes between this move and the next line's move, and line {} is not "
+                       "one move",
+                       next.line));
+    return;
+  }
+  const Motion& n = after.motions.front();
+  if (n.type != MotionType::linear) {
+    refuse(n.type == MotionType::arc_cw || n.type == MotionType::arc_ccw
+               ? "the next move is an arc"
+               : fmt::format("line {} is not a straight feed move (G01)", next.line));
+    return;
+  }
+  if ((n.known & need) != need || !in_plane(n, p) || n.plane != c.plane) {
+    refuse("the next move is not known, or leaves the plane of the corner");
+    return;
+  }
+  const Eigen::Vector2d p0(m.start[p.u], m.start[p.v]), p1(m.end[p.u], m.end[p.v]), p2(n.end[p.u], n.end[p.v]);
+  const double l1 = (p1 - p0).norm(), l2 = (p2 - p1).norm();
+  if (l1 < 1e-9 || l2 < 1e-9) {
+    refuse("one of the two moves has no length in the plane");
+    return;
+  }
+  const Eigen::Vector2d d1 = (p1 - p0) / l1, d2 = (p2 - p1) / l2;
+  const double cross = d1.x() * d2.y() - d1.y() * d2.x();
+  const double turn = std::atan2(std::abs(cross), d1.dot(d2));  // 0 = straight on, π = reversal
+  if (turn < 1e-9 || turn > std::numbers::pi - 1e-9) {
+    refuse("the two moves are in line (no corner), or the second reverses the first");
+    return;
+  }
+  double leg = c.size_mm;                                                    // ,C / CHR=
+  if (c.kind == Corner::Kind::length) leg = c.size_mm / (2 * std::cos(turn / 2));  // CHF=: the chamfer's own length
+  if (c.kind == Corner::Kind::radius) leg = c.size_mm * std::tan(turn / 2);  // tangent length of the rounding
+  if (leg > l1 + 1e-9 || leg > l2 + 1e-9) {
+    // Fanuc PS0055 / Sinumerik alarm 10800-range: the element does not fit on the moves.
+    report(current, c.at, Severity::error, codes::kControllerRefuses,
+           fmt::format("'{}' needs {:.4f} mm of each move, but the moves are {:.4f} mm and {:.4f} mm long in the "
+                       "plane: the control stops with an alarm; make the chamfer or rounding smaller",
+                       word, leg, l1, l2));
+    std::erase_if(motions, [&](const Motion& mo) { return mo.line == current.line; });
+    corner_pending_line_ = current.line;
+    return;
+  }
+  const Eigen::Vector2d t1 = p1 - leg * d1, t2 = p1 + leg * d2;
+  Motion e = m;  // the corner element: the block's modes and feed, no words of its own
+  m.end[p.u] = t1.x();
+  m.end[p.v] = t1.y();
+  e.start = m.end;
+  e.end[p.u] = t2.x();
+  e.end[p.v] = t2.y();
+  e.column = c.at.begin + 1;
+  e.programmed = 0;
+  e.word_index.fill(-1);
+  e.words_transformed = true;
+  if (c.kind == Corner::Kind::radius) {
+    const Eigen::Vector2d left(-d1.y(), d1.x());
+    const Eigen::Vector2d centre = t1 + (cross > 0 ? 1.0 : -1.0) * c.size_mm * left;
+    e.type = cross > 0 ? MotionType::arc_ccw : MotionType::arc_cw;
+    e.arc = ArcData{};
+    e.arc.centre = Eigen::Vector3d(e.start[0], e.start[1], e.start[2]);
+    e.arc.centre[p.u] = centre.x();
+    e.arc.centre[p.v] = centre.y();
+    e.arc.radius = c.size_mm;
+    e.arc.sweep = cross > 0 ? turn : -turn;
+  }
+  motions.push_back(e);
+  corner_start_ = e.end;
+}
+
+}  // namespace postproc::gcode

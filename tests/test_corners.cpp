@@ -1,0 +1,147 @@
+// Chamfers and corner roundings between two straight moves: Fanuc ,C ,R (B-64484EN II "Chamfering
+// and corner R") and Sinumerik CHR= CHF= RND= (840D sl Fundamentals, "Chamfer, rounding: CHF, CHR,
+// RND, RNDM"). Expected points come from the manuals' definitions: ,C / CHR= is the distance from
+// the virtual corner to both ends of the chamfer, CHF= the length of the chamfer itself, ,R / RND=
+// the radius of the arc tangent to both moves; the next move starts where the element ends, and its
+// incremental words stay relative to the programmed corner.
+#include <cmath>
+#include <numbers>
+
+#include "support.hpp"
+
+namespace {
+
+using namespace pptest;
+constexpr double kTol = 1e-9;
+
+gc::Dialect fanuc() { return dialect("fanuc"); }
+
+std::vector<const gc::Motion*> on_line(const Program& r, std::uint64_t line) {
+  std::vector<const gc::Motion*> out;
+  for (const auto& m : r.motions)
+    if (m.line == line) out.push_back(&m);
+  return out;
+}
+
+bool diag_on_line(const Program& r, std::string_view code, std::uint64_t line) {
+  for (const auto& d : r.sink.stored())
+    if (d.code == code && d.where.line == line) return true;
+  return false;
+}
+
+void expect_xy(const gc::AxisVector& v, double x, double y) {
+  EXPECT_NEAR(v[0], x, kTol);
+  EXPECT_NEAR(v[1], y, kTol);
+}
+
+TEST(Corners, FanucChamferAndRoundingBetweenLines) {
+  const Program r(fanuc(), "G17 G90 G0 X0 Y0\nG1 X50. ,C5. F500\nY40. ,R10.\nX0\n");
+  EXPECT_FALSE(r.sink.has_errors()) << r.all_codes();
+  EXPECT_EQ(r.find("PP-U233"), nullptr) << r.all_codes();
+  const auto l2 = on_line(r, 2);
+  ASSERT_EQ(l2.size(), 2u);
+  expect_xy(l2[0]->end, 45, 0);  // 5 mm before the corner (50, 0)
+  EXPECT_EQ(l2[1]->type, gc::MotionType::linear);
+  expect_xy(l2[1]->start, 45, 0);
+  expect_xy(l2[1]->end, 50, 5);  // 5 mm along the next move
+  EXPECT_EQ(l2[1]->programmed, 0u);
+  const auto l3 = on_line(r, 3);
+  ASSERT_EQ(l3.size(), 2u);
+  expect_xy(l3[0]->start, 50, 5);  // starts where the chamfer ended
+  expect_xy(l3[0]->end, 50, 30);   // a 90° corner: tangent length = R
+  EXPECT_EQ(l3[1]->type, gc::MotionType::arc_ccw);
+  expect_xy(l3[1]->end, 40, 40);
+  EXPECT_NEAR(l3[1]->arc.centre[0], 40, kTol);
+  EXPECT_NEAR(l3[1]->arc.centre[1], 30, kTol);
+  EXPECT_NEAR(l3[1]->arc.radius, 10, kTol);
+  EXPECT_NEAR(l3[1]->arc.sweep, std::numbers::pi / 2, kTol);
+  const auto l4 = on_line(r, 4);
+  ASSERT_EQ(l4.size(), 1u);
+  expect_xy(l4[0]->start, 40, 40);
+  expect_xy(l4[0]->end, 0, 40);
+}
+
+TEST(Corners, RoundingOnAnObtuseCornerTurningRight) {
+  // From (0,0) to (10,0), then to (20,-10): a 45° right turn. Tangent length R·tan(22.5°).
+  const Program r(fanuc(), "G17 G90 G0 X0 Y0\nG1 X10. ,R4. F100\nX20. Y-10.\n");
+  const auto l2 = on_line(r, 2);
+  ASSERT_EQ(l2.size(), 2u) << r.all_codes();
+  const double t = 4 * std::tan(std::numbers::pi / 8);
+  expect_xy(l2[0]->end, 10 - t, 0);
+  EXPECT_EQ(l2[1]->type, gc::MotionType::arc_cw);
+  expect_xy(l2[1]->end, 10 + t / std::sqrt(2.0), -t / std::sqrt(2.0));
+  EXPECT_NEAR(l2[1]->arc.centre[0], 10 - t, kTol);
+  EXPECT_NEAR(l2[1]->arc.centre[1], -4, kTol);
+  EXPECT_NEAR(l2[1]->arc.sweep, -std::numbers::pi / 4, kTol);
+}
+
+TEST(Corners, NextIncrementalMoveIsRelativeToTheProgrammedCorner) {
+  const Program r(fanuc(), "G17 G90 G0 X0 Y0\nG1 X50. ,C5. F500\nG91 Y40.\n");
+  const auto l3 = on_line(r, 3);
+  ASSERT_EQ(l3.size(), 1u) << r.all_codes();
+  expect_xy(l3[0]->start, 50, 5);
+  expect_xy(l3[0]->end, 50, 40);
+}
+
+TEST(Corners, InchProgramsScaleTheCornerWord) {
+  const Program r(fanuc(), "G20 G17 G90 G0 X0 Y0\nG1 X2. ,C.1 F20.\nY2.\n");
+  const auto l2 = on_line(r, 2);
+  ASSERT_EQ(l2.size(), 2u) << r.all_codes();
+  expect_xy(l2[0]->end, 1.9 * 25.4, 0);
+  expect_xy(l2[1]->end, 2 * 25.4, 0.1 * 25.4);
+}
+
+TEST(Corners, RefusedWhereThisVersionDoesNotBuildTheElement) {
+  // Next move an arc: both moves refused at their words, positions after them exact.
+  const Program arc(fanuc(), "G17 G90 G0 X0 Y0\nG1 X50. ,R5. F500\nG3 X60. Y10. R10.\nG1 X0\n");
+  expect_diag_at(arc, "PP-U233", 2, 9);
+  EXPECT_TRUE(diag_on_line(arc, "PP-U233", 3)) << arc.all_codes();
+  EXPECT_TRUE(on_line(arc, 2).empty());
+  EXPECT_TRUE(on_line(arc, 3).empty());
+  ASSERT_EQ(on_line(arc, 4).size(), 1u);
+  expect_xy(on_line(arc, 4)[0]->end, 0, 10);
+  // The next line is a comment, not the move.
+  const Program comment(fanuc(), "G17 G90 G0 X0 Y0\nG1 X50. ,C5. F500\n(NEXT)\nY10.\n");
+  expect_diag_at(comment, "PP-U233", 2, 9);
+  EXPECT_TRUE(on_line(comment, 2).empty());
+  EXPECT_TRUE(on_line(comment, 4).empty());
+  EXPECT_TRUE(diag_on_line(comment, "PP-U233", 4)) << comment.all_codes();
+  // Collinear moves have no corner.
+  const Program straight(fanuc(), "G17 G90 G0 X0 Y0\nG1 X50. ,C5. F500\nX80.\n");
+  expect_diag_at(straight, "PP-U233", 2, 9);
+  // Lathe chamfers (direct drawing, C/R words) stay refused.
+  const Program lathe(dialect("fanuc", true), "G0 X20. Z2.\nG1 Z-10. ,C1. F.2\nX40.\n");
+  EXPECT_TRUE(lathe.has("PP-U233")) << lathe.all_codes();
+}
+
+TEST(Corners, TooLargeForTheMovesIsTheControllersAlarm) {
+  // Fanuc PS0055: the chamfer does not fit on the 3 mm move.
+  const Program r(fanuc(), "G17 G90 G0 X0 Y0\nG1 X50. ,C5. F500\nY3.\n");
+  expect_diag_at(r, "PP-E207", 2, 9);
+}
+
+TEST(Corners, SinumerikChrChfRnd) {
+  const gc::Dialect s = dialect("siemens");
+  const Program r(s, "G17 G90 G0 X0 Y0\nG1 X50 CHR=5 F500\nY40 CHF=7.0710678118654755\nX0 RND=10\nY0\n");
+  EXPECT_FALSE(r.sink.has_errors()) << r.all_codes();
+  EXPECT_EQ(r.find("PP-U240"), nullptr) << r.all_codes();
+  const auto l2 = on_line(r, 2), l3 = on_line(r, 3), l4 = on_line(r, 4), l5 = on_line(r, 5);
+  ASSERT_EQ(l2.size(), 2u);
+  expect_xy(l2[0]->end, 45, 0);
+  expect_xy(l2[1]->end, 50, 5);
+  ASSERT_EQ(l3.size(), 2u);  // a chamfer 7.07 mm long on a 90° corner: 5 mm legs
+  expect_xy(l3[0]->end, 50, 35);
+  expect_xy(l3[1]->end, 45, 40);
+  ASSERT_EQ(l4.size(), 2u);
+  expect_xy(l4[0]->start, 45, 40);
+  expect_xy(l4[0]->end, 10, 40);
+  EXPECT_EQ(l4[1]->type, gc::MotionType::arc_ccw);
+  expect_xy(l4[1]->end, 0, 30);
+  ASSERT_EQ(l5.size(), 1u);
+  expect_xy(l5[0]->start, 0, 30);
+  // RNDM= (modal rounding) stays refused.
+  const Program m(s, "G17 G90 G0 X0 Y0\nG1 X50 RNDM=2 F500\nY40\n");
+  EXPECT_TRUE(m.has("PP-U240")) << m.all_codes();
+}
+
+}  // namespace
