@@ -132,6 +132,7 @@ ProgramStats run_program(LineReader& reader, const Dialect& dialect, std::string
   }
   std::string_view line, eol;
   while (reader.next(line, eol)) process(line, eol, reader.line_number(), false);
+  interp.finish();
   st.bytes = reader.bytes_read();
   return st;
 }
