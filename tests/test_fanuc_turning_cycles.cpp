@@ -18,17 +18,20 @@ using pptest::expect_diag_at;
 
 constexpr double kEps = 1e-6;
 
+gc::Dialect lathe(char system, gc::Dialect::IntegerInput input, bool final_cut) {
+  gc::DialectOptions o;
+  o.lathe = true;
+  o.gcode_system = system;
+  o.integer_input = input;
+  gc::Dialect d = *gc::make_dialect("fanuc", o);
+  d.fanuc_rough_final_cut = final_cut;
+  return d;
+}
+
 struct LatheRun : pptest::Program {
-  explicit LatheRun(std::string program, char system = 'A')
-      : Program(
-            [&] {
-              gc::DialectOptions o;
-              o.lathe = true;
-              o.gcode_system = system;
-              o.integer_input = gc::Dialect::IntegerInput::calculator;
-              return *gc::make_dialect("fanuc", o);
-            }(),
-            std::move(program)) {}
+  explicit LatheRun(std::string program, char system = 'A',
+                    gc::Dialect::IntegerInput input = gc::Dialect::IntegerInput::calculator, bool final_cut = true)
+      : Program(lathe(system, input, final_cut), std::move(program)) {}
   [[nodiscard]] std::vector<const gc::Motion*> of_line(std::uint64_t line) const {
     std::vector<const gc::Motion*> out;
     for (const auto& m : motions)
@@ -279,6 +282,70 @@ TEST(FanucTurningCycles, G75GroovesAlongX) {
   expect_at(ms[2], T::linear, 17, -10, "second cut");
   expect_at(ms[4], T::linear, 15, -10, "bottom");
   expect_at(ms[5], T::rapid, 21, -10, "back to the start");
+}
+
+TEST(FanucTurningCycles, G71InfeedFollowsTheNsBlockModeAndParameterRF1) {
+  // B-64484EN-1 G71: "when A–A' is programmed by G01, the infeed is at cutting feed"; parameter
+  // 5105#1 RF1 = 1 leaves out the last cut along the allowance shape (the last layer is cut like
+  // the others, escape and return included), then the tool returns to A.
+  const std::string prog =
+      "G00 X50.0 Z2.0\n"
+      "G71 U2.0 R0.5\n"
+      "G71 P10 Q20 U1.0 W0 F0.2\n"
+      "N10 G01 X40.0\n"
+      "Z-20.0\n"
+      "N20 X52.0\n";
+  const LatheRun r(prog, 'A', gc::Dialect::IntegerInput::calculator, false);
+  ASSERT_TRUE(r.sink.stored().empty()) << r.all_codes();
+  const auto ms = r.of_line(3);
+  // Levels r23, r21 and the last on A' + allowance, r20.5; each ends on the shifted step at Z-20.
+  ASSERT_EQ(ms.size(), 3u * 4u + 1u);
+  expect_at(ms[0], T::linear, 23, 2, "G01 infeed");
+  expect_at(ms[1], T::linear, 23, -20, "cut");
+  expect_at(ms[4], T::linear, 21, 2, "second layer");
+  expect_at(ms[8], T::linear, 20.5, 2, "last layer's infeed");
+  expect_at(ms[9], T::linear, 20.5, -20, "last layer");
+  expect_at(ms[10], T::rapid, 21, -19.5, "escape");
+  expect_at(ms[12], T::rapid, 25, 2, "back to A");
+  const LatheRun f(prog);
+  const auto fs = f.of_line(3);
+  ASSERT_EQ(fs.size(), 2u * 4u + 1u + 2u + 1u);
+  expect_at(fs[8], T::linear, 20.5, 2, "to A' + allowance at feed");
+  expect_at(fs[10], T::linear, 26.5, -20, "shape end + allowance");
+}
+
+TEST(FanucTurningCycles, G73DivisionCountIsNotALength) {
+  // B-64484EN-1 G73: R(d) is the number of divisions; with standard input (whole numbers in least
+  // increments) it stays 3, and no integer-input warning is due for it.
+  const LatheRun r(
+      "G00 X60.0 Z2.0\n"
+      "G73 U2.0 W0.0 R3\n"
+      "G73 P10 Q20 U0.0 W0.0 F0.2\n"
+      "N10 G00 X40.0 Z0.0\n"
+      "N20 G01 X60.0 Z-20.0\n",
+      'A', gc::Dialect::IntegerInput::unknown);
+  EXPECT_TRUE(r.sink.stored().empty()) << r.all_codes();
+  EXPECT_EQ(r.of_line(3).size(), 3u * 3u);
+  expect_at(r.of_line(3)[0], T::rapid, 22, 0, "first pass shifted by Δi");
+}
+
+TEST(FanucTurningCycles, SystemBReadsUAndWAsCycleValuesAndInchUnits) {
+  // B-64484EN-1 "G code system": in system B the cycle words U W keep their meaning (depth,
+  // allowance); inch input (G20) scales every length by 25.4.
+  const LatheRun r(
+      "G20 G90 G00 X2.0 Z0.1\n"
+      "G71 U0.1 R0.02\n"
+      "G71 P10 Q20 U0.0 W0.0 F0.01\n"
+      "N10 G00 X1.8\n"
+      "G01 Z-1.0\n"
+      "N20 X2.2\n",
+      'B');
+  ASSERT_TRUE(r.sink.stored().empty()) << r.all_codes();
+  const auto ms = r.of_line(3);
+  ASSERT_FALSE(ms.empty());
+  expect_at(ms[0], T::rapid, 0.9 * 25.4, 0.1 * 25.4, "first layer");
+  expect_at(ms[1], T::linear, 0.9 * 25.4, -25.4, "cut");
+  expect_at(ms.back(), T::rapid, 25.4, 0.1 * 25.4, "back to A");
 }
 
 // ---- Refusals ----------------------------------------------------------------------------------
