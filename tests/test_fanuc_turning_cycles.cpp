@@ -387,6 +387,9 @@ TEST(FanucTurningCycles, UnstatedParametersAndFormsAreRefused) {
   const LatheRun d("G00 X50.0 Z2.0\nG71 P10 Q20 U0.4 W0.1 D1500 F0.2\nN10 G00 X10.0\nN20 G01 Z-10.0\n");
   expect_diag_at(d, "PP-U252", 2, 1);
   EXPECT_NE(d.find("PP-U252")->message.find("10/11"), std::string::npos);
+  // A refused cycle still does not execute its shape (the control reads on after N(nf)).
+  EXPECT_TRUE(p.of_line(3).empty());
+  EXPECT_TRUE(d.of_line(4).empty());
   const LatheRun g70("G00 X50.0 Z2.0\nN5 G70 P10 Q20\n");
   expect_diag_at(g70, "PP-U252", 2, 4);
   const LatheRun open("G00 X50.0 Z2.0\nG71 U1.0 R0.5\nG71 P10 Q20 U0.4 F0.2\nN10 G00 X10.0\nG01 Z-10.0\n");

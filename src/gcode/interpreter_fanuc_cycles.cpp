@@ -79,6 +79,7 @@ struct Interpreter::FanucCycles {
   double single_xv = 0, single_zv = 0, single_r = 0;   ///< mm, X as radius
   // The G71/G72/G73 block whose shape is being read.
   bool collecting = false, started = false;
+  bool expand = true;                                  ///< false: the cycle was refused, its shape is passed over
   KeptBlock cycle;
   Span cycle_at;
   int code = 0;                                        ///< 71, 72, 73
@@ -132,6 +133,7 @@ bool Interpreter::fanuc_profile_line(const Block& b, MotionSink& out) {
   if (n != fc.nf) return true;
   fc.collecting = false;
   fc.shapes[{fc.ns, fc.nf}] = fc.blocks;
+  if (!fc.expand) return true;  // refused at the cycle block (reported there)
   // Expand now, as motions of the cycle's line (the control runs the cycle, then reads on after N(nf)).
   fanuc_shape_cycle(fc.cycle.get(), out);
   return true;
@@ -143,7 +145,8 @@ bool Interpreter::fanuc_cycle(const Block& b, BlockWords& w, MotionSink& out, GM
   if (!fanuc_cycles_) fanuc_cycles_ = std::make_shared<FanucCycles>();
   FanucCycles& fc = *fanuc_cycles_;
   const bool cycle_g = w.motion.def != nullptr && w.motion.def->meaning == GMeaning::turning_cycle;
-  if (w.motion.def != nullptr) fc.motion_unstated = false;
+  if (w.motion.def != nullptr && !(cycle_g && w.motion.def->code10 >= 700 && w.motion.def->code10 <= 750))
+    fc.motion_unstated = false;  // a code of group 01 (G70–G75 are one-shot)
   if (!cycle_g) {
     // Another code of group 01 ends a single cycle and its modal X Z R (B-64484EN "Canned cycle").
     if (w.motion.def != nullptr) fc.single_x = fc.single_z = false, fc.single_r = 0;
@@ -263,53 +266,64 @@ void Interpreter::fanuc_cycle_words(const Block& b, const BlockWords& w, int cod
     return;
   }
   // Cycle block: G7x P(ns) Q(nf) U(Δu) W(Δw) F S T.
-  if (w.has('D'))
-    return refuse(false, fmt::format("{} with D: the one-block format of Series 10/11 (parameter 0001#1 FCV = 1), "
-                                     "whose depth D and retraction (parameter 5133) this version does not read; "
-                                     "write the two-block format {} …; {} P Q U W F",
-                                     name, name, name));
   const long ns = w.whole_or('P', 0, 99999999, -1), nf = w.whole_or('Q', 0, 99999999, -1);
   if (ns < 0 || nf < 0)
     return refuse(true, fmt::format("{} needs P and Q, the sequence numbers of the first and last block of the shape "
                                     "(the control stops with an alarm)",
                                     name));
+  // The shape N(ns)…N(nf) that follows is the cycle's data, never executed by it: it is kept (for
+  // G70) and passed over also when the cycle itself is refused (`expand` false).
+  const auto begin = [&](bool expand) {
+    fc.code = code;
+    fc.ns = ns;
+    fc.nf = nf;
+    fc.start = s_.position;
+    fc.cycle.keep(b);
+    fc.cycle_at = at;
+    fc.blocks.clear();
+    fc.collecting = true;
+    fc.started = false;
+    fc.expand = expand;
+    fc.motion_unstated = true;
+    fc.unstated_line = b.line;
+  };
+  const auto refuse_cycle = [&](std::string msg) {
+    refuse(false, std::move(msg));
+    begin(false);
+  };
+  if (w.has('D'))
+    return refuse_cycle(fmt::format("{} with D: the one-block format of Series 10/11 (parameter 0001#1 FCV = 1), "
+                                    "whose depth D and retraction (parameter 5133) this version does not read; "
+                                    "write the two-block format {} …; {} P Q U W F",
+                                    name, name, name));
   if (has_x || has_z || (w.axis_present & ~static_cast<AxisMask>(u_bit | w_bit)) != 0)
-    return refuse(false, fmt::format("{}: X or Z in the cycle block is not part of its format; not followed", name));
+    return refuse_cycle(fmt::format("{}: X or Z in the cycle block is not part of its format; not followed", name));
   if (code != 73 && !(fc.rough_depth_set && fc.rough_escape_set))
-    return refuse(false, fmt::format("{}: the {} is not stated in the program (first block {} {}… R…); it is "
-                                     "parameter {} of the control, which this version does not know",
-                                     name, !fc.rough_depth_set ? "depth of cut" : "escaping amount", name,
-                                     code == 71 ? "U" : "W", !fc.rough_depth_set ? "5132" : "5133"));
+    return refuse_cycle(fmt::format("{}: the {} is not stated in the program (first block {} {}… R…); it is "
+                                    "parameter {} of the control, which this version does not know",
+                                    name, !fc.rough_depth_set ? "depth of cut" : "escaping amount", name,
+                                    code == 71 ? "U" : "W", !fc.rough_depth_set ? "5132" : "5133"));
   if (code == 73 && !(fc.pattern_set[0] && fc.pattern_set[1] && fc.pattern_set[2]))
-    return refuse(false, fmt::format("{}: the relief {} is not stated in the program (first block G73 U… W… R…); it "
-                                     "is parameter {} of the control, which this version does not know",
-                                     name, !fc.pattern_set[0] ? "in X" : !fc.pattern_set[1] ? "in Z" : "count",
-                                     !fc.pattern_set[0] ? "5135" : !fc.pattern_set[1] ? "5136" : "5137"));
+    return refuse_cycle(fmt::format("{}: the relief {} is not stated in the program (first block G73 U… W… R…); it "
+                                    "is parameter {} of the control, which this version does not know",
+                                    name, !fc.pattern_set[0] ? "in X" : !fc.pattern_set[1] ? "in Z" : "count",
+                                    !fc.pattern_set[0] ? "5135" : !fc.pattern_set[1] ? "5136" : "5137"));
   if (s_.plane != Plane::zx || s_.cutter_comp != 0 || s_.mirror != 0 || s_.scaling || s_.polar_coords)
-    return refuse(false, fmt::format("{} under {} is not followed; cancel it before the cycle", name,
-                                     s_.plane != Plane::zx ? "a plane other than G18"
-                                     : s_.cutter_comp != 0 ? "tool-nose radius compensation (G41/G42)"
-                                                           : "mirror image, scaling or polar coordinates"));
+    return refuse_cycle(fmt::format("{} under {} is not followed; cancel it before the cycle", name,
+                                    s_.plane != Plane::zx ? "a plane other than G18"
+                                    : s_.cutter_comp != 0 ? "tool-nose radius compensation (G41/G42)"
+                                                          : "mirror image, scaling or polar coordinates"));
   if ((s_.known & kXZ) != kXZ) {
     report(b, at, Severity::warning, codes::kUnknownPosition,
            fmt::format("{} starts from the current point, which is unknown here; position X and Z before it", name));
     s_.known &= static_cast<AxisMask>(~kXZ);
+    begin(false);
     return;
   }
   double v = 0;
   fc.du = uw('U', v) ? (s_.diameter_mode ? v / 2 : v) : 0.0;
   fc.dw = uw('W', v) ? v : 0.0;
-  fc.code = code;
-  fc.ns = ns;
-  fc.nf = nf;
-  fc.start = s_.position;
-  fc.cycle.keep(b);
-  fc.cycle_at = at;
-  fc.blocks.clear();
-  fc.collecting = true;
-  fc.started = false;
-  fc.motion_unstated = true;
-  fc.unstated_line = b.line;
+  begin(true);
 }
 
 bool Interpreter::fanuc_shape(const Block& cb) {
