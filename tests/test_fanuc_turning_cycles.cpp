@@ -403,6 +403,16 @@ TEST(FanucTurningCycles, ModalMotionAfterTheCycleIsRefused) {
   EXPECT_EQ(r.at_line(13), nullptr);
 }
 
+TEST(FanucTurningCycles, AddressesOutsideTheFormatAreRefused) {
+  // B-64484EN-1 "Outer diameter/internal diameter cutting cycle (G90)": X(U) Z(W) R F; an I (the
+  // taper word of other controls) is not guessed at.
+  const LatheRun r("G00 X60.0 Z2.0\nG90 X50.0 Z-30.0 I-2.0 F0.2\n");
+  expect_diag_at(r, "PP-U252", 2, 1);
+  EXPECT_TRUE(r.of_line(2).empty());
+  const LatheRun g70("G00 X60.0 Z2.0\nG70 P10 Q20 F0.1\n");
+  expect_diag_at(g70, "PP-U252", 2, 1);
+}
+
 TEST(FanucTurningCycles, PeckAmountsTakeNoDecimalPoint) {
   // B-64484EN-1 G74: P and Q in the least input increment, without a decimal point.
   const LatheRun r("G00 X0 Z1.0\nG74 R0.5\nG74 Z-10.0 Q2.5 F0.1\n");

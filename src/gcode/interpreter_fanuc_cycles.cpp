@@ -47,6 +47,14 @@ struct KeptBlock {
 
 constexpr AxisMask kXZ = static_cast<AxisMask>(bit(Axis::x) | bit(Axis::z));
 
+/// The first address letter (other than G M N and the axes) of `present` that `allowed` lacks, or 0.
+char letter_beyond(std::uint32_t present, std::string_view allowed) {
+  for (int i = 0; i < 26; ++i)
+    if (((present >> i) & 1u) && allowed.find(static_cast<char>('A' + i)) == std::string_view::npos)
+      return static_cast<char>('A' + i);
+  return 0;
+}
+
 /// Forwards the motions of G70's profile blocks as motions of the G70 block.
 struct Relabel final : MotionSink {
   MotionSink& out;
@@ -223,6 +231,15 @@ void Interpreter::fanuc_cycle_words(const Block& b, const BlockWords& w, int cod
   for (char L : {'P', 'Q', 'R', 'D', 'F'})
     if (w.has(L) && w.unresolved(L)) return refuse(false, fmt::format("{}: the value of {} is not known; not followed", name, L));
   if (w.axis_unresolved != 0) return refuse(false, fmt::format("{}: an axis word's value is not known; not followed", name));
+  // Address words outside the cycle's format (B-64484EN formats of G70–G75) are not guessed at.
+  const bool with_pq = w.has('P') || w.has('Q');
+  const std::string_view allowed = code == 70                    ? "PQST"
+                                   : code == 74 || code == 75     ? (with_pq || w.axis_present != 0 ? "PQRFST" : "RFST")
+                                   : with_pq                      ? "PQDFST"
+                                                                  : "RFST";
+  const bool shape_cycle = code >= 71 && code <= 73 && with_pq;  // checked below, passing over the shape
+  if (const char L = letter_beyond(w.letter_present, allowed); L != 0 && !shape_cycle)
+    return refuse(false, fmt::format("{}: the address {} is not part of the cycle's format; not followed", name, L));
   if (code == 70) return fanuc_g70(b, w, out);
   if (code == 74 || code == 75) return fanuc_peck(b, w, code, out);
   // G71 / G72 / G73.
@@ -291,6 +308,8 @@ void Interpreter::fanuc_cycle_words(const Block& b, const BlockWords& w, int cod
     refuse(false, std::move(msg));
     begin(false);
   };
+  if (const char L = letter_beyond(w.letter_present, "PQDFST"); L != 0)
+    return refuse_cycle(fmt::format("{}: the address {} is not part of the cycle's format; not followed", name, L));
   if (w.has('D'))
     return refuse_cycle(fmt::format("{} with D: the one-block format of Series 10/11 (parameter 0001#1 FCV = 1), "
                                     "whose depth D and retraction (parameter 5133) this version does not read; "
@@ -551,6 +570,8 @@ void Interpreter::fanuc_single(const Block& b, const BlockWords& w, int code, Mo
     report(b, at, Severity::warning, codes::kFanucCycleUnresolved, std::move(msg));
     s_.known &= static_cast<AxisMask>(~kXZ);
   };
+  if (const char L = letter_beyond(w.letter_present, "RFST"); L != 0)
+    return refuse(fmt::format("{}: the address {} is not part of the cycle's format (X(U) Z(W) R F); not followed", name, L));
   if ((w.axis_present & ~kXZ) != 0 || w.axis_unresolved != 0 || (w.has('R') && w.unresolved('R')))
     return refuse(fmt::format("{}: {}; not followed", name,
                               (w.axis_present & ~kXZ) != 0 ? "an axis other than X Z (U W) in the cycle"
