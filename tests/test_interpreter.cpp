@@ -314,7 +314,7 @@ TEST(Interpreter, UnresolvedConstructsHaveStableCodes) {
     std::uint64_t line;
     std::uint32_t column;
   } cases[] = {
-      {"fanuc", true, "G0 X50 Z2\nN10 G71 U2. R1.\n", "PP-U201", 2, 5},
+      {"fanuc", true, "G0 X50 Z2\nN10 G90\n", "PP-U201", 2, 5},
       {"linuxcnc", false, "G0 X0 Z0\nG76 P0.05 Z-1 I-0.075 J0.008 K0.045 Q29.5 L2 E0.045 H1\n", "PP-U202", 2, 1},
       {"fanuc", true, "G0 X10 Z0\nG76 X8.2 Z-20. P900 Q300 F1.5\n", "PP-U202", 2, 1},
       {"linuxcnc", false, "G0 X0 Y0\nG5.1 X1 Y1 I0.5 J0.5\n", "PP-U203", 2, 1},

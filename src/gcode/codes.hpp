@@ -46,6 +46,10 @@ inline constexpr std::string_view kModalRestore = "PP-U222";   // LinuxCNC M72/M
 inline constexpr std::string_view kLatheCycleRejected = "PP-E250";  ///< the controller rejects the cycle
 inline constexpr std::string_view kLatheProfileStatement = "PP-E251";  ///< statement inside a cycle's profile
 inline constexpr std::string_view kLatheCycleUnresolved = "PP-U250";  ///< cycle word / profile form not followed
+// Fanuc lathe turning cycles G70–G75, G90/G94, G77/G79 (docs/fanuc-turning-cycles.md).
+inline constexpr std::string_view kFanucCycleAlarm = "PP-E252";      ///< the control stops with an alarm
+inline constexpr std::string_view kFanucCycleUnresolved = "PP-U252"; ///< cycle form or profile content not followed
+inline constexpr std::string_view kFanucCycleModal = "PP-U253";      ///< group-01 mode after G70–G73 not stated
 // Fanuc dialect (docs/dialect-fanuc.md): constructs read only where they can be read exactly.
 inline constexpr std::string_view kFanucPolar = "PP-U230";     ///< G16 polar command not read exactly
 inline constexpr std::string_view kFanucScaling = "PP-U231";   ///< motion under G51 scaling

@@ -117,12 +117,16 @@ bool Interpreter::collect(const Block& b, BlockWords& w) {
   bool inch = s_.inch;
   bool any_whole = false;
   bool drilling = s_.motion == GMeaning::drill_cycle;
+  bool r_count = false;  // Fanuc lathe G73 U W R(d): R is a number of divisions, not a length
   if (d_.integer_input != Dialect::IntegerInput::calculator)
     for (const Word& word : b.words) {
       any_whole = any_whole || (word.whole && (is_length_or_angle(word.letter) || word.letter == 'Q'));
       if (word.letter == 'G' && word.kind == ValueKind::number && word.number >= 0 && word.number < 2000)
         if (const GCodeDef* def = d_.find_g(static_cast<std::uint16_t>(std::lround(word.number * 10))))
-          if (def->group == GGroup::motion) drilling = def->meaning == GMeaning::drill_cycle;
+          if (def->group == GGroup::motion) {
+            drilling = def->meaning == GMeaning::drill_cycle;
+            r_count = d_.lathe && def->meaning == GMeaning::turning_cycle && def->code10 == 730;
+          }
     }
   if (any_whole)
     for (const Word& word : b.words)
@@ -142,7 +146,8 @@ bool Interpreter::collect(const Block& b, BlockWords& w) {
     }
     if (resolved && word.kind == ValueKind::number && d_.integer_input != Dialect::IntegerInput::calculator &&
         v != 0 && word.whole &&
-        ((is_length_or_angle(word.letter) && !(word.letter == 'K' && drilling && d_.id == DialectId::fanuc)) ||
+        ((is_length_or_angle(word.letter) && !(word.letter == 'K' && drilling && d_.id == DialectId::fanuc) &&
+          !(word.letter == 'R' && r_count)) ||
          (word.letter == 'Q' && drilling))) {
       // (In a Fanuc drilling cycle K is the repeat count, a plain number.)
       // Fanuc with standard input (DPI=0): X100 means 100 least input increments.

@@ -39,6 +39,7 @@ void Interpreter::fill_state(Motion& m) const {
 void Interpreter::execute_block(const Block& b, MotionSink& out) {
   if (b.empty()) return;
   if (d_.id == DialectId::linuxcnc && lathe_profile_line(b)) return;
+  if (fanuc_cycles_ && !fanuc_replay_ && fanuc_profile_line(b, out)) return;
   BlockWords w;
   const bool ok = collect(b, w);
   apply_tokens(b, w);
@@ -329,6 +330,8 @@ void Interpreter::do_motion(const Block& b, BlockWords& w, MotionSink& out_all) 
   GMeaning mode = w.has_meaning(GMeaning::machine_move_heidenhain) ? GMeaning::rapid
                         : w.motion.def                                  ? w.motion.def->meaning
                                                                         : s_.motion;
+  const GMeaning prev_motion = s_.motion;  // Fanuc G70–G75 are one-shot (group 00)
+  const std::uint16_t prev_code10 = s_.motion_code10;
   NullSink refused;
   const bool corner = (d_.id == DialectId::fanuc || (d_.id == DialectId::siemens && corner_pending_line_ != 0)) &&
                       corner_refused(b, w, w.motion.def ? w.motion.def->meaning : s_.motion);
@@ -354,6 +357,7 @@ void Interpreter::do_motion(const Block& b, BlockWords& w, MotionSink& out_all) 
     lathe_cycle(b, w, out);
     return;
   }
+  if (d_.id == DialectId::fanuc && d_.lathe && fanuc_cycle(b, w, out, prev_motion, prev_code10)) return;
   Eigen::Vector2d polar_end = Eigen::Vector2d::Zero();
   if (w.polar && (d_.id != DialectId::siemens || !siemens_polar_end(b, w, mode, polar_end))) {
     unresolved_motion(b, w, codes::kPolar, "motion in polar coordinates (AP=/RP=)");

@@ -189,6 +189,7 @@ ProgramStats run_program(LineReader& reader, const Dialect& given, std::string_v
   }
   Source src;
   while (fetch(src)) process(src);
+  interp.finish();
   st.bytes = reader.bytes_read();
   return st;
 }

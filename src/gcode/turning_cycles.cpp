@@ -506,4 +506,177 @@ std::string expand_linuxcnc(const CycleWords& w, std::vector<Segment> profile, s
   return {};
 }
 
+// -- Fanuc G71 / G72 type I, G73 ----------------------------------------------------------------
+
+namespace {
+
+/// Program frame (z, x) → the frame the Fanuc roughing is worked out in: infeed towards -x, layers
+/// cut towards -z. G72 swaps the axes first (its layers run along X, its infeed along Z).
+struct FanucFrame {
+  bool swap = false;
+  double sz = 1, sx = 1;
+  [[nodiscard]] Point fwd(Point p) const {
+    const double z = swap ? p.imag() : p.real(), x = swap ? p.real() : p.imag();
+    return {sz * z, sx * x};
+  }
+  [[nodiscard]] Point back(Point q) const {
+    const double z = q.real() / sz, x = q.imag() / sx;
+    return swap ? Point(x, z) : Point(z, x);
+  }
+  [[nodiscard]] bool mirrored() const { return (sz * sx < 0) != swap; }
+  [[nodiscard]] Segment fwd(const Segment& s) const {
+    Segment t = s;
+    t.a = fwd(s.a);
+    t.b = fwd(s.b);
+    t.c = fwd(s.c);
+    if (mirrored()) t.ccw = !s.ccw;
+    return t;
+  }
+};
+
+/// An arc's sweep holds direction `dir` (a unit point) strictly inside.
+bool arc_passes(const Segment& s, Point dir) {
+  const double a0 = std::arg(s.a - s.c), a1 = std::arg(s.b - s.c), ad = std::arg(dir);
+  const double two_pi = 2 * std::acos(-1.0);
+  const auto norm = [&](double a) {
+    while (a < 0) a += two_pi;
+    while (a >= two_pi) a -= two_pi;
+    return a;
+  };
+  // Sweep measured counter-clockwise from the start (clockwise arcs: from the end).
+  const double from = s.ccw ? a0 : a1, to = s.ccw ? a1 : a0;
+  double sweep = norm(to - from);
+  if (sweep < 1e-12) sweep = two_pi;  // a full circle
+  const double at = norm(ad - from);
+  return at > 1e-9 && at < sweep - 1e-9;
+}
+
+/// Type I: every element runs towards -z and never down in x (normalised frame).
+bool fanuc_monotonic(const Segment& s) {
+  const Point d = s.b - s.a;
+  if (d.real() > 1e-9 || d.imag() < -1e-9) return false;
+  if (!s.arc) return true;
+  for (Point dir : {Point(1, 0), Point(0, 1), Point(-1, 0), Point(0, -1)})
+    if (arc_passes(s, dir)) return false;
+  return true;
+}
+
+struct FanucOut {
+  const FanucFrame& f;
+  std::vector<Move>& out;
+  void rapid(Point p) const { out.push_back({Move::Kind::rapid, f.back(p), {}}); }
+  void line(Point p) const { out.push_back({Move::Kind::line, f.back(p), {}}); }
+  void move(bool rapid_move, Point p) const { rapid_move ? rapid(p) : line(p); }
+  void draw(const Segment& s) const {
+    if (!s.arc) return line(s.b);
+    const bool ccw = s.ccw != f.mirrored();
+    out.push_back({ccw ? Move::Kind::arc_ccw : Move::Kind::arc_cw, f.back(s.b), f.back(s.c)});
+  }
+};
+
+}  // namespace
+
+std::string expand_fanuc_rough(const FanucRough& w, std::vector<Segment> profile, std::vector<Move>& out) {
+  if (profile.empty()) return "the profile has no move after its first block";
+  for (Segment& s : profile) {
+    s.a += w.allowance;
+    s.b += w.allowance;
+    s.c += w.allowance;
+  }
+  FanucFrame f;
+  f.swap = w.facing;
+  const Point a_prog = w.start, first = profile.front().a, last = profile.back().b;
+  const double infeed = w.facing ? (first - a_prog).real() : (first - a_prog).imag();
+  const double along = w.facing ? (last - first).imag() : (last - first).real();
+  if (std::abs(along) < 1e-9)
+    return w.facing ? "the profile does not run along X (its first and last points have the same X)"
+                    : "the profile does not run along Z (its first and last points have the same Z)";
+  f.sx = infeed < 0 ? 1 : -1;
+  f.sz = along < 0 ? 1 : -1;
+  for (Segment& s : profile) s = f.fwd(s);
+  for (std::size_t i = 0; i < profile.size(); ++i)
+    if (!fanuc_monotonic(profile[i]))
+      return "alarm: element " + std::to_string(i + 1) +
+             " of the profile (after its first block) does not run monotonically in both axes, as type I needs";
+  const Point a = f.fwd(a_prog);
+  const double z0 = a.real(), x0 = a.imag();
+  const Point a2 = profile.front().a;  // A' with the allowance
+  const double xb = a2.imag();
+  if (!(xb < x0 - 1e-9))
+    return "the start point does not lie outside the profile's first point (with the finishing allowance) in the "
+           "direction of infeed; nothing is cut";
+  const Point b2 = profile.back().b;
+  // Where the layer at level x ends: the first point of the profile met going towards -z from
+  // the start, or the closing line through B (C) where the profile lies below the level.
+  const auto layer_end = [&](double x, double& z) {
+    double best = -1e300;
+    bool found = false;
+    for (const Segment& s : profile) {
+      std::deque<double> zs;
+      crossings(s, x, zs);
+      for (double zc : zs)
+        if (zc < z0 - 1e-9 && zc > best) {
+          best = zc;
+          found = true;
+        }
+    }
+    if (!found && x > b2.imag() - 1e-9 && b2.real() < z0 - 1e-9) {
+      best = b2.real();
+      found = true;
+    }
+    z = best;
+    return found;
+  };
+  FanucOut o{f, out};
+  const double e = w.escape;
+  int k = 1;
+  for (;; ++k) {
+    const double x = x0 - k * w.depth;
+    if (x <= xb + 1e-9) break;
+    if (k > 100000) return "more than 100000 layers; check the depth of cut";
+    double zc = 0;
+    if (!layer_end(x, zc)) return "a layer of the cut does not meet the profile ahead of the start point";
+    o.move(w.infeed_rapid, Point(z0, x));
+    o.line(Point(zc, x));
+    if (e > 0) o.rapid(Point(zc + e, x + e));
+    o.rapid(Point(z0, x + e));
+  }
+  if (w.final_cut) {
+    // Last: to A' (with the allowance) in the ns block's mode, then along the profile to B.
+    o.move(w.infeed_rapid, a2);
+    for (const Segment& s : profile) o.draw(s);
+  } else {
+    double zc = 0;
+    if (!layer_end(xb, zc)) return "the last layer does not meet the profile ahead of the start point";
+    o.move(w.infeed_rapid, Point(z0, xb));
+    o.line(Point(zc, xb));
+    if (e > 0) o.rapid(Point(zc + e, xb + e));
+    o.rapid(Point(z0, xb + e));
+  }
+  o.rapid(a);
+  return {};
+}
+
+std::string expand_fanuc_pattern(Point start, Point relief, Point allowance, int passes, bool infeed_rapid,
+                                 const std::vector<Segment>& profile, std::vector<Move>& out) {
+  if (profile.empty()) return "the profile has no move after its first block";
+  if (passes < 1) return "the number of divisions must be at least 1";
+  const FanucFrame f;  // identity
+  FanucOut o{f, out};
+  for (int k = 1; k <= passes; ++k) {
+    // Pass k of d is shifted by relief·(d-k)/(d-1) + allowance (one pass: the allowance alone).
+    const double share = passes == 1 ? 0.0 : static_cast<double>(passes - k) / (passes - 1);
+    const Point shift = relief * share + allowance;
+    o.move(infeed_rapid, profile.front().a + shift);
+    for (Segment s : profile) {
+      s.a += shift;
+      s.b += shift;
+      s.c += shift;
+      o.draw(s);
+    }
+    o.rapid(start);
+  }
+  return {};
+}
+
 }  // namespace postproc::gcode::turning

@@ -44,4 +44,29 @@ struct CycleWords {
 /// cycle (the message rs274 gives: "Not monotonic", "Cannot intersect parallel lines", …).
 std::string expand_linuxcnc(const CycleWords& w, std::vector<Segment> profile, std::vector<Move>& out);
 
+/// Fanuc G71 / G72 type I (Series 0i/30i lathe, "Stock removal in turning / facing"): the tool
+/// stands at A; the profile runs from A' (the ns block's end) to B; the area between A, A', B and
+/// the closing point C (B's cut coordinate on A's infeed level) is cut away in layers of `depth`,
+/// leaving `allowance` (Δw, Δu/2) on the profile.
+struct FanucRough {
+  bool facing = false;       ///< G72: layers parallel to X, infeed along Z
+  Point start;               ///< A
+  double depth = 0;          ///< Δd, > 0
+  double escape = 0;         ///< e, >= 0: 45° retraction after each layer
+  Point allowance;           ///< (Δw, Δu/2), added to every point of the profile
+  bool infeed_rapid = true;  ///< the ns block is G00 (G01: layers are fed in at cutting feed)
+  bool final_cut = true;     ///< parameter 5105#1 RF1 = 0: a last cut along the allowance profile
+};
+
+/// Expands FanucRough over `profile` (A' → B; every element must run monotonically, type I) into
+/// `out`, ending with the return to A. Returns an empty string, or why the cycle is refused; the
+/// refusal starts with "alarm: " where the controller itself stops with an alarm.
+std::string expand_fanuc_rough(const FanucRough& w, std::vector<Segment> profile, std::vector<Move>& out);
+
+/// Fanuc G73 (pattern repeating): `passes` copies of the profile, the first shifted by
+/// relief + allowance, the last by the allowance alone; each pass starts from A (a move in the
+/// ns block's mode to the shifted A'), follows the shifted profile and returns to A at rapid.
+std::string expand_fanuc_pattern(Point start, Point relief, Point allowance, int passes, bool infeed_rapid,
+                                 const std::vector<Segment>& profile, std::vector<Move>& out);
+
 }  // namespace postproc::gcode::turning

@@ -129,6 +129,9 @@ struct Dialect {
   /// Motion mode in force before the program's first G0/G1/G2/G3 (Sinumerik: reset value of G group 1,
   /// MD20150 $MC_GCODE_RESET_VALUES[0], factory setting G1). cancel_motion = none (axis words refused).
   GMeaning reset_motion = GMeaning::cancel_motion;
+  /// Fanuc lathe G71/G72: a last cut along the profile offset by the finishing allowance (parameter
+  /// 5105#1 RF1 = 0, the factory setting); false = RF1 = 1, no such cut.
+  bool fanuc_rough_final_cut = true;
   /// Table indexed by code10; GMeaning::unknown where the dialect has no such code.
   std::vector<GCodeDef> gcodes;
 

@@ -111,6 +111,8 @@ class Interpreter {
   /// then starts where the corner ends. Where it cannot (the next line is not a straight move in the
   /// plane, the corner is too large), both moves are refused, located.
   void resolve_corner(const Block& current, const Block& next, std::vector<Motion>& motions);
+  /// Reports what the program left unfinished at its end (a Fanuc cycle whose profile never ended).
+  void finish();
   [[nodiscard]] const ModalState& state() const { return s_; }
   [[nodiscard]] const Dialect& dialect() const { return d_; }
 
@@ -162,6 +164,17 @@ class Interpreter {
   bool lathe_profile_line(const Block& b);
   void lathe_cycle(const Block& b, const BlockWords& w, MotionSink& out);
   void spindle_synced_move(const Block& b, const BlockWords& w, Motion& m, MotionSink& out);
+  // Fanuc lathe turning cycles G70–G75, G90/G94 (G77/G79) (src/gcode/interpreter_fanuc_cycles.cpp).
+  struct FanucCycles;
+  bool fanuc_profile_line(const Block& b, MotionSink& out);
+  bool fanuc_cycle(const Block& b, BlockWords& w, MotionSink& out, GMeaning prev_motion, std::uint16_t prev_code10);
+  void fanuc_cycle_words(const Block& b, const BlockWords& w, int code, MotionSink& out);
+  bool fanuc_shape(const Block& cb);
+  void fanuc_shape_cycle(const Block& cb, MotionSink& out);
+  void fanuc_g70(const Block& b, const BlockWords& w, MotionSink& out);
+  void fanuc_single(const Block& b, const BlockWords& w, int code, MotionSink& out);
+  void fanuc_peck(const Block& b, const BlockWords& w, int code, MotionSink& out);
+  void fanuc_emit(const Block& b, Span at, MotionSink& out);
 
   Dialect d_;
   std::string file_;
@@ -192,6 +205,8 @@ class Interpreter {
   int frame_keyword_ = 0;      ///< Siemens frame keyword in this block: 1 TRANS, 2 ATRANS, 3 ROT/SCALE/…
   std::shared_ptr<LatheProfile> lathe_profile_;  ///< the last profile subroutine read (LinuxCNC)
   bool spindle_turning_ = false;  ///< LinuxCNC: M3/M4 given and not stopped by M5 (G33 needs it)
+  std::shared_ptr<FanucCycles> fanuc_cycles_;  ///< Fanuc lathe: cycle values, profiles, collection
+  bool fanuc_replay_ = false;  ///< executing the profile blocks of a G70
 };
 
 }  // namespace postproc::gcode
