@@ -45,6 +45,9 @@ inline constexpr std::string_view kModalRestore = "PP-U222";   // LinuxCNC M72/M
 inline constexpr std::string_view kLatheCycleRejected = "PP-E250";  ///< the controller rejects the cycle
 inline constexpr std::string_view kLatheProfileStatement = "PP-E251";  ///< statement inside a cycle's profile
 inline constexpr std::string_view kLatheCycleUnresolved = "PP-U250";  ///< cycle word / profile form not followed
+// Threading cycles (docs/threading.md): PP-E256…259, PP-U256…259.
+inline constexpr std::string_view kThreadingRejected = "PP-E256";    ///< the controller refuses the threading cycle
+inline constexpr std::string_view kThreadingUnresolved = "PP-U256";  ///< threading cycle word / form not followed
 // Fanuc dialect (docs/dialect-fanuc.md): constructs read only where they can be read exactly.
 inline constexpr std::string_view kFanucPolar = "PP-U230";     ///< G16 polar command not read exactly
 inline constexpr std::string_view kFanucScaling = "PP-U231";   ///< motion under G51 scaling

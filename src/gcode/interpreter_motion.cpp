@@ -352,6 +352,7 @@ void Interpreter::do_motion(const Block& b, BlockWords& w, MotionSink& out_all) 
     lathe_cycle(b, w, out);
     return;
   }
+  if (mode == GMeaning::threading && threading_cycle(b, w, out)) return;
   Eigen::Vector2d polar_end = Eigen::Vector2d::Zero();
   if (w.polar && (d_.id != DialectId::siemens || !siemens_polar_end(b, w, mode, polar_end))) {
     unresolved_motion(b, w, codes::kPolar, "motion in polar coordinates (AP=/RP=)");

@@ -6,12 +6,16 @@
 #include <memory>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "postproc/gcode/block.hpp"
 #include "postproc/gcode/dialect.hpp"
 #include "postproc/gcode/motion.hpp"
 
 namespace postproc::gcode {
+namespace threading {
+struct Move;
+}
 
 /// Receives each resolved motion together with the block it came from.
 class MotionSink {
@@ -151,6 +155,11 @@ class Interpreter {
   bool lathe_profile_line(const Block& b);
   void lathe_cycle(const Block& b, const BlockWords& w, MotionSink& out);
   void spindle_synced_move(const Block& b, const BlockWords& w, Motion& m, MotionSink& out);
+  // Lathe threading cycles (src/gcode/interpreter_threading.cpp): true when the block was handled.
+  struct ThreadingState;
+  bool threading_cycle(const Block& b, const BlockWords& w, MotionSink& out);
+  void linuxcnc_g76(const Block& b, const BlockWords& w, MotionSink& out);
+  void thread_moves(const Block& b, Span at, const std::vector<threading::Move>& moves, MotionSink& out);
 
   Dialect d_;
   std::string file_;
