@@ -218,4 +218,132 @@ TEST(ThreadingLinuxcnc, G76FromAnUnknownPointOrWithUnknownWordsIsNotFollowed) {
   EXPECT_TRUE(of_line(expr, 4).empty());
 }
 
+// ---------------------------------------------------------------------------------------------
+// Fanuc lathe (Series 0i-TD B-64304EN / 30i-B B-64484EN, "Threading (G32)" and "Threading cycle
+// (G92)"; 30i-A B-63944EN 4.1.2 "Threading Cycle (G92)": operations 1-4). X is a diameter.
+
+TEST(ThreadingFanuc, G32IsAStraightMoveAtTheLeadPerRevolution) {
+  // G32 X(U) Z(W) F: F is the lead; the move is synchronised with the spindle: a linear move whose
+  // feed per revolution is the lead (as LinuxCNC G33). U/W are increments (system A).
+  pptest::Program r(dialect("fanuc", true),
+                    "G21 G99\n"
+                    "G0 X30. Z5.\n"
+                    "G32 Z-20. F1.5\n"
+                    "G0 X40.\n"
+                    "Z5.\n"
+                    "X29.\n"
+                    "G32 U-1. W-25. F2.\n"
+                    "W-2.\n");
+  ASSERT_EQ(r.sink.count(gc::Severity::error) + r.sink.count(gc::Severity::warning), 0u) << r.all_codes();
+  const auto a = of_line(r, 3);
+  ASSERT_EQ(a.size(), 1u);
+  EXPECT_EQ(a[0]->type, gc::MotionType::linear);
+  EXPECT_NEAR(a[0]->end[0], 15, kEps);
+  EXPECT_NEAR(a[0]->end[2], -20, kEps);
+  EXPECT_EQ(a[0]->feed_mode, gc::FeedMode::per_rev);
+  EXPECT_NEAR(a[0]->feed, 1.5, kEps);
+  EXPECT_EQ(a[0]->column, 1u);
+  const auto b = of_line(r, 7);
+  ASSERT_EQ(b.size(), 1u);
+  EXPECT_NEAR(b[0]->end[0], 14, kEps);  // X29 − U1 (diameter) = 28 → radius 14
+  EXPECT_NEAR(b[0]->end[2], -20, kEps);
+  EXPECT_NEAR(b[0]->feed, 2, kEps);
+  const auto c = of_line(r, 8);  // G32 stays in force (group 01)
+  ASSERT_EQ(c.size(), 1u);
+  EXPECT_EQ(c[0]->type, gc::MotionType::linear);
+  EXPECT_NEAR(c[0]->end[2], -22, kEps);
+  EXPECT_EQ(c[0]->feed_mode, gc::FeedMode::per_rev);
+}
+
+TEST(ThreadingFanuc, G32WithoutALeadOrOnAMillIsNotFollowed) {
+  pptest::Program nolead(dialect("fanuc", true), "G21\nG0 X30. Z5.\nG32 Z-20.\n");
+  pptest::expect_diag_at(nolead, codes::kThreadingUnresolved, 3, 1);
+  EXPECT_TRUE(of_line(nolead, 3).empty());
+  // A lead written as K (NX posts for the Fanuc 0T write "G32Z3.46K.05" after F.03 for G1):
+  // not the Fanuc G32 format; refused rather than cut at F.
+  pptest::Program k(dialect("fanuc", true), "G20 G99\nG0 X.8 Z4.7\nG1 X.8 F.03\nG32 Z3.46 K.05\n");
+  pptest::expect_diag_at(k, codes::kThreadingUnresolved, 4, 1);
+  EXPECT_TRUE(of_line(k, 4).empty());
+  // Fanuc milling: G32 is not the lathe's thread cutting; the mill table's refusal stays.
+  pptest::Program mill(dialect("fanuc"), "G21\nG0 X30. Z5.\nG32 Z-20. F1.5\n");
+  pptest::expect_diag_at(mill, codes::kThreading, 3, 1);
+}
+
+TEST(ThreadingFanuc, G92FourOperationsAndModalRepeats) {
+  // (1) rapid from A to X, (2) threading to Z at F per revolution, (3) rapid to A's X, (4) rapid
+  // to A's Z. X(U) Z(W) R are modal in the cycle: a block with X (U) alone cuts again at that X.
+  pptest::Program r(dialect("fanuc", true),
+                    "G21 G99\n"
+                    "G0 X30. Z5.\n"
+                    "G92 X29.2 Z-20. F1.5\n"
+                    "X28.6\n"
+                    "U-1.8\n"
+                    "G0 X40.\n");
+  ASSERT_EQ(r.sink.count(gc::Severity::error) + r.sink.count(gc::Severity::warning), 0u) << r.all_codes();
+  const double xs[3] = {14.6, 14.3, 14.1};  // radius; U-1.8 is from A (X30)
+  for (int k = 0; k < 3; ++k) {
+    const auto ms = of_line(r, static_cast<std::uint64_t>(3 + k));
+    ASSERT_EQ(ms.size(), 4u) << k;
+    const gc::MotionType type[4] = {gc::MotionType::rapid, gc::MotionType::linear, gc::MotionType::rapid,
+                                    gc::MotionType::rapid};
+    const double want[4][2] = {{xs[k], 5}, {xs[k], -20}, {15, -20}, {15, 5}};
+    for (int i = 0; i < 4; ++i) {
+      EXPECT_EQ(ms[static_cast<std::size_t>(i)]->type, type[i]) << k << " " << i;
+      EXPECT_NEAR(ms[static_cast<std::size_t>(i)]->end[0], want[i][0], kEps) << k << " " << i;
+      EXPECT_NEAR(ms[static_cast<std::size_t>(i)]->end[2], want[i][1], kEps) << k << " " << i;
+    }
+    EXPECT_EQ(ms[1]->feed_mode, gc::FeedMode::per_rev);
+    EXPECT_NEAR(ms[1]->feed, 1.5, kEps);
+    EXPECT_EQ(ms[0]->column, 1u);
+  }
+  // G0 ends the cycle: an ordinary rapid.
+  const auto g0 = of_line(r, 6);
+  ASSERT_EQ(g0.size(), 1u);
+  EXPECT_NEAR(g0[0]->end[0], 20, kEps);
+}
+
+TEST(ThreadingFanuc, G92TaperRIsTheRadiusAtTheStartMinusTheEndAndG78InSystemB) {
+  // Taper thread: R = (radius where the thread starts) − (radius at the end point); operation 1
+  // goes to the end X plus R. System B: the same cycle is G78 (G92 sets the coordinate system).
+  gc::DialectOptions o;
+  o.lathe = true;
+  o.gcode_system = 'B';
+  o.integer_input = gc::Dialect::IntegerInput::calculator;
+  const gc::Dialect b = *gc::make_dialect("fanuc", o);
+  for (const auto& [d, code] : {std::pair{dialect("fanuc", true), "G92"}, std::pair{b, "G78"}}) {
+    pptest::Program r(d, std::string("G21\nG0 X50. Z10.\n") + code + " X40. Z-30. R-2. F2.\nX39.\n");
+    ASSERT_EQ(r.sink.count(gc::Severity::error) + r.sink.count(gc::Severity::warning), 0u) << code << r.all_codes();
+    const auto first = of_line(r, 3), again = of_line(r, 4);
+    ASSERT_EQ(first.size(), 4u) << code;
+    ASSERT_EQ(again.size(), 4u) << code;
+    EXPECT_NEAR(first[0]->end[0], 20 - 2, kEps);
+    EXPECT_NEAR(first[0]->end[2], 10, kEps);
+    EXPECT_NEAR(first[1]->end[0], 20, kEps);
+    EXPECT_NEAR(first[1]->end[2], -30, kEps);
+    EXPECT_NEAR(first[1]->feed, 2, kEps);
+    EXPECT_NEAR(again[0]->end[0], 19.5 - 2, kEps);  // R stays in force
+    EXPECT_NEAR(again[1]->end[2], -30, kEps);       // Z too
+    EXPECT_NEAR(again[3]->end[0], 25, kEps);
+    EXPECT_NEAR(again[3]->end[2], 10, kEps);
+  }
+}
+
+TEST(ThreadingFanuc, G92RefusedWhereItsPathIsNotKnown) {
+  gc::Dialect d = dialect("fanuc", true);
+  // A new cycle needs both X(U) and Z(W).
+  pptest::Program noz(d, "G21\nG0 X30. Z5.\nG92 X29. F1.5\n");
+  pptest::expect_diag_at(noz, codes::kThreadingUnresolved, 3, 1);
+  // A G76 first block set parameter 5130 (r = 10: a chamfer of one lead) whose angle (5131) the
+  // program does not give.
+  pptest::Program chamfer(d, "G21\nG0 X30. Z5.\nG76 P011060 Q100 R0.05\nG92 X29. Z-20. F1.5\n");
+  pptest::expect_diag_at(chamfer, codes::kThreadingParameter, 4, 1);
+  EXPECT_TRUE(of_line(chamfer, 4).empty());
+  // r = 00: no chamfer; the cycle is read.
+  pptest::Program nochamfer(d, "G21\nG0 X30. Z5.\nG76 P010060 Q100 R0.05\nG92 X29. Z-20. F1.5\n");
+  EXPECT_EQ(of_line(nochamfer, 4).size(), 4u) << nochamfer.all_codes();
+  // Unknown start point.
+  pptest::Program unknown(d, "G21\nG0 X30.\nG92 X29. Z-20. F1.5\n");
+  pptest::expect_diag_at(unknown, codes::kUnknownPosition, 3, 1);
+}
+
 }  // namespace

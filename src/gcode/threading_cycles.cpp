@@ -73,4 +73,13 @@ std::string plan_linuxcnc_g76(const LinuxcncG76& c, std::vector<Move>& out) {
   return {};
 }
 
+void plan_fanuc_g92(const FanucG92& c, std::vector<Move>& out) {
+  // Operations 1-4 of the straight / taper threading cycle: the taper R is the radius of the
+  // thread at its start minus that at its end (the end is the block's X Z).
+  out.push_back({Move::Kind::rapid, c.start_z, c.end_x + c.taper, 0});
+  out.push_back({Move::Kind::synced, c.end_z, c.end_x, c.lead});
+  out.push_back({Move::Kind::rapid, c.end_z, c.start_x, 0});
+  out.push_back({Move::Kind::rapid, c.start_z, c.start_x, 0});
+}
+
 }  // namespace postproc::gcode::threading

@@ -36,7 +36,7 @@ std::string plan_linuxcnc_g76(const LinuxcncG76& c, std::vector<Move>& out);
 
 /// Fanuc G92 (system A; G78 in system B) thread cutting cycle, one pass (B-64304EN / B-64484EN,
 /// "Thread cutting cycle"): from the start point A rapid to X, threading to Z (along the taper
-/// R), rapid out to the start X, rapid back to the start Z. Chamfer amount 0 (none).
+/// R), rapid out to the start X, rapid back to the start Z. Thread chamfering amount 0 (none).
 struct FanucG92 {
   double start_z = 0, start_x = 0;  ///< start point (radius)
   double end_z = 0, end_x = 0;      ///< the cycle's X/Z (end of the thread), radius
@@ -44,23 +44,5 @@ struct FanucG92 {
   double lead = 0;                  ///< F
 };
 void plan_fanuc_g92(const FanucG92& c, std::vector<Move>& out);
-
-/// Fanuc G76 multiple threading cycle, two-block form (B-64304EN / B-64484EN "Multiple
-/// threading cycle (G76)"), after both blocks' checks. Lengths in program units, radius.
-struct FanucG76 {
-  double start_z = 0, start_x = 0;  ///< start point A (the current point)
-  double end_z = 0, end_x = 0;      ///< X/Z of the second block: the thread's root at its end
-  double taper = 0;                 ///< R(i): radius difference start − end of the thread
-  double height = 0;                ///< P(k): thread height (radius)
-  double first = 0;                 ///< Q(Δd): depth of the first cut (radius)
-  double min_cut = 0;               ///< Q(Δdmin) of the first block: minimum cutting depth
-  double finish = 0;                ///< R(d) of the first block: finishing allowance
-  int finish_passes = 1;            ///< m of P(m r a)
-  double chamfer = 0;               ///< r of P(m r a) as a length (0.1·L·rr); 0: none
-  double angle = 0;                 ///< a of P(m r a), degrees (tool tip angle)
-  double lead = 0;                  ///< F(L)
-};
-/// Returns an empty string, or why the plan cannot be made (the controller's alarm).
-std::string plan_fanuc_g76(const FanucG76& c, std::vector<Move>& out);
 
 }  // namespace postproc::gcode::threading

@@ -158,7 +158,10 @@ class Interpreter {
   // Lathe threading cycles (src/gcode/interpreter_threading.cpp): true when the block was handled.
   struct ThreadingState;
   bool threading_cycle(const Block& b, const BlockWords& w, MotionSink& out);
+  ThreadingState& threading_state();
   void linuxcnc_g76(const Block& b, const BlockWords& w, MotionSink& out);
+  void fanuc_g32(const Block& b, const BlockWords& w, MotionSink& out);
+  void fanuc_g92(const Block& b, const BlockWords& w, MotionSink& out);
   void thread_moves(const Block& b, Span at, const std::vector<threading::Move>& moves, MotionSink& out);
 
   Dialect d_;
@@ -178,6 +181,7 @@ class Interpreter {
   int frame_keyword_ = 0;      ///< Siemens frame keyword in this block: 1 TRANS, 2 ATRANS, 3 ROT/SCALE/…
   std::shared_ptr<LatheProfile> lathe_profile_;  ///< the last profile subroutine read (LinuxCNC)
   bool spindle_turning_ = false;  ///< LinuxCNC: M3/M4 given and not stopped by M5 (G33 needs it)
+  std::shared_ptr<ThreadingState> threading_;  ///< threading cycles' data, made on first use
 };
 
 }  // namespace postproc::gcode
