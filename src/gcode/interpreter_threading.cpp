@@ -180,7 +180,10 @@ void Interpreter::fanuc_g92(const Block& b, const BlockWords& w, MotionSink& out
     return;
   }
   if (!s_.feed_known || s_.feed_undefined || s_.feed <= 0) {
-    refuse(fmt::format("{}: the lead F is not known here; program F (the lead) on the cycle's block", name));
+    refuse(fmt::format("{}: the lead F is not known here; program F (the lead) on the cycle's block{}", name,
+                       d_.gcode_system == 'A' ? " (if this G92 sets the coordinate system, the program is written "
+                                                "for G-code system B: pass --gcode-system B)"
+                                              : ""));
     return;
   }
   if (s_.polar_coords || s_.scaling || s_.mirror != 0 || s_.polar_interp || s_.cutter_comp != 0) {
