@@ -3,7 +3,8 @@
 
 Usage: threading_compare.py POSTPROC FILE.ngc...
 
-Each program is run through `rs274 -g` (with tools.tbl beside it when there is one) and through
+Each program is run through `rs274 -g` (no tool table: rs274 shares its tool data between the
+processes running at the same time, through ~/.tool.mmap) and through
 `postproc dump --dialect linuxcnc`. The straight moves must agree one to one: STRAIGHT_TRAVERSE is a
 rapid, STRAIGHT_FEED a linear move; X Y Z end points within 6e-5 program units (rs274 prints 4
 decimals; inch output is converted to mm); a feed move made while rs274 has speed-feed
@@ -16,8 +17,9 @@ import csv, io, os, re, subprocess, sys
 
 def rs274(path):
     d, name = os.path.dirname(path) or ".", os.path.basename(path)
-    cmd = ["rs274"] + (["-t", "tools.tbl"] if os.path.exists(os.path.join(d, "tools.tbl")) else []) + ["-g", name]
-    out = subprocess.run(cmd, cwd=d, capture_output=True, text=True, timeout=60).stdout
+    cmd = ["rs274", "-g", name]
+    run = subprocess.run(cmd, cwd=d, capture_output=True, text=True, timeout=60)
+    out = run.stdout + run.stderr
     moves, units, sync = [], 1.0, None
     for line in out.splitlines():
         m = re.search(r"USE_LENGTH_UNITS\(CANON_UNITS_(\w+)\)", line)
