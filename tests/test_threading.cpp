@@ -7,6 +7,10 @@
 #include <string>
 #include <vector>
 
+#include "postproc/compensation/compensate.hpp"
+#include "postproc/io/output_file.hpp"
+#include "postproc/machine/machine.hpp"
+#include "sample_machine.hpp"
 #include "src/gcode/codes.hpp"
 #include "support.hpp"
 
@@ -344,6 +348,44 @@ TEST(ThreadingFanuc, G92RefusedWhereItsPathIsNotKnown) {
   // Unknown start point.
   pptest::Program unknown(d, "G21\nG0 X30.\nG92 X29. Z-20. F1.5\n");
   pptest::expect_diag_at(unknown, codes::kUnknownPosition, 3, 1);
+}
+
+// ---------------------------------------------------------------------------------------------
+// compensate: a cycle's moves are motions of its block; through a machine without errors the
+// program comes out byte for byte, and the block after the cycle keeps its words (the written
+// position is where the cycle ended, not where the block before it left the tool).
+
+TEST(ThreadingCompensate, CycleBlocksThroughAMachineWithoutErrorsStayByteForByte) {
+  postproc::machine::Machine m = pptest::sample_machine("lathe_xzbc_doc004.toml");  // LinuxCNC, radius mode
+  m.actual = m.nominal;
+  const gc::Dialect d = *gc::make_dialect(m.dialect_name, m.dialect_options);
+  const std::string program =
+      "G18 G21 G8 G90 G54\n"
+      "T1 M6\n"
+      "G0 X60 Z10 B0 C0\n"
+      "M3 S500\n"
+      "G0 X40 Z5\n"
+      "G76 P1 Z-20 I-0.5 J0.1 K0.6 Q29.5 H1 E1 L3\n"
+      "G0 X50\n"  // no Z: stays at the cycle's end Z-20
+      "G1 X55 F100\n"
+      "M2\n";
+  pptest::TempDir dir;
+  const std::string path = dir.file("out.ngc");
+  postproc::comp::CompensateOptions opt;
+  opt.header = false;
+  opt.tool_version = "test";
+  gc::DiagnosticSink sink;
+  {
+    gc::LineReader reader{std::string_view(program)};
+    postproc::io::OutputFile out(path);
+    const auto r = postproc::comp::compensate(reader, "in.ngc", d, m, opt, out, sink);
+    for (const auto& diag : sink.stored())
+      if (diag.severity == gc::Severity::error) ADD_FAILURE() << gc::format(diag);
+    ASSERT_FALSE(sink.has_errors());
+    out.commit();
+    EXPECT_EQ(r.changed_blocks, 0u);
+  }
+  EXPECT_EQ(pptest::read_file(path), program);
 }
 
 }  // namespace
