@@ -315,7 +315,7 @@ TEST(Interpreter, UnresolvedConstructsHaveStableCodes) {
     std::uint32_t column;
   } cases[] = {
       {"fanuc", true, "G0 X50 Z2\nN10 G90\n", "PP-U201", 2, 5},
-      {"linuxcnc", false, "G0 X0 Z0\nG76 P0.05 Z-1 I-0.075 J0.008 K0.045 Q29.5 L2 E0.045 H1\n", "PP-U202", 2, 1},
+      {"linuxcnc", false, "G0 X0 Z0\nG33.1 Z-1 K0.05\n", "PP-U202", 2, 1},  // G76: tests/test_threading.cpp
       {"fanuc", true, "G0 X10 Z0\nG76 X8.2 Z-20. P900 Q300 F1.5\n", "PP-U202", 2, 1},
       {"linuxcnc", false, "G0 X0 Y0\nG5.1 X1 Y1 I0.5 J0.5\n", "PP-U203", 2, 1},
       {"fanuc", false, "G0 X0 Y0 C0\nG12.1\nG1 X10 C5 F100\nG13.1\n", "PP-U204", 3, 1},

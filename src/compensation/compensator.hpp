@@ -184,7 +184,10 @@ class Compensator final : public gcode::BlockVisitor {
     // Several motions in one block (G28 intermediate points, cycles): accepted only when the
     // correction rounds away at every end point.
     Command out;
-    if (!endpoint(b, m, out, nullptr)) return;
+    if (!endpoint(b, m, out, nullptr)) {
+      written_known_ = 0;
+      return;
+    }
     for (int a = 0; a < gcode::kAxisCount; ++a)
       if ((mask_ >> a) & 1u)
         if (rounded_change(a, m.end[a], out.c[a], m)) {
@@ -193,6 +196,11 @@ class Compensator final : public gcode::BlockVisitor {
                  "correction on them; write the moves out as G0/G1 blocks to compensate them");
           return;
         }
+    // The controller now holds this move's end (its correction rounds away): a following block
+    // that does not name an axis leaves it there (a lathe threading cycle ends away from where
+    // the block before it left the tool).
+    written_ = out.c;
+    written_known_ = static_cast<gcode::AxisMask>(m.known | mask_);
   }
 
   /// True when the corrected value prints differently from the source value at the axis's decimals.

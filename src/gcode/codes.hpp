@@ -50,6 +50,10 @@ inline constexpr std::string_view kLatheCycleUnresolved = "PP-U250";  ///< cycle
 inline constexpr std::string_view kFanucCycleAlarm = "PP-E252";      ///< the control stops with an alarm
 inline constexpr std::string_view kFanucCycleUnresolved = "PP-U252"; ///< cycle form or profile content not followed
 inline constexpr std::string_view kFanucCycleModal = "PP-U253";      ///< group-01 mode after G70–G73 not stated
+// Threading cycles (docs/threading.md): PP-E256…259, PP-U256…259.
+inline constexpr std::string_view kThreadingRejected = "PP-E256";    ///< the controller refuses the threading cycle
+inline constexpr std::string_view kThreadingUnresolved = "PP-U256";  ///< threading cycle word / form not followed
+inline constexpr std::string_view kThreadingParameter = "PP-U257";   ///< the cycle's path depends on a machine parameter the program does not state
 // Fanuc dialect (docs/dialect-fanuc.md): constructs read only where they can be read exactly.
 inline constexpr std::string_view kFanucPolar = "PP-U230";     ///< G16 polar command not read exactly
 inline constexpr std::string_view kFanucScaling = "PP-U231";   ///< motion under G51 scaling

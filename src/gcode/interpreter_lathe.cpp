@@ -388,7 +388,7 @@ void Interpreter::spindle_synced_move(const Block& b, const BlockWords& w, Motio
   }
   m.type = MotionType::linear;
   if (!target(b, w, m)) return;
-  m.feed = w.get('K');
+  m.feed = w.get('K') * (s_.inch ? 25.4 : 1.0);  // Motion::feed is mm per revolution
   m.feed_mode = FeedMode::per_rev;
   m.feed_known = true;
   out.motion(m, b);

@@ -358,6 +358,7 @@ void Interpreter::do_motion(const Block& b, BlockWords& w, MotionSink& out_all) 
     return;
   }
   if (d_.id == DialectId::fanuc && d_.lathe && fanuc_cycle(b, w, out, prev_motion, prev_code10)) return;
+  if (mode == GMeaning::threading && threading_cycle(b, w, out)) return;
   Eigen::Vector2d polar_end = Eigen::Vector2d::Zero();
   if (w.polar && (d_.id != DialectId::siemens || !siemens_polar_end(b, w, mode, polar_end))) {
     unresolved_motion(b, w, codes::kPolar, "motion in polar coordinates (AP=/RP=)");

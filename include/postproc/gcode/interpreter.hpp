@@ -7,12 +7,16 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "postproc/gcode/block.hpp"
 #include "postproc/gcode/dialect.hpp"
 #include "postproc/gcode/motion.hpp"
 
 namespace postproc::gcode {
+namespace threading {
+struct Move;
+}
 
 /// Receives each resolved motion together with the block it came from.
 class MotionSink {
@@ -175,6 +179,14 @@ class Interpreter {
   void fanuc_single(const Block& b, const BlockWords& w, int code, MotionSink& out);
   void fanuc_peck(const Block& b, const BlockWords& w, int code, MotionSink& out);
   void fanuc_emit(const Block& b, Span at, MotionSink& out);
+  // Lathe threading cycles (src/gcode/interpreter_threading.cpp): true when the block was handled.
+  struct ThreadingState;
+  bool threading_cycle(const Block& b, const BlockWords& w, MotionSink& out);
+  ThreadingState& threading_state();
+  void linuxcnc_g76(const Block& b, const BlockWords& w, MotionSink& out);
+  void fanuc_g32(const Block& b, const BlockWords& w, MotionSink& out);
+  void fanuc_g92(const Block& b, const BlockWords& w, MotionSink& out);
+  void thread_moves(const Block& b, Span at, const std::vector<threading::Move>& moves, MotionSink& out);
 
   Dialect d_;
   std::string file_;
@@ -207,6 +219,7 @@ class Interpreter {
   bool spindle_turning_ = false;  ///< LinuxCNC: M3/M4 given and not stopped by M5 (G33 needs it)
   std::shared_ptr<FanucCycles> fanuc_cycles_;  ///< Fanuc lathe: cycle values, profiles, collection
   bool fanuc_replay_ = false;  ///< executing the profile blocks of a G70
+  std::shared_ptr<ThreadingState> threading_;  ///< threading cycles' data, made on first use
 };
 
 }  // namespace postproc::gcode
