@@ -200,8 +200,10 @@ bool Interpreter::corner_refused(const Block& b, const BlockWords& w, GMeaning m
   // this block is moved back and a chamfer line or rounding arc is inserted before the next block.
   // This version does not build that geometry: the motions of both blocks are refused (their end
   // points stay exact for the blocks that follow).
+  if (w.corner_word < 0 && corner_pending_line_ == 0 && !d_.lathe) return false;  // the usual block
   // ,C and ,R between two straight moves are built (interpreter_corner.cpp).
-  if (d_.id == DialectId::fanuc && corner_pending_line_ == 0 && corner_word(b, w, mode)) return false;
+  if (d_.id == DialectId::fanuc && corner_pending_line_ == 0 && w.corner_word >= 0 && corner_word(b, w, mode))
+    return false;
   int here = d_.id == DialectId::fanuc ? w.corner_word : -1;
   // (Under G12.1/G112 polar interpolation C is the rotary axis of the polar plane, not a chamfer.)
   if (here < 0 && d_.id == DialectId::fanuc && d_.lathe && mode == GMeaning::linear && !s_.polar_interp) {

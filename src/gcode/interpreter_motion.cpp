@@ -56,7 +56,8 @@ void Interpreter::execute_block(const Block& b, MotionSink& out) {
       if (mc == 3 || mc == 4) spindle_turning_ = true;
       if (mc == 5) spindle_turning_ = false;
     }
-  if (d_.id == DialectId::siemens && !corner_word(b, w, w.motion.def ? w.motion.def->meaning : s_.motion))
+  if (d_.id == DialectId::siemens && w.siemens_corner_word >= 0 &&
+      !corner_word(b, w, w.motion.def ? w.motion.def->meaning : s_.motion))
     corner_words(b, w);
   if (!w.axes_consumed) do_motion(b, w, out);
 }
@@ -333,7 +334,9 @@ void Interpreter::do_motion(const Block& b, BlockWords& w, MotionSink& out_all) 
   const GMeaning prev_motion = s_.motion;  // Fanuc G70–G75 are one-shot (group 00)
   const std::uint16_t prev_code10 = s_.motion_code10;
   NullSink refused;
-  const bool corner = (d_.id == DialectId::fanuc || (d_.id == DialectId::siemens && corner_pending_line_ != 0)) &&
+  // (The usual block has no corner word, no pending corner and is not a lathe block: no call.)
+  const bool corner = (w.corner_word >= 0 || corner_pending_line_ != 0 || d_.lathe) &&
+                      (d_.id == DialectId::fanuc || (d_.id == DialectId::siemens && corner_pending_line_ != 0)) &&
                       corner_refused(b, w, w.motion.def ? w.motion.def->meaning : s_.motion);
   MotionSink& out = corner ? static_cast<MotionSink&>(refused) : out_all;
   if (w.motion.def) {

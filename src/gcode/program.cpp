@@ -110,7 +110,7 @@ ProgramStats run_program(LineReader& reader, const Dialect& given, std::string_v
     int buffer = -1;  ///< index into `copies` when the line lives there
   };
   Lookahead la;
-  std::size_t la_next = 0;
+  std::size_t la_next = 0, la_count = 0;
   std::uint64_t number = 0;
   std::optional<Source> held;
   std::array<std::string, 2> copies;
@@ -120,7 +120,7 @@ ProgramStats run_program(LineReader& reader, const Dialect& given, std::string_v
       held.reset();
       return true;
     }
-    if (la_next < la.lines.size()) {
+    if (la_next < la_count) {
       src = {la.lines[la_next].first, la.lines[la_next].second, ++number, la_next < la.leader_lines, -1};
       ++la_next;
       return true;
@@ -187,6 +187,7 @@ ProgramStats run_program(LineReader& reader, const Dialect& given, std::string_v
                             la.leader_lines));
     }
   }
+  la_count = la.lines.size();
   Source src;
   while (fetch(src)) process(src);
   interp.finish();

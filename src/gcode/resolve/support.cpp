@@ -265,8 +265,13 @@ bool may_need(std::string_view raw, const Dialect& d) {
   };
   static const Table table;
   const std::array<bool, 256>& start = fanuc ? table.fanuc : table.siemens;
-  for (std::size_t i = 0; i < raw.size(); ++i) {
-    if (!start[static_cast<unsigned char>(raw[i])]) continue;
+  const auto* u = reinterpret_cast<const unsigned char*>(raw.data());
+  const std::size_t size = raw.size();
+  for (std::size_t i = 0; i < size; ++i) {
+    // Four characters at a time while none can start a statement word (most of a motion block).
+    while (i + 4 <= size && !(start[u[i]] | start[u[i + 1]] | start[u[i + 2]] | start[u[i + 3]])) i += 4;
+    if (i >= size) break;
+    if (!start[u[i]]) continue;
     char c = raw[i];
     if (c >= 'a' && c <= 'z') c = static_cast<char>(c - 32);
     const std::size_t n = i + 1;
