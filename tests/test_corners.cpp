@@ -109,9 +109,48 @@ TEST(Corners, RefusedWhereThisVersionDoesNotBuildTheElement) {
   // Collinear moves have no corner.
   const Program straight(fanuc(), "G17 G90 G0 X0 Y0\nG1 X50. ,C5. F500\nX80.\n");
   expect_diag_at(straight, "PP-U233", 2, 9);
-  // Lathe chamfers (direct drawing, C/R words) stay refused.
+  // Lathe direct drawing (,C on a lathe, parameter-dependent) stays refused.
   const Program lathe(dialect("fanuc", true), "G0 X20. Z2.\nG1 Z-10. ,C1. F.2\nX40.\n");
   EXPECT_TRUE(lathe.has("PP-U233")) << lathe.all_codes();
+}
+
+// B-63944EN-1 §4.5 "Chamfering and corner R" (lathe, G18): G01 along Z with I, along X with K, or
+// either with R; the amount is per side (45° chamfer, quarter-circle corner) and its sign is the
+// direction of the next move along the other axis. X is a diameter: Motion::end holds the radius.
+TEST(Corners, FanucLatheChamferAndCornerR) {
+  const Program r(dialect("fanuc", true),
+                  "G18 G0 X20. Z2.\nG1 Z-10. I3. F.2\nX40. K-2.\nZ-30. R5.\nX60.\nG0 X100.\nG1 Z-10. I-3.\nX40.\n");
+  EXPECT_FALSE(r.sink.has_errors()) << r.all_codes();
+  EXPECT_FALSE(r.has("PP-U233")) << r.all_codes();
+  const auto l2 = on_line(r, 2), l3 = on_line(r, 3), l4 = on_line(r, 4), l7 = on_line(r, 7);
+  ASSERT_EQ(l2.size(), 2u);
+  EXPECT_NEAR(l2[0]->end[2], -7, kTol);  // 3 mm before the corner Z-10
+  EXPECT_NEAR(l2[0]->end[0], 10, kTol);
+  EXPECT_NEAR(l2[1]->end[0], 13, kTol);  // 3 mm (per side) up X: radius 10 + 3
+  EXPECT_NEAR(l2[1]->end[2], -10, kTol);
+  ASSERT_EQ(l3.size(), 2u);
+  EXPECT_NEAR(l3[0]->start[0], 13, kTol);
+  EXPECT_NEAR(l3[0]->end[0], 18, kTol);  // X40 is radius 20: stops 2 mm short
+  EXPECT_NEAR(l3[1]->end[0], 20, kTol);
+  EXPECT_NEAR(l3[1]->end[2], -12, kTol);
+  ASSERT_EQ(l4.size(), 2u);
+  EXPECT_NEAR(l4[0]->end[2], -25, kTol);
+  EXPECT_NEAR(l4[1]->end[0], 25, kTol);
+  EXPECT_NEAR(l4[1]->end[2], -30, kTol);
+  EXPECT_NEAR(l4[1]->arc.radius, 5, kTol);
+  EXPECT_NEAR(l4[1]->arc.centre[0], 25, kTol);
+  EXPECT_NEAR(l4[1]->arc.centre[2], -25, kTol);
+  ASSERT_EQ(l7.size(), 2u);  // I-3: the next move goes down X
+  EXPECT_NEAR(l7[0]->end[2], -13, kTol);
+  EXPECT_NEAR(l7[1]->end[0], 47, kTol);
+  // The next move against the sign, or not along the other axis: the control's alarm.
+  const Program wrong(dialect("fanuc", true), "G18 G0 X20. Z2.\nG1 Z-10. I3. F.2\nX10.\n");
+  expect_diag_at(wrong, "PP-E207", 2, 10);
+  const Program slanted(dialect("fanuc", true), "G18 G0 X20. Z2.\nG1 Z-10. R3. F.2\nX40. Z-20.\n");
+  expect_diag_at(slanted, "PP-E207", 2, 10);
+  // I after an X move is not this format: refused as before.
+  const Program mixed(dialect("fanuc", true), "G18 G0 X20. Z2.\nG1 X30. I3. F.2\nZ-10.\n");
+  EXPECT_TRUE(mixed.has("PP-U233")) << mixed.all_codes();
 }
 
 TEST(Corners, TooLargeForTheMovesIsTheControllersAlarm) {

@@ -293,8 +293,9 @@ TEST(ReaderFanuc, CornerRoundingBuiltOrRefusedAtItsWord) {
 // G01, R (corner), I/K (chamfer) and A (angle) change the corner; refused at the word (PP-U233). An
 // angle makes the omitted axis unknown.
 TEST(ReaderFanuc, LatheDirectDrawingRefused) {
-  const Program r(dialect("fanuc", true), "G0 X20. Z0\nG1 Z-10. R2. F0.2\nX40.\nG1 X60. A30.\nZ-40.\nZ-50.\n");
-  expect_diag_at(r, "PP-U233", 2, 10);
+  // (G01 along one axis with I/K/R is the chamfer / corner R format and is built: tests/test_corners.cpp.)
+  const Program r(dialect("fanuc", true), "G0 X20. Z0\nG1 X30. Z-10. R2. F0.2\nX40.\nG1 X60. A30.\nZ-40.\nZ-50.\n");
+  expect_diag_at(r, "PP-U233", 2, 15);
   EXPECT_EQ(r.at_line(2), nullptr);
   EXPECT_EQ(r.at_line(3), nullptr);
   EXPECT_EQ(r.at_line(4), nullptr);

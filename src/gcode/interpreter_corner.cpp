@@ -74,6 +74,7 @@ bool Interpreter::corner_word(const Block& b, const BlockWords& w, GMeaning mode
   // Which word asks for a corner element, and is it one this version builds?
   int word = -1;
   Corner::Kind kind = Corner::Kind::leg;
+  if (d_.id == DialectId::fanuc && d_.lathe && w.corner_word < 0) return lathe_corner(b, w, mode);
   if (d_.id == DialectId::fanuc && !d_.lathe && w.corner_word >= 0) {
     word = w.corner_word;
     const std::string_view name = b.text(b.words[static_cast<std::size_t>(word)].name);
@@ -106,6 +107,36 @@ bool Interpreter::corner_word(const Block& b, const BlockWords& w, GMeaning mode
   }
   if (!(v > 0) || !(v < 1e6)) return false;
   corner_ = Corner{kind, s_.inch ? v * 25.4 : v, cw.span, s_.plane};
+  return true;
+}
+
+bool Interpreter::lathe_corner(const Block& b, const BlockWords& w, GMeaning mode) {
+  // B-63944EN-1 §4.5 "Chamfering and corner R" (lathe, G18): a G01 along one axis with I (after a Z
+  // move), K (after an X move) or R inserts a 45° chamfer or a quarter-circle corner before the next
+  // G01, which must run along the other axis; the sign of i/k/r is that move's direction. The
+  // amounts are per side (the chamfer is 45° in the part). C (parameter 3405#4 CCR) and direct
+  // drawing (X and Z, or A) stay refused.
+  if (mode != GMeaning::linear || s_.polar_interp || s_.plane != Plane::zx || s_.tcp != TcpMode::off || w.polar ||
+      w.machine_frame)
+    return false;
+  const AxisMask xs = bit(Axis::x) | bit(Axis::u), zs = bit(Axis::z) | bit(Axis::w);
+  const bool along_x = (w.axis_present & xs) != 0, along_z = (w.axis_present & zs) != 0;
+  if (along_x == along_z || (w.axis_present & ~(xs | zs)) != 0 || w.has('A') || w.has('C')) return false;
+  char letter = 0;
+  for (char L : {'I', 'K', 'R'})
+    if (w.has(L)) {
+      if (letter != 0) return false;  // two of them: not this format
+      letter = L;
+    }
+  if (letter == 0 || w.unresolved(letter) || (letter == 'I' && !along_z) || (letter == 'K' && !along_x)) return false;
+  const double v = w.get(letter);
+  if (!(std::abs(v) > 0) || !(std::abs(v) < 1e6)) return false;
+  const int word = w.letter_word[static_cast<std::size_t>(letter - 'A')];
+  Corner c{letter == 'R' ? Corner::Kind::radius : Corner::Kind::leg, std::abs(v) * (s_.inch ? 25.4 : 1.0),
+           b.words[static_cast<std::size_t>(word)].span, s_.plane};
+  c.next_axis = along_z ? 0 : 2;
+  c.next_sign = v > 0 ? 1 : -1;
+  corner_ = c;
   return true;
 }
 
@@ -155,6 +186,20 @@ void Interpreter::resolve_corner(const Block& current, const Block& next, std::v
   if ((n.known & need) != need || !in_plane(n, p) || n.plane != c.plane) {
     refuse("the next move is not known, or leaves the plane of the corner");
     return;
+  }
+  if (c.next_axis >= 0) {
+    // Lathe chamfer / corner R: the next move runs along the other axis, in the sign's direction.
+    const int other = c.next_axis == 0 ? 2 : 0;
+    const double along = n.end[c.next_axis] - n.start[c.next_axis];
+    if (std::abs(n.end[other] - n.start[other]) > 1e-9 || along * c.next_sign <= 0) {
+      report(current, c.at, Severity::error, codes::kControllerRefuses,
+             fmt::format("'{}' needs the next move (line {}) to run along {} in the {} direction only; the control "
+                         "stops with an alarm",
+                         word, next.line, c.next_axis == 0 ? 'X' : 'Z', c.next_sign > 0 ? "+" : "-"));
+      std::erase_if(motions, [&](const Motion& mo) { return mo.line == current.line; });
+      corner_pending_line_ = current.line;
+      return;
+    }
   }
   const Eigen::Vector2d p0(m.start[p.u], m.start[p.v]), p1(m.end[p.u], m.end[p.v]), p2(n.end[p.u], n.end[p.v]);
   const double l1 = (p1 - p0).norm(), l2 = (p2 - p1).norm();

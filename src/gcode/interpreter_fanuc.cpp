@@ -202,7 +202,8 @@ bool Interpreter::corner_refused(const Block& b, const BlockWords& w, GMeaning m
   // points stay exact for the blocks that follow).
   if (w.corner_word < 0 && corner_pending_line_ == 0 && !d_.lathe) return false;  // the usual block
   // ,C and ,R between two straight moves are built (interpreter_corner.cpp).
-  if (d_.id == DialectId::fanuc && corner_pending_line_ == 0 && w.corner_word >= 0 && corner_word(b, w, mode))
+  if (d_.id == DialectId::fanuc && corner_pending_line_ == 0 && (w.corner_word >= 0 || d_.lathe) &&
+      corner_word(b, w, mode))
     return false;
   int here = d_.id == DialectId::fanuc ? w.corner_word : -1;
   // (Under G12.1/G112 polar interpolation C is the rotary axis of the polar plane, not a chamfer.)

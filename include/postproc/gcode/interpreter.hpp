@@ -202,11 +202,16 @@ class Interpreter {
     double size_mm = 0;
     Span at;                ///< the corner word
     Plane plane = Plane::xy;
+    /// Fanuc lathe G01 with I/K/R (B-63944EN "Chamfering and corner R"): the next move must run along
+    /// this axis (0 X, 2 Z) in this direction (+1/−1); -1 = any straight move (,C ,R, CHF=, …).
+    int next_axis = -1;
+    int next_sign = 0;
   };
   std::optional<Corner> corner_;
   /// Where the next block's move starts (the end of the corner), set by resolve_corner.
   std::optional<AxisVector> corner_start_;
   bool corner_word(const Block& b, const BlockWords& w, GMeaning mode);
+  bool lathe_corner(const Block& b, const BlockWords& w, GMeaning mode);
   void execute_block(const Block& block, MotionSink& out);
   std::uint64_t corner_pending_line_ = 0;
   bool corner_angle_ = false;  ///< this block's refused corner word is a direct-drawing angle  ///< Fanuc: line of a ,C/,R whose next motion is moved by it
