@@ -327,11 +327,8 @@ void Interpreter::fanuc_cycle_words(const Block& b, const BlockWords& w, int cod
                                     "is parameter {} of the control, which this version does not know",
                                     name, !fc.pattern_set[0] ? "in X" : !fc.pattern_set[1] ? "in Z" : "count",
                                     !fc.pattern_set[0] ? "5135" : !fc.pattern_set[1] ? "5136" : "5137"));
-  if (s_.plane != Plane::zx || s_.cutter_comp != 0 || s_.mirror != 0 || s_.scaling || s_.polar_coords)
-    return refuse_cycle(fmt::format("{} under {} is not followed; cancel it before the cycle", name,
-                                    s_.plane != Plane::zx ? "a plane other than G18"
-                                    : s_.cutter_comp != 0 ? "tool-nose radius compensation (G41/G42)"
-                                                          : "mirror image, scaling or polar coordinates"));
+  if (const char* mode = cycle_blocking_mode())
+    return refuse_cycle(fmt::format("{} under {} is not followed; cancel it before the cycle", name, mode));
   if ((s_.known & kXZ) != kXZ) {
     report(b, at, Severity::warning, codes::kUnknownPosition,
            fmt::format("{} starts from the current point, which is unknown here; position X and Z before it", name));
@@ -576,11 +573,8 @@ void Interpreter::fanuc_single(const Block& b, const BlockWords& w, int code, Mo
     return refuse(fmt::format("{}: {}; not followed", name,
                               (w.axis_present & ~kXZ) != 0 ? "an axis other than X Z (U W) in the cycle"
                                                            : "a value that is not known"));
-  if (s_.plane != Plane::zx || s_.cutter_comp != 0 || s_.mirror != 0 || s_.scaling || s_.polar_coords)
-    return refuse(fmt::format("{} under {} is not followed; cancel it before the cycle", name,
-                              s_.plane != Plane::zx ? "a plane other than G18"
-                              : s_.cutter_comp != 0 ? "tool-nose radius compensation (G41/G42)"
-                                                    : "mirror image, scaling or polar coordinates"));
+  if (const char* mode = cycle_blocking_mode())
+    return refuse(fmt::format("{} under {} is not followed; cancel it before the cycle", name, mode));
   if ((s_.known & kXZ) != kXZ) {
     report(b, at, Severity::warning, codes::kUnknownPosition,
            fmt::format("{} starts from the current point, which is unknown here; position X and Z before it", name));
@@ -747,12 +741,7 @@ void Interpreter::fanuc_emit(const Block& b, Span at, MotionSink& out) {
     s_.known |= kXZ;
     m.end = s_.position;
     m.known = s_.known;
-    switch (mv.kind) {
-      case turning::Move::Kind::rapid: m.type = MotionType::rapid; break;
-      case turning::Move::Kind::line: m.type = MotionType::linear; break;
-      case turning::Move::Kind::arc_cw: m.type = MotionType::arc_cw; break;
-      case turning::Move::Kind::arc_ccw: m.type = MotionType::arc_ccw; break;
-    }
+    m.type = turning::motion_type(mv.kind);
     if (m.type == MotionType::arc_cw || m.type == MotionType::arc_ccw) {
       const Eigen::Vector2d c(mv.centre.real(), mv.centre.imag());
       const Eigen::Vector2d s(m.start[pa.u], m.start[pa.v]), e(m.end[pa.u], m.end[pa.v]);
@@ -769,6 +758,13 @@ void Interpreter::fanuc_emit(const Block& b, Span at, MotionSink& out) {
     }
     out.motion(m, b);
   }
+}
+
+const char* Interpreter::cycle_blocking_mode() const {
+  if (s_.plane != Plane::zx) return "a plane other than G18";
+  if (s_.cutter_comp != 0) return "tool-nose radius compensation (G41/G42)";
+  if (s_.mirror != 0 || s_.scaling || s_.polar_coords) return "mirror image, scaling or polar coordinates";
+  return nullptr;
 }
 
 }  // namespace postproc::gcode

@@ -329,12 +329,7 @@ void Interpreter::lathe_cycle(const Block& b, const BlockWords& w, MotionSink& o
     s_.known |= static_cast<AxisMask>(bit(Axis::x) | bit(Axis::z));
     m.end = s_.position;
     m.known = s_.known;
-    switch (mv.kind) {
-      case turning::Move::Kind::rapid: m.type = MotionType::rapid; break;
-      case turning::Move::Kind::line: m.type = MotionType::linear; break;
-      case turning::Move::Kind::arc_cw: m.type = MotionType::arc_cw; break;
-      case turning::Move::Kind::arc_ccw: m.type = MotionType::arc_ccw; break;
-    }
+    m.type = turning::motion_type(mv.kind);
     if (m.type == MotionType::arc_cw || m.type == MotionType::arc_ccw) {
       const Eigen::Vector2d c(mv.centre.real() * scale, mv.centre.imag() * scale);
       const Eigen::Vector2d s(m.start[pa.u], m.start[pa.v]), e(m.end[pa.u], m.end[pa.v]);

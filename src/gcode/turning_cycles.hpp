@@ -8,6 +8,8 @@
 #include <string>
 #include <vector>
 
+#include "postproc/gcode/motion.hpp"
+
 namespace postproc::gcode::turning {
 
 using Point = std::complex<double>;  ///< real = Z, imag = X (radius)
@@ -26,6 +28,17 @@ struct Move {
   Point end;
   Point centre;  ///< arcs
 };
+
+/// The motion type a move of an expanded cycle is written as.
+[[nodiscard]] inline MotionType motion_type(Move::Kind k) {
+  switch (k) {
+    case Move::Kind::rapid: return MotionType::rapid;
+    case Move::Kind::line: return MotionType::linear;
+    case Move::Kind::arc_cw: return MotionType::arc_cw;
+    case Move::Kind::arc_ccw: return MotionType::arc_ccw;
+  }
+  return MotionType::linear;
+}
 
 struct CycleWords {
   int cycle = 71;     ///< 70, 71 or 72

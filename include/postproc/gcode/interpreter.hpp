@@ -174,6 +174,9 @@ class Interpreter {
   bool fanuc_cycle(const Block& b, BlockWords& w, MotionSink& out, GMeaning prev_motion, std::uint16_t prev_code10);
   void fanuc_cycle_words(const Block& b, const BlockWords& w, int code, MotionSink& out);
   bool fanuc_shape(const Block& cb);
+  /// A state under which a Fanuc turning cycle is not followed (plane, nose radius compensation,
+  /// mirror, scaling, polar coordinates), described; nullptr when none.
+  [[nodiscard]] const char* cycle_blocking_mode() const;
   void fanuc_shape_cycle(const Block& cb, MotionSink& out);
   void fanuc_g70(const Block& b, const BlockWords& w, MotionSink& out);
   void fanuc_single(const Block& b, const BlockWords& w, int code, MotionSink& out);
