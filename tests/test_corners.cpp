@@ -75,6 +75,56 @@ TEST(Corners, RoundingOnAnObtuseCornerTurningRight) {
   EXPECT_NEAR(l2[1]->arc.sweep, -std::numbers::pi / 4, kTol);
 }
 
+// B-63944EN-1 "Optional chamfering and corner R": ,R also between a line and an arc and between two
+// arcs. The rounding circle is tangent to both elements: its centre lies r from the line (or at
+// R ± r from the arc's centre) on the side the path turns to, and the arcs keep their centres.
+TEST(Corners, RoundingBesideArcs) {
+  // Line +X into a cw half circle about (30,0) that starts upwards: a left turn.
+  const Program la(fanuc(), "G17 G90 G0 X0 Y0\nG1 X20. ,R2. F100\nG2 X40. Y0 R10.\nG1 Y-20.\n");
+  EXPECT_FALSE(la.sink.has_errors()) << la.all_codes();
+  EXPECT_FALSE(la.has("PP-U233")) << la.all_codes();
+  const auto l2 = on_line(la, 2), l3 = on_line(la, 3);
+  ASSERT_EQ(l2.size(), 2u);
+  const double qx = 30 - std::sqrt(12.0 * 12.0 - 4.0);  // centre at y = 2, 12 from (30, 0)
+  expect_xy(l2[0]->end, qx, 0);
+  EXPECT_EQ(l2[1]->type, gc::MotionType::arc_ccw);
+  EXPECT_NEAR(l2[1]->arc.centre[0], qx, kTol);
+  EXPECT_NEAR(l2[1]->arc.centre[1], 2, kTol);
+  const double kx = 30 + 10 * (qx - 30) / 12, ky = 10 * 2.0 / 12;  // on the half circle, towards the centre
+  expect_xy(l2[1]->end, kx, ky);
+  ASSERT_EQ(l3.size(), 1u);
+  expect_xy(l3[0]->start, kx, ky);
+  EXPECT_NEAR(l3[0]->arc.centre[0], 30, kTol);
+  EXPECT_NEAR(l3[0]->arc.sweep, -std::atan2(ky, kx - 30), 1e-9);  // from the tangent point to (40, 0), cw
+  // An arc then a line: the cw arc about (60,20) reaches (100,20) going down; the line goes -X (right turn).
+  const Program al(fanuc(), "G17 G90 G0 X60. Y60.\nG2 X100. Y20. ,R3. I0 J-40. F100\nG1 X0\n");
+  EXPECT_FALSE(al.sink.has_errors()) << al.all_codes();
+  const auto a2 = on_line(al, 2), a3 = on_line(al, 3);
+  ASSERT_EQ(a2.size(), 2u) << al.all_codes();
+  const double cx = 60 + std::sqrt(37.0 * 37.0 - 9.0);
+  EXPECT_EQ(a2[1]->type, gc::MotionType::arc_cw);
+  EXPECT_NEAR(a2[1]->arc.centre[0], cx, kTol);
+  EXPECT_NEAR(a2[1]->arc.centre[1], 23, kTol);
+  expect_xy(a2[1]->end, cx, 20);
+  EXPECT_NEAR((a2[0]->end.head<2>() - Eigen::Vector2d(60, 20)).norm(), 40, kTol);  // still on the arc
+  ASSERT_EQ(a3.size(), 1u);
+  expect_xy(a3[0]->start, cx, 20);
+  // Arc to arc: the rounding centre is R ± r from both arc centres.
+  // (A ccw quarter about (0,10) ends going +Y; a cw half circle about (10,20) starts going -X.)
+  const Program aa(fanuc(), "G17 G90 G0 X0 Y0\nG3 X10. Y10. R10. ,R2. F100\nG2 X10. Y30. R10.\n");
+  const auto b2 = on_line(aa, 2);
+  ASSERT_EQ(b2.size(), 2u) << aa.all_codes();
+  EXPECT_EQ(b2[1]->type, gc::MotionType::arc_ccw);
+  const Eigen::Vector2d q(b2[1]->arc.centre[0], b2[1]->arc.centre[1]);
+  EXPECT_NEAR((q - Eigen::Vector2d(0, 10)).norm(), 8, kTol);    // inside the ccw arc it turns towards
+  EXPECT_NEAR((q - Eigen::Vector2d(10, 20)).norm(), 12, kTol);  // outside the cw arc
+  EXPECT_NEAR((b2[1]->start.head<2>() - q).norm(), 2, kTol);
+  EXPECT_NEAR((b2[1]->end.head<2>() - q).norm(), 2, kTol);
+  // A chamfer beside an arc stays refused.
+  const Program ca(fanuc(), "G17 G90 G0 X0 Y0\nG1 X20. ,C2. F100\nG2 X40. Y0 R10.\n");
+  EXPECT_TRUE(ca.has("PP-U233")) << ca.all_codes();
+}
+
 TEST(Corners, NextIncrementalMoveIsRelativeToTheProgrammedCorner) {
   const Program r(fanuc(), "G17 G90 G0 X0 Y0\nG1 X50. ,C5. F500\nG91 Y40.\n");
   const auto l3 = on_line(r, 3);

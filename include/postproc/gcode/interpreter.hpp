@@ -215,6 +215,7 @@ class Interpreter {
   std::optional<AxisVector> corner_start_;
   bool corner_word(const Block& b, const BlockWords& w, GMeaning mode);
   bool lathe_corner(const Block& b, const BlockWords& w, GMeaning mode);
+  void round_with_arcs(const Block& current, const Corner& c, Motion& m, const Motion& n, std::vector<Motion>& motions);
   void execute_block(const Block& block, MotionSink& out);
   std::uint64_t corner_pending_line_ = 0;
   bool corner_angle_ = false;  ///< this block's refused corner word is a direct-drawing angle  ///< Fanuc: line of a ,C/,R whose next motion is moved by it
