@@ -594,3 +594,14 @@ TEST(ResolveFanuc, G66ModalCall) {
   const std::string twice = literal("G66 P9010 L2 R1. Z-1.\nG0 X5.\nG67\nM30\nO9010\nG1 Z#26\nM99\n");
   EXPECT_EQ(twice, "G0 X5.\nG1 Z-1.\nG1 Z-1.\nM30\n");
 }
+
+namespace {
+// Found by fuzzing: a subprogram that runs off the end of its file is reported at the file's last
+// line (it used to read past the end of the file's lines and crash).
+TEST(ResolveFanuc, SubprogramRunningOffTheFileIsLocatedAtItsLastLine) {
+  const Result x = run("O0001\nM98 P100\nM30\nO0100\nG0 X1.\n");
+  const Diagnostic d = first_error(x);
+  EXPECT_EQ(d.code, "PP-E708");
+  EXPECT_EQ(d.where.line, 5u);
+}
+}  // namespace

@@ -171,6 +171,13 @@ TEST(ResolveLinuxcnc, ProbingForgetsTheProbeResultsTheProgramSet) {
   EXPECT_FALSE(ended.sink.has_errors()) << codes(ended.sink);
 }
 
+// Found by fuzzing: an O-word statement after other words ("Z2 o1 endwhile") is rs274's "Bad character
+// 'o' used"; it used to end in an internal error (the loop structure did not know the line).
+TEST(ResolveLinuxcnc, OWordAfterOtherWordsIsRefusedLocated) {
+  const auto r = resolve_text("o1 while [1 LT 0]\nG0 X1\nZ2.0 o1 endwhile\nM2\n");
+  EXPECT_EQ(codes(r.sink), "PP-E708@3:6 ");
+}
+
 TEST(ResolveLinuxcnc, ErrorsAreLocated) {
   EXPECT_EQ(codes(resolve_text("G1 X#<undefined>\n").sink), "PP-E703@1:5 ");
   EXPECT_EQ(codes(resolve_text("G1 X[1/0]\n").sink), "PP-E707@1:5 ");

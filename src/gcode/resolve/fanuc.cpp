@@ -597,9 +597,9 @@ void Runner::run() {
     for (;;) {
       if (pc_ >= file_->lines()) {
         if (frames_.size() > 1) {
+          pc_ = file_->lines() ? file_->lines() - 1 : 0;
           report({0, 1}, Severity::error, "PP-E708",
                  fmt::format("the subprogram runs past the end of {} without M99; add M99 at its end", file_->name()));
-          pc_ = file_->lines() ? file_->lines() - 1 : 0;
         }
         return;
       }

@@ -323,7 +323,21 @@ class Machine {
         ++q;
         while (q < raw.size() && (std::isdigit(static_cast<unsigned char>(raw[q])) || raw[q] == ' ')) ++q;
       }
-      if (q >= raw.size() || (raw[q] != 'o' && raw[q] != 'O')) continue;
+      if (q >= raw.size() || (raw[q] != 'o' && raw[q] != 'O')) {
+        // An O-word statement after other words ("Z2 o1 endwhile"): rs274 reads O-words only at the
+        // start of a line; refused rather than run as a statement the structure does not know.
+        if (raw.find_first_of("oO") != std::string_view::npos) {
+          const Line& l = line(f, i);
+          if (l.ok && l.kw != Kw::none) {
+            f.report(i, l.control_span, Severity::error, "PP-E708",
+                     fmt::format("'{}' does not begin its line: an O-word statement must come first (after an optional "
+                                 "N number); put it on its own line",
+                                 f.raw(i).substr(l.control_span.begin, l.control_span.size())));
+            throw Stop{};
+          }
+        }
+        continue;
+      }
       Line& l = line(f, i);
       if (l.kw == Kw::none || !l.ok) continue;
       switch (l.kw) {

@@ -77,6 +77,17 @@ std::optional<std::size_t> SourceFile::find_n(double n, std::size_t from, bool f
 }
 
 void SourceFile::report(std::size_t i, Span span, Severity sev, std::string_view code, std::string message) {
+  // A position past the end (a subprogram that runs off its file) is reported at the last line.
+  if (lines_.empty()) {
+    Block none;
+    none.line = 1;
+    report_at(ctx_, none, Span{0, 0}, sev, code, std::move(message));
+    return;
+  }
+  if (i >= lines_.size()) {
+    i = lines_.size() - 1;
+    span = Span{0, 0};
+  }
   const Block& b = block(i);
   report_at(ctx_, b, span, sev, code, std::move(message));
 }
