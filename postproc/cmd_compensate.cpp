@@ -206,10 +206,17 @@ void setup_compensate(CLI::App& app, int& rc) {
                      .c_str(),
                  stderr);
     if (servo)
-      std::fputs(fmt::format("postproc: contour: predicted tool-tip contour error {:.3f} → {:.3f} µm (worst before: line "
-                             "{}), tool-axis {:.2f} → {:.2f} arcsec, {} iterations{}; NURBS fit residual {:.4f} µm\n",
+      std::fputs(fmt::format("postproc: contour: {} tool-tip contour error {:.3f} → {:.3f} µm (worst before: line {}), "
+                             "tool-axis {:.2f} → {:.2f} arcsec{}; the iteration predicted {:.3f} µm / {:.2f} arcsec after "
+                             "{} iterations{}; NURBS fit residual {:.4f} µm\n",
+                             r.contour_verified ? "simulated (the program as written)" : "NOT simulated, predicted",
                              r.contour_before_mm * 1000, r.contour_after_mm * 1000, r.contour_worst_line,
                              r.contour_before_rad * 206264.80624709636, r.contour_after_rad * 206264.80624709636,
+                             r.contour_runs_withheld > 0
+                                 ? fmt::format("; {} of {} runs written without the contour correction (PP-W620/W621)",
+                                               r.contour_runs_withheld, r.contour_runs)
+                                 : std::string(),
+                             r.contour_predicted_after_mm * 1000, r.contour_predicted_after_rad * 206264.80624709636,
                              r.contour_iterations, r.contour_converged ? "" : " (not converged)", r.fit_residual_mm * 1000)
                      .c_str(),
                  stderr);

@@ -18,6 +18,11 @@ namespace postproc::comp {
 
 using gcode::header_waits;  // gcode/write_back.hpp
 
+// Issue 17, compensation verification gate (docs/compensation-verification.md): codes PP-E620…E629,
+// PP-W620…W629.
+inline constexpr std::string_view kContourWithheld = "PP-W620";    // a run's contour correction simulated not better
+inline constexpr std::string_view kContourUnverified = "PP-W621";  // the written program could not be simulated
+
 /// mm (or degrees) per program unit of axis `a` in motion `m` (inch programs, X as a diameter).
 [[nodiscard]] double unit_scale(int a, const gcode::Motion& m);
 /// A value in mm / degrees as the program writes it (inch, diameter).

@@ -76,11 +76,17 @@ struct CompensateResult {
   double max_residual_mm = 0;            ///< tool-tip error of the corrected (written) end points, mm
   double max_residual_rad = 0;           ///< … tool-axis angle, rad
   std::uint64_t worst_line = 0;          ///< line of max_error_before_mm
-  // --mode contour / all: the predicted servo contour errors (contour/predict.hpp)
+  // --mode contour / all: the servo contour errors of the time-domain simulation (contour/simulate.hpp)
+  // of the contour stage's input and of the program as written (docs/compensation-verification.md)
   double contour_before_mm = 0;          ///< largest tool-tip contour error of the program, mm
   double contour_before_rad = 0;         ///< largest tool-axis contour error, rad
-  double contour_after_mm = 0;           ///< … of the corrected commands, mm
+  double contour_after_mm = 0;           ///< … of the program as written (read back, simulated), mm
   double contour_after_rad = 0;          ///< rad
+  double contour_predicted_after_mm = 0;   ///< the iteration's quasi-static prediction (not verified), mm
+  double contour_predicted_after_rad = 0;  ///< rad
+  bool contour_verified = false;         ///< before / after come from the simulation (false: not simulated)
+  std::uint64_t contour_runs = 0;        ///< runs (stretches of feed moves) of the path
+  std::uint64_t contour_runs_withheld = 0;  ///< runs written without the contour correction (PP-W620/W621)
   std::uint64_t contour_worst_line = 0;  ///< line of contour_before_mm
   int contour_iterations = 0;
   bool contour_converged = false;
@@ -104,6 +110,7 @@ struct ContourDetails {
   contour::Path path;
   std::optional<contour::Reference> reference;
   contour::Precompensation result;
+  std::vector<char> run_withheld;  ///< per run of `path`: written without the contour correction
 };
 
 /// `compensate --mode contour`: predicts the servo contour errors of the program held in `text`
