@@ -33,6 +33,7 @@ struct CompensateArgs {
   std::size_t max_per_code = 20;
   int iterations = 12;
   bool flatten = false;
+  bool allow_recompensation = false;
   ResolveArgs resolve;
 };
 
@@ -101,6 +102,9 @@ void setup_compensate(CLI::App& app, int& rc) {
                 "are written into the program's own lines where that is exact, and refused (PP-E711) where not");
   add_resolve_options(*cmd, o->resolve);
   cmd->add_flag("--no-header", o->no_header, "do not write the header comment naming tool, machine file and hash");
+  cmd->add_flag("--allow-recompensation", o->allow_recompensation,
+                "compensate a program that already carries postproc's compensation header (refused otherwise, "
+                "PP-E620: the corrections would be applied twice)");
   cmd->add_flag("--in-place", o->in_place, "allow -o to name the input (a .bak backup is kept)");
   cmd->add_option("--max-per-code", o->max_per_code, "show at most this many diagnostics per code")->capture_default_str();
   cmd->callback([o, &rc] {
@@ -132,6 +136,7 @@ void setup_compensate(CLI::App& app, int& rc) {
     opt.tool_version = POSTPROC_VERSION;
     opt.mode = o->mode;
     opt.flatten = o->flatten;
+    opt.allow_recompensation = o->allow_recompensation;
     opt.resolve = make_resolve_options(o->resolve);
     io::OutputFile out(o->output, o->input, o->in_place);
     ProgressBar bar("postproc:");

@@ -78,7 +78,7 @@ TEST(CompensateGate, ContourNotBetterOnTheSimulatorIsWrittenUncorrected) {
     if (d.code == "PP-W620") {
       EXPECT_EQ(d.where.line, 8u);  // N60 G1 Z2. F800. : the run's first feed move
       EXPECT_EQ(d.where.column, 5u);
-      EXPECT_NE(d.message.find("lines 8–31"), std::string::npos) << d.message;
+      EXPECT_NE(d.message.find("(24 moves)"), std::string::npos) << d.message;
     }
   EXPECT_TRUE(c.r.contour_verified);
   EXPECT_EQ(c.r.contour_runs_withheld, 1u);
@@ -163,6 +163,77 @@ TEST(CompensateGate, ModeAllWithheldRunKeepsTheGeometricCorrection) {
     const auto body = [](const std::string& t) { return t.substr(t.find('\n', t.find("compensate mode=")) + 1); };
     EXPECT_EQ(body(all.written), body(geo.written));
   }
+}
+
+}  // namespace
+
+namespace {
+
+// Issue 17: "a program compensated twice is compensated twice". compensate writes a header
+// naming the machine file and its hash (header_comment); an input carrying it is refused
+// (PP-E620, at the header) unless --allow-recompensation.
+TEST(CompensateGate, HeaderIsRecognisedOnlyAsPostprocWritesIt) {
+  EXPECT_EQ(comp::compensation_header_offset(
+                "(postproc 0.1.0 compensate mode=geometric machine=m.toml sha256=0123abcd)"),
+            1u);
+  EXPECT_EQ(comp::compensation_header_offset("; postproc 0.1.0 compensate mode=contour machine=m.toml sha256=ab"), 2u);
+  // Not in a comment, no hash, another wording: not the header.
+  EXPECT_EQ(comp::compensation_header_offset("postproc 0.1.0 compensate mode=geometric machine=m sha256=ab"),
+            std::string_view::npos);
+  EXPECT_EQ(comp::compensation_header_offset("(postproc 0.1.0 compensate mode=geometric machine=m)"),
+            std::string_view::npos);
+  EXPECT_EQ(comp::compensation_header_offset("(compensated with postproc, see report)"), std::string_view::npos);
+}
+
+TEST(CompensateGate, CompensatedProgramIsRefusedUnlessAllowed) {
+  const mc::Machine m = machine("trunnion_ac_fanuc.toml");
+  const std::string prog = postproc::io::read_file(kSamples + "programs/cone_frustum_nas979.nc", "NC program");
+  for (const std::string mode : {"geometric", "contour", "all"}) {
+    SCOPED_TRACE(mode);
+    Outcome first;
+    compensate(prog, m, mode, first);
+    ASSERT_FALSE(first.sink.has_errors());
+    // The header is the third line (after % and the O line).
+    Outcome again;
+    compensate(first.written, m, mode, again);
+    ASSERT_TRUE(again.sink.has_errors());
+    ASSERT_EQ(again.sink.count(gc::Severity::error), 1u);
+    const gc::Diagnostic& d = again.sink.stored().front();
+    EXPECT_EQ(d.code, "PP-E620");
+    EXPECT_EQ(d.where.line, 3u);
+    EXPECT_EQ(d.where.column, 2u);
+    EXPECT_NE(d.message.find("trunnion_ac_fanuc.toml"), std::string::npos) << d.message;
+    EXPECT_TRUE(again.written.empty());
+  }
+  // With allow_recompensation it is compensated (one header line more, the rest corrected again).
+  Outcome first, again;
+  compensate(prog, m, "geometric", first);
+  const gc::Dialect d = *gc::make_dialect(m.dialect_name, m.dialect_options);
+  comp::CompensateOptions opt;
+  opt.tool_version = "test";
+  opt.allow_recompensation = true;
+  auto out = postproc::io::OutputFile::memory();
+  comp::compensate_program(first.written, "t.nc", d, m, opt, ct::PrecompensateOptions{}, out, again.sink);
+  EXPECT_FALSE(again.sink.has_errors());
+  EXPECT_FALSE(out.take().empty());
+}
+
+// The streaming path of `compensate` (a flat program read from a file, geometric mode) checks too.
+TEST(CompensateGate, StreamingCompensateRefusesACompensatedProgram) {
+  const mc::Machine m = machine("trunnion_ac_fanuc.toml");
+  const gc::Dialect d = *gc::make_dialect(m.dialect_name, m.dialect_options);
+  const std::string prog = "%\nO1\n(postproc 0.1.0 compensate mode=geometric machine=x.toml sha256=00ff)\n"
+                           "G90 G54 G0 X0. Y0. Z50. A0. C0.\nG1 X10. F1000.\nM30\n%\n";
+  comp::CompensateOptions opt;
+  opt.tool_version = "test";
+  gc::DiagnosticSink sink;
+  auto out = postproc::io::OutputFile::memory();
+  gc::LineReader in{std::string_view(prog)};
+  comp::compensate(in, "t.nc", d, m, opt, out, sink);
+  ASSERT_EQ(sink.count(gc::Severity::error), 1u);
+  EXPECT_EQ(sink.stored().front().code, "PP-E620");
+  EXPECT_EQ(sink.stored().front().where.line, 3u);
+  EXPECT_EQ(sink.stored().front().where.column, 2u);
 }
 
 }  // namespace

@@ -295,11 +295,11 @@ CompensateResult compensate_contour(std::string_view text, std::string_view file
         const contour::Run& rr = d.path.runs[run];
         withheld[run] = {
             kContourWithheld,
-            fmt::format("contour correction of this run (lines {}–{}) not written: the time-domain simulation of the "
+            fmt::format("contour correction of the run starting here ({} moves) not written: the time-domain simulation of the "
                         "corrected program gives a largest contour error of {:.3f} µm / {:.2f} arcsec against "
                         "{:.3f} µm / {:.2f} arcsec without it (the iteration predicted {:.3f} µm{}); the run is written "
                         "as the contour stage received it",
-                        d.path.points[rr.begin].line, d.path.points[rr.end - 1].line, after->run_tip_max[run] * 1000,
+                        rr.size() - 1, after->run_tip_max[run] * 1000,
                         after->run_axis_max[run] * kArcsecPerRad, before->run_tip_max[run] * 1000,
                         before->run_axis_max[run] * kArcsecPerRad, d.result.after.tip.max * 1000,
                         d.result.converged ? "" : ", not converged")};

@@ -50,7 +50,19 @@ struct CompensateOptions {
   /// Set by compensate_program when it wrote a resolved program's corrections back into its own
   /// lines: the header says so.
   bool resolved_in_place = false;
+  /// Compensate a program that already carries postproc's compensation header (header_comment);
+  /// without it such a program is refused (PP-E620, docs/compensation-verification.md).
+  bool allow_recompensation = false;
 };
+
+/// Where `line` carries postproc's compensation header (as header_comment writes it: "postproc
+/// VERSION compensate mode=… machine=… sha256=…" in a comment): its 0-based byte offset, or npos.
+[[nodiscard]] std::size_t compensation_header_offset(std::string_view line);
+
+/// Refuses (PP-E620, located at the header of line `line_no` = `line`) a program that already
+/// carries postproc's compensation header, unless opt.allow_recompensation. True when refused.
+bool refuse_recompensation(std::string_view line, std::uint64_t line_no, std::string_view file,
+                           const CompensateOptions& opt, gcode::DiagnosticSink& sink);
 
 /// Figures of one run (the --report JSON carries them).
 struct CompensateResult {
