@@ -14,6 +14,7 @@
 #include "postproc/io/input_file.hpp"
 #include "postproc/io/output_file.hpp"
 #include "postproc/machine/machine.hpp"
+#include "src/compensation/compensate_support.hpp"
 
 namespace {
 
@@ -234,6 +235,85 @@ TEST(CompensateGate, StreamingCompensateRefusesACompensatedProgram) {
   EXPECT_EQ(sink.stored().front().code, "PP-E620");
   EXPECT_EQ(sink.stored().front().where.line, 3u);
   EXPECT_EQ(sink.stored().front().where.column, 2u);
+}
+
+}  // namespace
+
+namespace {
+
+// Issue 17: [errors] "tool.length" (the calibrated length of the tool of [tool] length, as
+// `calibrate` writes it, docs/machine-file.md) is used by `calibrate simulate` through m.actual
+// but was overwritten by compensate's per-block tool length (nothing changed, exit 0). Now the
+// tool of [tool] length runs through m.actual itself; a block with another tool length is refused
+// (PP-E621): the file does not give that tool's length error.
+std::string trunnion_with_tool_length(const std::string& value) {
+  const std::string text = postproc::io::read_file(kSamples + "machines/trunnion_ac_fanuc.toml", "machine file");
+  std::string out;
+  bool skip = false;
+  std::size_t at = 0;
+  while (at < text.size()) {
+    std::size_t end = text.find('\n', at);
+    if (end == std::string::npos) end = text.size();
+    const std::string line = text.substr(at, end - at);
+    if (!line.empty() && line[0] == '[')
+      skip = line.rfind("[errors]", 0) == 0 || line.rfind("[error_motions", 0) == 0;
+    if (!skip) out += line + "\n";
+    at = end + 1;
+  }
+  return out + "[errors]\n\"tool.length\" = \"" + value + "\"\n";
+}
+
+mc::Machine parse(const std::string& text) {
+  gc::DiagnosticSink sink;
+  auto m = mc::parse_machine("tl.toml", text, sink);
+  for (const auto& d : sink.stored()) ADD_FAILURE() << d.message;
+  EXPECT_TRUE(m.has_value());
+  return *m;
+}
+
+TEST(CompensateGate, ToolLengthErrorIsCompensated) {
+  const mc::Machine m = parse(trunnion_with_tool_length("100.02 mm"));
+  ASSERT_DOUBLE_EQ(m.tool_length, 100.0);
+  // The model compensate uses for the [tool] length is calibrate simulate's (m.actual itself).
+  comp::ToolLengthModels models(m);
+  EXPECT_EQ(models.with_tool_length(100.0).second.get(), m.actual.get());
+  EXPECT_TRUE(models.length_error_known(100.0));
+  EXPECT_FALSE(models.length_error_known(85.25));
+  // A tool 0.02 mm longer cuts 0.02 mm deeper at A0 C0: Z is raised by 0.02 (3 decimals).
+  const std::string prog = "%\nO1\nG90 G54 G0 X0. Y0. Z50. A0. C0.\nG1 Z10. F1000.\nX10.\nM30\n%\n";
+  for (const std::string mode : {"geometric", "all"}) {
+    SCOPED_TRACE(mode);
+    Outcome c;
+    compensate(prog, m, mode, c);
+    ASSERT_FALSE(c.sink.has_errors());
+    EXPECT_NE(c.written.find("\nG90 G54 G0 X0. Y0. Z50.02 A0. C0.\n"), std::string::npos) << c.written;
+    EXPECT_NE(c.written.find("\nG1 Z10.02 F1000.\n"), std::string::npos) << c.written;
+  }
+  // Without the error nothing changes (the same file, tool.length = [tool] length).
+  const mc::Machine same = parse(trunnion_with_tool_length("100 mm"));
+  Outcome c;
+  compensate(prog, same, "geometric", c);
+  ASSERT_FALSE(c.sink.has_errors());
+  EXPECT_NE(c.written.find("\nG1 Z10. F1000.\n"), std::string::npos) << c.written;
+}
+
+TEST(CompensateGate, ToolLengthErrorWithAnotherToolIsRefusedLocated) {
+  const mc::Machine m = parse(trunnion_with_tool_length("100.02 mm"));
+  // H1 is 85.25 mm ([tool.lengths] 1): its length error is not in the file.
+  const std::string prog = "%\nO1\nG90 G54 G0 X0. Y0. Z50. A0. C0.\nG1 Z10. F1000.\nG43 H1 Z20.\nM30\n%\n";
+  for (const std::string mode : {"geometric", "contour"}) {
+    SCOPED_TRACE(mode);
+    Outcome c;
+    compensate(prog, m, mode, c);
+    ASSERT_TRUE(c.sink.has_errors());
+    const gc::Diagnostic* e = nullptr;
+    for (const auto& d : c.sink.stored())
+      if (d.severity == gc::Severity::error && e == nullptr) e = &d;
+    ASSERT_NE(e, nullptr);
+    EXPECT_EQ(e->code, "PP-E621");
+    EXPECT_EQ(e->where.line, 5u);
+    EXPECT_NE(e->message.find("85.25 mm (H1)"), std::string::npos) << e->message;
+  }
 }
 
 }  // namespace

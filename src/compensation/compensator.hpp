@@ -178,6 +178,10 @@ class Compensator final : public gcode::BlockVisitor {
                          m_.model_kind, m_.tool_length, m.tool_length_h, length));
       return std::nullopt;
     }
+    if (!models_.length_error_known(length)) {
+      refuse(b, m.column, kToolLengthError, models_.unknown_length_error(length, m.tool_length_active ? m.tool_length_h : 0));
+      return std::nullopt;
+    }
     const auto& [nom, act] = models_.with_tool_length(length);
     return ProgramMap(m_, nom, act, form, *offset, form == Form::axes && m.tool_length_active, length);
   }
