@@ -3,9 +3,14 @@
 // domain and compared run by run with the contour stage's input; the report's figures are the
 // simulated ones. The expected answers come from postproc's own time-domain simulator
 // (contour/simulate.hpp) run here independently on the written text.
+#include <cstdio>
+#include <random>
 #include <string>
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
+
+#include "contour_support.hpp"
 
 #include "postproc/compensation/compensate.hpp"
 #include "postproc/contour/path.hpp"
@@ -148,6 +153,12 @@ TEST(CompensateGate, ModeAllWithheldRunKeepsTheGeometricCorrection) {
   ASSERT_FALSE(all.sink.has_errors());
   ASSERT_FALSE(geo.sink.has_errors());
   EXPECT_TRUE(all.r.contour_verified);
+  // The contour stage's warnings name the input's lines (the intermediate text's are mapped back).
+  for (const auto& d : all.sink.stored()) {
+    if (d.code == "PP-W620") {
+      EXPECT_EQ(d.where.line, 8u);
+    }
+  }
   // The geometric stage's output, simulated against itself on the calibrated machine, is the
   // contour stage's "before"; the written program is not worse than it.
   const ct::Path g = path_of(geo.written, m);
@@ -314,6 +325,55 @@ TEST(CompensateGate, ToolLengthErrorWithAnotherToolIsRefusedLocated) {
     EXPECT_EQ(e->where.line, 5u);
     EXPECT_NE(e->message.find("85.25 mm (H1)"), std::string::npos) << e->message;
   }
+}
+
+}  // namespace
+
+namespace {
+
+// Property (issue 17, "never worse"): random zigzag programs (sharp corners, feeds 1–8 m/min,
+// several runs) on the 3-axis test mill, --mode contour: the written program, read back and
+// simulated independently against the original's contour, is never worse than the original in
+// any run (max tool-tip error), and the report's after is that simulation.
+TEST(CompensateGate, RandomProgramsAreNeverWorseOnTheSimulator) {
+  const mc::Machine& m = pptest::mill();
+  std::mt19937 rng(17);
+  std::uniform_real_distribution<double> step(-25.0, 25.0), feed(1000.0, 8000.0);
+  std::uniform_int_distribution<int> moves(3, 14), runs(1, 3);
+  std::size_t withheld = 0, total_runs = 0;
+  for (int k = 0; k < 12; ++k) {
+    SCOPED_TRACE(k);
+    std::string prog = "%\nO1\nG90 G54 G0 X0. Y0. Z5.\n";
+    double x = 0, y = 0;
+    const int nr = runs(rng);
+    for (int r = 0; r < nr; ++r) {
+      prog += fmt::format("G1 Z0. F{:.0f}\n", feed(rng));
+      const int n = moves(rng);
+      for (int i = 0; i < n; ++i) {
+        x += step(rng);
+        y += step(rng);
+        prog += fmt::format("G1 X{:.3f} Y{:.3f} F{:.0f}\n", x, y, feed(rng));
+      }
+      prog += "G0 Z5.\n";
+    }
+    prog += "M30\n%\n";
+    Outcome c;
+    compensate(prog, m, "contour", c);
+    ASSERT_FALSE(c.sink.has_errors());
+    ASSERT_TRUE(c.r.contour_verified);
+    withheld += c.r.contour_runs_withheld;
+    total_runs += c.r.contour_runs;
+    const ct::Path original = path_of(prog, m);
+    const ct::Path written = path_of(c.written, m);
+    const ct::Reference ref(original, *m.actual);
+    const ct::Simulation s0 = ct::simulate(original, ref, *m.actual);
+    const ct::Simulation s1 = ct::simulate(written, ref, *m.actual);
+    ASSERT_EQ(s0.run_tip_max.size(), s1.run_tip_max.size());
+    for (std::size_t i = 0; i < s0.run_tip_max.size(); ++i) EXPECT_LE(s1.run_tip_max[i], s0.run_tip_max[i]) << "run " << i;
+    EXPECT_NEAR(c.r.contour_after_mm, s1.tip.max, 1e-9);
+    EXPECT_NEAR(c.r.contour_before_mm, s0.tip.max, 1e-9);
+  }
+  std::printf("random programs: %zu of %zu runs written without the contour correction\n", withheld, total_runs);
 }
 
 }  // namespace

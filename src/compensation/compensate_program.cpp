@@ -124,7 +124,16 @@ CompensateResult compensate_flat(std::string_view text, std::string_view file, c
   if (!sink.has_errors()) {
     const std::string intermediate = mem.take();
     copt.input_bytes = intermediate.size();
-    r = compensate_contour(intermediate, file, dialect, m, copt, popt, out, sink, &cd);
+    // The contour stage's diagnostics (PP-W611, PP-W620 …) name lines of the intermediate text:
+    // carried back to the input's lines (the text shown is the line as the geometric stage wrote it).
+    gcode::DiagnosticSink to_input(0);
+    to_input.on_report = [&](const gcode::Diagnostic& diag) {
+      gcode::Diagnostic c = diag;
+      if (c.where.line >= 1 && c.where.line <= geo_lines.size() && geo_lines[c.where.line - 1] != 0)
+        c.where.line = geo_lines[c.where.line - 1];
+      sink.report(std::move(c));
+    };
+    r = compensate_contour(intermediate, file, dialect, m, copt, popt, out, to_input, &cd);
   }
   if (opt.line_map != nullptr)
     for (const std::uint64_t l : contour_lines)
