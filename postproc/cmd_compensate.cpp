@@ -185,6 +185,9 @@ void setup_compensate(CLI::App& app, int& rc) {
       cr.before = &contour.result.before;
       cr.after = &contour.result.after;
       cr.compensation = &contour.result;
+      // The verification's simulation of the input and of the program as written.
+      if (contour.simulated_before) cr.simulated_before = &*contour.simulated_before;
+      if (contour.simulated_after) cr.simulated_after = &*contour.simulated_after;
       cr.fit_residual_mm = r.fit_residual_mm;
       write_text(o->html, o->input, contour::report_html(cr));
     }

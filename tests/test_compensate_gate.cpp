@@ -104,6 +104,25 @@ TEST(CompensateGate, ContourNotBetterOnTheSimulatorIsWrittenUncorrected) {
   EXPECT_NEAR(c.r.contour_after_mm, s1.tip.max, 1e-9);
   EXPECT_NEAR(c.r.contour_before_rad, s0.axis.max, 1e-12);
   EXPECT_NEAR(c.r.contour_after_rad, s1.axis.max, 1e-12);
+  // The details behind --html: the verification's simulations, and the prediction of the
+  // commands as written (the run withheld: the input's own commands, so it equals "before").
+  {
+    const gc::Dialect d = *gc::make_dialect(m.dialect_name, m.dialect_options);
+    comp::CompensateOptions opt;
+    opt.mode = "contour";
+    opt.tool_version = "test";
+    comp::ContourDetails cd;
+    gc::DiagnosticSink sink;
+    auto out = postproc::io::OutputFile::memory();
+    comp::compensate_program(prog, "t.nc", d, m, opt, ct::PrecompensateOptions{}, out, sink, &cd);
+    ASSERT_TRUE(cd.simulated_before.has_value());
+    ASSERT_TRUE(cd.simulated_after.has_value());
+    EXPECT_NEAR(cd.simulated_before->tip.max, s0.tip.max, 1e-9);
+    EXPECT_NEAR(cd.simulated_after->tip.max, s1.tip.max, 1e-9);
+    EXPECT_NEAR(cd.result.after.tip.max, cd.result.before.tip.max, 1e-12);
+    ASSERT_EQ(cd.run_withheld.size(), 1u);
+    EXPECT_EQ(cd.run_withheld[0], 1);
+  }
   // Written as received: only the header line was added.
   EXPECT_EQ(c.r.changed_blocks, 0u);
   const std::size_t header_end = c.written.find('\n', c.written.find("compensate mode=contour"));

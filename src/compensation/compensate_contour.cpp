@@ -323,6 +323,17 @@ CompensateResult compensate_contour(std::string_view text, std::string_view file
     if (!w.second.empty()) ++pass->r.contour_runs_withheld;
   d.run_withheld.assign(withheld.size(), 0);
   for (std::size_t i = 0; i < withheld.size(); ++i) d.run_withheld[i] = withheld[i].second.empty() ? 0 : 1;
+  if (pass->r.contour_runs_withheld > 0) {
+    // The prediction shown next to the simulation (--html) is that of the commands as written.
+    std::vector<kin::JointVector> written = d.result.commands;
+    for (std::size_t run = 0; run < withheld.size(); ++run)
+      if (!withheld[run].second.empty())
+        for (std::size_t i = d.path.runs[run].begin; i < d.path.runs[run].end && i < written.size(); ++i)
+          written[i] = d.path.points[i].q;
+    d.result.after = contour::predict(d.path, *m.actual, *d.reference, &written);
+  }
+  d.simulated_before = before;
+  d.simulated_after = after;
   if (before && after) {
     pass->r.contour_verified = true;
     pass->r.contour_before_mm = before->tip.max;

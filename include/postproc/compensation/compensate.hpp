@@ -13,6 +13,7 @@
 #include "postproc/contour/path.hpp"
 #include "postproc/contour/predict.hpp"
 #include "postproc/contour/reference.hpp"
+#include "postproc/contour/simulate.hpp"
 #include "postproc/gcode/diagnostic.hpp"
 #include "postproc/gcode/dialect.hpp"
 #include "postproc/gcode/line_reader.hpp"
@@ -123,6 +124,11 @@ struct ContourDetails {
   std::optional<contour::Reference> reference;
   contour::Precompensation result;
   std::vector<char> run_withheld;  ///< per run of `path`: written without the contour correction
+  /// The verification (docs/compensation-verification.md): time-domain simulation of the contour
+  /// stage's input and of the program as written (read back); empty when it could not be run.
+  std::optional<contour::Simulation> simulated_before, simulated_after;
+  /// result.after is the prediction of the commands as written (withheld runs: the input's
+  /// commands), not the iteration's last iterate, when a run was withheld.
 };
 
 /// `compensate --mode contour`: predicts the servo contour errors of the program held in `text`
