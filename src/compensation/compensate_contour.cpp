@@ -1,5 +1,6 @@
 // compensate --mode contour: the program's commanded path, its predicted servo contour errors,
 // the precompensated commands, and the program written with the corrected end points.
+#include <future>
 #include <limits>
 #include <memory>
 #include <optional>
@@ -270,11 +271,16 @@ CompensateResult compensate_contour(std::string_view text, std::string_view file
   // a run whose written form is not better than the input's is written without the correction.
   stage("contour: writing and verifying by simulation", 0);
   Withheld withheld(d.path.runs.size());
+  // The input's simulation runs on a second thread while the corrected text is written, read
+  // back and simulated (models, reference and path are immutable and shared read-only).
+  std::future<contour::Simulation> input_sim =
+      std::async(std::launch::async, [&d, &m] { return contour::simulate(d.path, *d.reference, *m.actual); });
   std::unique_ptr<Pass> pass = write_pass(withheld);
+  std::string why, why_written;
+  std::optional<contour::Simulation> first = simulate_written(pass->text, file, dialect, m, d, why_written);
   std::optional<contour::Simulation> before, after;
-  std::string why;
   try {
-    before = contour::simulate(d.path, *d.reference, *m.actual);
+    before = input_sim.get();
   } catch (const Error& e) {
     why = fmt::format("the contour stage's input cannot be simulated ({})", e.what());
   }
@@ -287,7 +293,12 @@ CompensateResult compensate_contour(std::string_view text, std::string_view file
   };
   if (before) {
     for (int round = 0; round < 4; ++round) {
-      after = simulate_written(pass->text, file, dialect, m, d, why);
+      if (round == 0) {
+        after = std::move(first);
+        why = why_written;
+      } else {
+        after = simulate_written(pass->text, file, dialect, m, d, why);
+      }
       if (!after) break;
       bool changed = false;
       for (std::size_t run = 0; run < withheld.size(); ++run) {
