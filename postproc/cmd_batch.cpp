@@ -26,7 +26,7 @@ struct BatchArgs {
   double max_deviation_um = 1.0;
   double max_angle_arcsec = 4.0;
   int iterations = 12;
-  bool no_header = false, force = false, quiet = false, flatten = false;
+  bool no_header = false, force = false, quiet = false, flatten = false, allow_recompensation = false;
   ResolveArgs resolve;
   // merge
   std::vector<std::string> manifests;
@@ -159,6 +159,8 @@ void setup_batch(CLI::App& app, int& rc) {
   cmd->add_option("--max-angle-deviation", o->max_angle_arcsec, "as for compensate, arcsec")->capture_default_str();
   cmd->add_option("--iterations", o->iterations, "contour modes: most prediction / correction rounds")->capture_default_str();
   cmd->add_flag("--no-header", o->no_header, "do not write the header comment into the programs");
+  cmd->add_flag("--allow-recompensation", o->allow_recompensation,
+                "compensate programs that already carry postproc's compensation header (refused otherwise, PP-E620)");
   cmd->add_flag("--flatten", o->flatten, "as for compensate: write programs with parameters or loops as literal moves");
   add_resolve_options(*cmd, o->resolve);
   cmd->add_flag("--force", o->force, "compensate every file again, even when the manifest says it is unchanged");
@@ -191,6 +193,7 @@ void setup_batch(CLI::App& app, int& rc) {
     opt.compensate.header = !o->no_header;
     opt.compensate.tool_version = POSTPROC_VERSION;
     opt.compensate.flatten = o->flatten;
+    opt.compensate.allow_recompensation = o->allow_recompensation;
     opt.compensate.resolve = make_resolve_options(o->resolve);
     opt.precompensate.max_iterations = o->iterations;
     opt.jobs = o->jobs > 0 ? o->jobs : std::max(1u, std::thread::hardware_concurrency());

@@ -33,6 +33,7 @@ struct CompensateArgs {
   std::size_t max_per_code = 20;
   int iterations = 12;
   bool flatten = false;
+  bool allow_recompensation = false;
   ResolveArgs resolve;
 };
 
@@ -101,6 +102,9 @@ void setup_compensate(CLI::App& app, int& rc) {
                 "are written into the program's own lines where that is exact, and refused (PP-E711) where not");
   add_resolve_options(*cmd, o->resolve);
   cmd->add_flag("--no-header", o->no_header, "do not write the header comment naming tool, machine file and hash");
+  cmd->add_flag("--allow-recompensation", o->allow_recompensation,
+                "compensate a program that already carries postproc's compensation header (refused otherwise, "
+                "PP-E620: the corrections would be applied twice)");
   cmd->add_flag("--in-place", o->in_place, "allow -o to name the input (a .bak backup is kept)");
   cmd->add_option("--max-per-code", o->max_per_code, "show at most this many diagnostics per code")->capture_default_str();
   cmd->callback([o, &rc] {
@@ -132,6 +136,7 @@ void setup_compensate(CLI::App& app, int& rc) {
     opt.tool_version = POSTPROC_VERSION;
     opt.mode = o->mode;
     opt.flatten = o->flatten;
+    opt.allow_recompensation = o->allow_recompensation;
     opt.resolve = make_resolve_options(o->resolve);
     io::OutputFile out(o->output, o->input, o->in_place);
     ProgressBar bar("postproc:");
@@ -180,6 +185,9 @@ void setup_compensate(CLI::App& app, int& rc) {
       cr.before = &contour.result.before;
       cr.after = &contour.result.after;
       cr.compensation = &contour.result;
+      // The verification's simulation of the input and of the program as written.
+      if (contour.simulated_before) cr.simulated_before = &*contour.simulated_before;
+      if (contour.simulated_after) cr.simulated_after = &*contour.simulated_after;
       cr.fit_residual_mm = r.fit_residual_mm;
       write_text(o->html, o->input, contour::report_html(cr));
     }
@@ -206,10 +214,17 @@ void setup_compensate(CLI::App& app, int& rc) {
                      .c_str(),
                  stderr);
     if (servo)
-      std::fputs(fmt::format("postproc: contour: predicted tool-tip contour error {:.3f} → {:.3f} µm (worst before: line "
-                             "{}), tool-axis {:.2f} → {:.2f} arcsec, {} iterations{}; NURBS fit residual {:.4f} µm\n",
+      std::fputs(fmt::format("postproc: contour: {} tool-tip contour error {:.3f} → {:.3f} µm (worst before: line {}), "
+                             "tool-axis {:.2f} → {:.2f} arcsec{}; the iteration predicted {:.3f} µm / {:.2f} arcsec after "
+                             "{} iterations{}; NURBS fit residual {:.4f} µm\n",
+                             r.contour_verified ? "simulated (the program as written)" : "NOT simulated, predicted",
                              r.contour_before_mm * 1000, r.contour_after_mm * 1000, r.contour_worst_line,
                              r.contour_before_rad * 206264.80624709636, r.contour_after_rad * 206264.80624709636,
+                             r.contour_runs_withheld > 0
+                                 ? fmt::format("; {} of {} runs written without the contour correction (PP-W620/W621)",
+                                               r.contour_runs_withheld, r.contour_runs)
+                                 : std::string(),
+                             r.contour_predicted_after_mm * 1000, r.contour_predicted_after_rad * 206264.80624709636,
                              r.contour_iterations, r.contour_converged ? "" : " (not converged)", r.fit_residual_mm * 1000)
                      .c_str(),
                  stderr);

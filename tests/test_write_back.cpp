@@ -84,7 +84,11 @@ void expect_same_as_flattened(const mc::Machine& m, std::string_view program, co
   ASSERT_FALSE(sink.has_errors());
   ASSERT_TRUE(again.resolved);
   EXPECT_EQ(lines_without_header(again.text), lines_without_header(flat.out));
-  EXPECT_GT(in_place.result.source_lines_rewritten, 0u);
+  // The contour stage's verification gate (issue 17) may withhold the runs' corrections: then
+  // nothing is rewritten in contour mode.
+  if (mode != "contour" || in_place.result.changed_blocks > 0) {
+    EXPECT_GT(in_place.result.source_lines_rewritten, 0u);
+  }
   EXPECT_GT(in_place.result.resolved_lines, 0u);
   // Through a machine without geometric errors the program comes back byte for byte (the servo
   // modes still correct the drives' lag).
@@ -101,7 +105,9 @@ void expect_same_as_flattened(const mc::Machine& m, std::string_view program, co
 const gc::Diagnostic& only_error(const Outcome& r) {
   EXPECT_EQ(r.sink.count(gc::Severity::error), 1u) << r.errors();
   static const gc::Diagnostic none;
-  return r.sink.stored().empty() ? none : r.sink.stored().front();
+  for (const gc::Diagnostic& d : r.sink.stored())  // warnings (e.g. PP-W620) may come first
+    if (d.severity == gc::Severity::error) return d;
+  return none;
 }
 
 bool has_line(std::string_view text, std::string_view line) {

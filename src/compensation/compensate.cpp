@@ -73,6 +73,45 @@ std::string header_comment(const gcode::Dialect& d, const machine::Machine& m, c
   return "; " + text;
 }
 
+std::size_t compensation_header_offset(std::string_view line) {
+  // "postproc VERSION compensate mode=" inside a comment ('(' or ';' before it), then sha256=.
+  for (std::size_t at = line.find("postproc "); at != std::string_view::npos; at = line.find("postproc ", at + 1)) {
+    const std::size_t version_end = line.find(' ', at + 9);
+    if (version_end == std::string_view::npos || version_end == at + 9) continue;
+    if (line.substr(version_end, 17) != " compensate mode=") continue;
+    if (line.find(" sha256=", version_end) == std::string_view::npos) continue;
+    const std::string_view before = line.substr(0, at);
+    if (before.find('(') == std::string_view::npos && before.find(';') == std::string_view::npos) continue;
+    return at;
+  }
+  return std::string_view::npos;
+}
+
+bool refuse_recompensation(std::string_view line, std::uint64_t line_no, std::string_view file,
+                           const CompensateOptions& opt, gcode::DiagnosticSink& sink) {
+  if (opt.allow_recompensation) return false;
+  const std::size_t at = compensation_header_offset(line);
+  if (at == std::string_view::npos) return false;
+  const std::size_t m0 = line.find(" machine=", at);
+  const std::size_t m1 = m0 == std::string_view::npos ? m0 : line.find(' ', m0 + 9);
+  const std::string machine =
+      m0 == std::string_view::npos ? std::string("?") : std::string(line.substr(m0 + 9, m1 == std::string_view::npos ? m1 : m1 - m0 - 9));
+  gcode::Diagnostic d;
+  d.severity = gcode::Severity::error;
+  d.code = "PP-E620";
+  d.file = std::string(file);
+  d.where = {line_no, static_cast<std::uint32_t>(at + 1)};
+  d.message = fmt::format(
+      "this program was already compensated by postproc (its header names machine file {}): compensating it again "
+      "applies the corrections a second time; compensate the original program, or give --allow-recompensation if "
+      "a second compensation is intended",
+      machine);
+  d.source_line = std::string(line);
+  d.length = static_cast<std::uint32_t>(line.size() - at);
+  sink.report(std::move(d));
+  return true;
+}
+
 CompensateResult compensate(gcode::LineReader& in, std::string_view file, const gcode::Dialect& dialect,
                             const machine::Machine& m, const CompensateOptions& opt, io::OutputFile& out,
                             gcode::DiagnosticSink& sink) {

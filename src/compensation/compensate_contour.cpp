@@ -1,8 +1,15 @@
 // compensate --mode contour: the program's commanded path, its predicted servo contour errors,
 // the precompensated commands, and the program written with the corrected end points.
+#include <future>
+#include <limits>
+#include <memory>
+#include <optional>
+
 #include <fmt/format.h>
 
 #include "postproc/compensation/compensate.hpp"
+#include "postproc/contour/simulate.hpp"
+#include "postproc/error.hpp"
 #include "postproc/gcode/block_writer.hpp"
 #include "postproc/gcode/lexer.hpp"
 #include "postproc/gcode/program.hpp"
@@ -15,16 +22,29 @@ namespace {
 /// Second pass: the blocks as read, with the corrected end points written into their words.
 class ContourWriter final : public gcode::BlockVisitor {
  public:
+  /// `withheld[r]` non-empty: run r of the path is written as read (no contour correction), and
+  /// that text is reported (PP-W620 / PP-W621) at the run's first move.
   ContourWriter(std::string_view file, const gcode::Dialect& d, const machine::Machine& m, const CompensateOptions& opt,
-                const contour::Path& path, const std::vector<kin::JointVector>& commands, io::OutputFile& out,
+                const contour::Path& path, const std::vector<kin::JointVector>& commands,
+                const std::vector<std::pair<std::string_view, std::string>>& withheld, io::OutputFile& out,
                 gcode::DiagnosticSink& sink, CompensateResult& r)
-      : file_(file), d_(d), m_(m), opt_(opt), path_(path), commands_(commands), out_(out), sink_(sink), r_(r),
-        track_(d) {
+      : file_(file), d_(d), m_(m), opt_(opt), path_(path), commands_(commands), withheld_(withheld), out_(out),
+        sink_(sink), r_(r), track_(d) {
     point_of_motion_.assign(path.motions, -1);
-    for (std::size_t i = 0; i < path.points.size(); ++i) {
-      const contour::PathPoint& p = path.points[i];
-      if (p.block_end && !p.run_start && p.motion < point_of_motion_.size())
-        point_of_motion_[p.motion] = static_cast<std::int64_t>(i);
+    note_of_motion_.assign(path.motions, -1);
+    for (std::size_t run = 0; run < path.runs.size(); ++run) {
+      const bool keep = run >= withheld.size() || withheld[run].second.empty();
+      bool noted = false;
+      for (std::size_t i = path.runs[run].begin; i < path.runs[run].end && i < path.points.size(); ++i) {
+        const contour::PathPoint& p = path.points[i];
+        if (!p.block_end || p.run_start || p.motion >= point_of_motion_.size()) continue;
+        if (keep) {
+          point_of_motion_[p.motion] = static_cast<std::int64_t>(i);
+        } else if (!noted) {
+          noted = true;
+          note_of_motion_[p.motion] = static_cast<std::int64_t>(run);
+        }
+      }
     }
     written_.setZero();
   }
@@ -43,6 +63,11 @@ class ContourWriter final : public gcode::BlockVisitor {
         ++r_.motions;
         const std::uint64_t k = motion_++;
         const std::int64_t pi = k < point_of_motion_.size() ? point_of_motion_[k] : -1;
+        if (k < note_of_motion_.size() && note_of_motion_[k] >= 0) {
+          const auto& [code, why] = withheld_[static_cast<std::size_t>(note_of_motion_[k])];
+          const gcode::Span sp{mo.column > 0 ? mo.column - 1 : 0, mo.column > 0 ? mo.column : 1};
+          gcode::report_at(gcode::LexContext{file_, &sink_}, b, sp, gcode::Severity::warning, code, why);
+        }
         if (motions.size() == 1 && pi >= 0) {
           correct(b, mo, static_cast<std::size_t>(pi), ed);
         } else {
@@ -124,12 +149,14 @@ class ContourWriter final : public gcode::BlockVisitor {
   const CompensateOptions& opt_;
   const contour::Path& path_;
   const std::vector<kin::JointVector>& commands_;
+  const std::vector<std::pair<std::string_view, std::string>>& withheld_;
   io::OutputFile& out_;
   gcode::DiagnosticSink& sink_;
   CompensateResult& r_;
   gcode::ModalTrack track_;
   WordWriter writer_{d_, m_, track_};
   std::vector<std::int64_t> point_of_motion_;
+  std::vector<std::int64_t> note_of_motion_;  ///< motion → withheld run reported at it (-1: none)
   std::uint64_t motion_ = 0;
   gcode::AxisVector written_;
   gcode::AxisMask written_known_ = 0;
@@ -138,6 +165,49 @@ class ContourWriter final : public gcode::BlockVisitor {
   std::string eol_ = "\n";
   std::string line_, buffer_;
 };
+
+
+constexpr double kArcsecPerRad = 206264.80624709636;
+
+/// The written text read back through the reader and simulated against the reference of the
+/// contour stage's input; nullopt (with `why`) when it cannot be (diagnostics, other runs, throw).
+std::optional<contour::Simulation> simulate_written(const std::string& written, std::string_view file,
+                                                    const gcode::Dialect& dialect, const machine::Machine& m,
+                                                    const ContourDetails& d, std::string& why) {
+  gcode::DiagnosticSink quiet(0);
+  gcode::LineReader in{std::string_view(written)};
+  const contour::Path p = contour::build_path(in, file, dialect, m, contour::PathOptions{}, quiet);
+  if (quiet.has_errors()) {
+    why = "the written program reads back with errors";
+    return std::nullopt;
+  }
+  if (p.runs.size() != d.path.runs.size()) {
+    why = fmt::format("the written program has {} runs, its input {}", p.runs.size(), d.path.runs.size());
+    return std::nullopt;
+  }
+  try {
+    return contour::simulate(p, *d.reference, *m.actual);
+  } catch (const Error& e) {
+    why = e.what();
+    return std::nullopt;
+  }
+}
+
+/// Tool-axis angles closer than this are equal (numerical noise of the forward kinematics on
+/// machines that cannot tilt the tool, 2e-4 arcsec; the coarsest written rotary step, 0.0001°, is
+/// 1.7e-6 rad), rad.
+constexpr double kAxisNoiseRad = 1e-9;
+
+/// Run r of the corrected program is better than the input's: neither maximum grows and one shrinks.
+bool better(const contour::Simulation& w, const contour::Simulation& o, std::size_t r) {
+  const double tw = w.run_tip_max[r], to = o.run_tip_max[r], aw = w.run_axis_max[r], ao = o.run_axis_max[r];
+  return tw <= to && aw <= ao + kAxisNoiseRad && (tw < to || aw < ao - kAxisNoiseRad);
+}
+
+/// Nothing changed in run r (same maxima): no reason to withhold or report it.
+bool same(const contour::Simulation& w, const contour::Simulation& o, std::size_t r) {
+  return w.run_tip_max[r] == o.run_tip_max[r] && w.run_axis_max[r] == o.run_axis_max[r];
+}
 
 }  // namespace
 
@@ -164,21 +234,133 @@ CompensateResult compensate_contour(std::string_view text, std::string_view file
   contour::PrecompensateOptions po = popt;
   if (!po.progress) po.progress = opt.progress;
   d.result = contour::precompensate(d.path, *m.actual, *d.reference, po);
-  stage("contour: writing", 0);
-  r.contour_before_mm = d.result.before.tip.max;
-  r.contour_before_rad = d.result.before.axis.max;
-  r.contour_after_mm = d.result.after.tip.max;
-  r.contour_after_rad = d.result.after.axis.max;
+  r.contour_predicted_after_mm = d.result.after.tip.max;
+  r.contour_predicted_after_rad = d.result.after.axis.max;
   r.contour_iterations = d.result.iterations;
   r.contour_converged = d.result.converged;
+  r.contour_runs = d.path.runs.size();
   r.fit_residual_mm = d.reference->max_fit_residual_mm();
   if (!d.path.points.empty()) r.contour_worst_line = d.path.points[d.result.before.tip.worst].line;
-  gcode::DiagnosticSink quiet(0);  // the first pass reported the program's diagnostics already
-  ContourWriter w(file, dialect, m, opt, d.path, d.result.commands, out, sink, r);
-  gcode::LineReader in{text};
-  gcode::run_program(in, dialect, file, quiet, w);
-  w.finish();
-  return r;
+
+  // One writing pass with the runs in `withheld` left as read, into memory; its figures,
+  // diagnostics and line map are kept only for the pass that is written.
+  using Withheld = std::vector<std::pair<std::string_view, std::string>>;
+  struct Pass {
+    std::string text;
+    CompensateResult r;
+    gcode::DiagnosticSink sink{std::numeric_limits<std::size_t>::max()};
+    std::vector<std::uint64_t> lines;
+  };
+  const auto write_pass = [&](const Withheld& withheld) {
+    auto p = std::make_unique<Pass>();
+    p->r = r;
+    CompensateOptions o = opt;
+    o.line_map = opt.line_map != nullptr ? &p->lines : nullptr;
+    auto mem = io::OutputFile::memory();
+    ContourWriter w(file, dialect, m, o, d.path, d.result.commands, withheld, mem, p->sink, p->r);
+    gcode::DiagnosticSink quiet(0);  // the first pass reported the program's diagnostics already
+    gcode::LineReader in{text};
+    gcode::run_program(in, dialect, file, quiet, w);
+    w.finish();
+    p->text = mem.take();
+    return p;
+  };
+
+  // The verification gate (docs/compensation-verification.md): the input and the written program
+  // are simulated in the time domain (contour/simulate.hpp) against the same intended contour;
+  // a run whose written form is not better than the input's is written without the correction.
+  stage("contour: writing and verifying by simulation", 0);
+  Withheld withheld(d.path.runs.size());
+  // The input's simulation runs on a second thread while the corrected text is written, read
+  // back and simulated (models, reference and path are immutable and shared read-only).
+  std::future<contour::Simulation> input_sim =
+      std::async(std::launch::async, [&d, &m] { return contour::simulate(d.path, *d.reference, *m.actual); });
+  std::unique_ptr<Pass> pass = write_pass(withheld);
+  std::string why, why_written;
+  std::optional<contour::Simulation> first = simulate_written(pass->text, file, dialect, m, d, why_written);
+  std::optional<contour::Simulation> before, after;
+  try {
+    before = input_sim.get();
+  } catch (const Error& e) {
+    why = fmt::format("the contour stage's input cannot be simulated ({})", e.what());
+  }
+  const auto withhold_all = [&](std::string_view because) {
+    for (auto& w : withheld)
+      w = {kContourUnverified,
+           fmt::format("contour correction not written: {}; the program is written as the contour stage received it "
+                       "(without the servo correction)",
+                       because)};
+  };
+  if (before) {
+    for (int round = 0; round < 4; ++round) {
+      if (round == 0) {
+        after = std::move(first);
+        why = why_written;
+      } else {
+        after = simulate_written(pass->text, file, dialect, m, d, why);
+      }
+      if (!after) break;
+      bool changed = false;
+      for (std::size_t run = 0; run < withheld.size(); ++run) {
+        if (!withheld[run].second.empty() || better(*after, *before, run) || same(*after, *before, run)) continue;
+        const contour::Run& rr = d.path.runs[run];
+        withheld[run] = {
+            kContourWithheld,
+            fmt::format("contour correction of the run starting here ({} moves) not written: the time-domain simulation of the "
+                        "corrected program gives a largest contour error of {:.3f} µm / {:.2f} arcsec against "
+                        "{:.3f} µm / {:.2f} arcsec without it (the iteration predicted {:.3f} µm{}); the run is written "
+                        "as the contour stage received it",
+                        rr.size() - 1, after->run_tip_max[run] * 1000,
+                        after->run_axis_max[run] * kArcsecPerRad, before->run_tip_max[run] * 1000,
+                        before->run_axis_max[run] * kArcsecPerRad, d.result.after.tip.max * 1000,
+                        d.result.converged ? "" : ", not converged")};
+        changed = true;
+      }
+      if (!changed) break;
+      pass = write_pass(withheld);
+      after.reset();
+    }
+    if (!after) {
+      if (why.empty()) why = "the runs kept changing from one verification to the next";
+      withhold_all(fmt::format("the written program could not be verified by simulation ({})", why));
+      pass = write_pass(withheld);
+      after = simulate_written(pass->text, file, dialect, m, d, why);
+    }
+  } else {
+    withhold_all(why);
+    pass = write_pass(withheld);
+  }
+  for (const auto& w : withheld)
+    if (!w.second.empty()) ++pass->r.contour_runs_withheld;
+  d.run_withheld.assign(withheld.size(), 0);
+  for (std::size_t i = 0; i < withheld.size(); ++i) d.run_withheld[i] = withheld[i].second.empty() ? 0 : 1;
+  if (pass->r.contour_runs_withheld > 0) {
+    // The prediction shown next to the simulation (--html) is that of the commands as written.
+    std::vector<kin::JointVector> written = d.result.commands;
+    for (std::size_t run = 0; run < withheld.size(); ++run)
+      if (!withheld[run].second.empty())
+        for (std::size_t i = d.path.runs[run].begin; i < d.path.runs[run].end && i < written.size(); ++i)
+          written[i] = d.path.points[i].q;
+    d.result.after = contour::predict(d.path, *m.actual, *d.reference, &written);
+  }
+  d.simulated_before = before;
+  d.simulated_after = after;
+  if (before && after) {
+    pass->r.contour_verified = true;
+    pass->r.contour_before_mm = before->tip.max;
+    pass->r.contour_before_rad = before->axis.max;
+    pass->r.contour_after_mm = after->tip.max;
+    pass->r.contour_after_rad = after->axis.max;
+    pass->r.contour_worst_line = before->worst_tip_line;
+  } else {
+    // Not simulated: everything is written as received; the figures are the prediction of that.
+    pass->r.contour_before_mm = pass->r.contour_after_mm = d.result.before.tip.max;
+    pass->r.contour_before_rad = pass->r.contour_after_rad = d.result.before.axis.max;
+  }
+  for (const gcode::Diagnostic& diag : pass->sink.stored()) sink.report(diag);
+  if (opt.line_map != nullptr) opt.line_map->insert(opt.line_map->end(), pass->lines.begin(), pass->lines.end());
+  out.write(pass->text);
+  return std::move(pass->r);
 }
 
 }  // namespace postproc::comp

@@ -40,6 +40,18 @@ CompensateResult compensate_program(std::string_view text, std::string_view file
                                     gcode::DiagnosticSink& sink, ContourDetails* details) {
   CompensateOptions opt = options;
   if (opt.input_bytes == 0) opt.input_bytes = text.size();
+  if (!opt.allow_recompensation && text.find(" compensate mode=") != std::string_view::npos) {
+    std::uint64_t line_no = 1;
+    for (std::size_t at = 0; at < text.size(); ++line_no) {
+      std::size_t end = text.find('\n', at);
+      if (end == std::string_view::npos) end = text.size();
+      std::string_view line = text.substr(at, end - at);
+      if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
+      if (refuse_recompensation(line, line_no, file, opt, sink)) return {};
+      at = end + 1;
+    }
+  }
+  opt.allow_recompensation = true;  // checked here once (the stages below would check again)
   if (gcode::first_resolution_line(text, dialect) != 0) {
     const gcode::ResolveOptions ro = gcode::with_program_folder(opt.resolve, file);
     const std::size_t errors = sink.count(gcode::Severity::error);
@@ -112,7 +124,16 @@ CompensateResult compensate_flat(std::string_view text, std::string_view file, c
   if (!sink.has_errors()) {
     const std::string intermediate = mem.take();
     copt.input_bytes = intermediate.size();
-    r = compensate_contour(intermediate, file, dialect, m, copt, popt, out, sink, &cd);
+    // The contour stage's diagnostics (PP-W611, PP-W620 …) name lines of the intermediate text:
+    // carried back to the input's lines (the text shown is the line as the geometric stage wrote it).
+    gcode::DiagnosticSink to_input(0);
+    to_input.on_report = [&](const gcode::Diagnostic& diag) {
+      gcode::Diagnostic c = diag;
+      if (c.where.line >= 1 && c.where.line <= geo_lines.size() && geo_lines[c.where.line - 1] != 0)
+        c.where.line = geo_lines[c.where.line - 1];
+      sink.report(std::move(c));
+    };
+    r = compensate_contour(intermediate, file, dialect, m, copt, popt, out, to_input, &cd);
   }
   if (opt.line_map != nullptr)
     for (const std::uint64_t l : contour_lines)

@@ -13,17 +13,35 @@ using gcode::Block;
 using gcode::Motion;
 using gcode::Word;
 
+ToolLengthModels::ToolLengthModels(const machine::Machine& m) : m_(m) {
+  const int in = m.nominal->parameter_index("tool.length");
+  const int ia = m.actual->parameter_index("tool.length");
+  if (in >= 0 && ia >= 0)
+    deviation_ = m.actual->values()[static_cast<std::size_t>(ia)] - m.nominal->values()[static_cast<std::size_t>(in)];
+}
+
 const std::pair<kin::ModelPtr, kin::ModelPtr>& ToolLengthModels::with_tool_length(double mm) {
   auto it = cache_.find(mm);
   if (it != cache_.end()) return it->second;
-  auto set = [mm](const kin::ModelPtr& model) -> kin::ModelPtr {
+  auto set = [](const kin::ModelPtr& model, double length) -> kin::ModelPtr {
     const int i = model->parameter_index("tool.length");
     if (i < 0) return model;
     std::vector<double> v = model->values();
-    v[static_cast<std::size_t>(i)] = mm;
+    if (v[static_cast<std::size_t>(i)] == length) return model;  // the machine file's tool: m.actual itself
+    v[static_cast<std::size_t>(i)] = length;
     return model->with_values(std::move(v));
   };
-  return cache_.emplace(mm, std::make_pair(set(m_.nominal), set(m_.actual))).first->second;
+  // The [tool] length's tool: m.actual as it is (its "tool.length" is mm + deviation_ exactly).
+  kin::ModelPtr act = std::abs(mm - m_.tool_length) <= 1e-9 ? m_.actual : set(m_.actual, mm + deviation_);
+  return cache_.emplace(mm, std::make_pair(set(m_.nominal, mm), std::move(act))).first->second;
+}
+
+std::string ToolLengthModels::unknown_length_error(double mm, std::uint32_t h) const {
+  return fmt::format(
+      "machine file {} calibrates the tool length ([errors] \"tool.length\" = {:.6f} mm for the tool of [tool] length "
+      "{} mm), but this block runs with tool length {} mm{}, whose length error the file does not give; compensate "
+      "with a machine file calibrated for this tool, or make [tool] length this tool's",
+      m_.file, m_.tool_length + deviation_, m_.tool_length, mm, h != 0 ? fmt::format(" (H{})", h) : std::string());
 }
 
 double unit_scale(int a, const Motion& m) {
@@ -45,6 +63,7 @@ std::optional<ProgramMap> map_of(const machine::Machine& m, ToolLengthModels& mo
   const auto tool = machine::tool_length_of(m, mo);
   if (!tool) return std::nullopt;
   const double length = *tool;
+  if (!models.length_error_known(length)) return std::nullopt;
   const Form f = form_of(m, mo);
   const auto& [nom, act] = models.with_tool_length(length);
   return ProgramMap(m, nom, act, f, *offset, f == Form::axes && mo.tool_length_active, length);

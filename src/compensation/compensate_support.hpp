@@ -1,5 +1,6 @@
 #pragma once
 // compensate: the models per tool length, and the writer of corrected axis / tool-vector words.
+#include <cmath>
 #include <cstdint>
 #include <map>
 #include <optional>
@@ -18,6 +19,13 @@ namespace postproc::comp {
 
 using gcode::header_waits;  // gcode/write_back.hpp
 
+// Issue 17, compensation verification gate (docs/compensation-verification.md): codes PP-E620…E629,
+// PP-W620…W629.
+inline constexpr std::string_view kContourWithheld = "PP-W620";    // a run's contour correction simulated not better
+inline constexpr std::string_view kContourUnverified = "PP-W621";  // the written program could not be simulated
+// PP-E620 (compensate.cpp): the program already carries postproc's compensation header.
+// PP-E621 (kToolLengthError below): [errors] "tool.length" and a block with another tool length.
+
 /// mm (or degrees) per program unit of axis `a` in motion `m` (inch programs, X as a diameter).
 [[nodiscard]] double unit_scale(int a, const gcode::Motion& m);
 /// A value in mm / degrees as the program writes it (inch, diameter).
@@ -27,15 +35,32 @@ using gcode::header_waits;  // gcode/write_back.hpp
 
 /// Nominal and actual models with the tool length of the block (serial models carry it as the
 /// parameter "tool.length"; others ignore it). Cached per length.
+///
+/// [errors] "tool.length" (docs/machine-file.md: the calibrated length of the tool of [tool]
+/// length, as `calibrate` writes it) is the actual model's tool length for that tool, exactly as
+/// `calibrate simulate` uses m.actual; its deviation from [tool] length is known for that tool
+/// only, so a block with another tool length is refused (length_error_known, PP-E621).
 class ToolLengthModels {
  public:
-  explicit ToolLengthModels(const machine::Machine& m) : m_(m) {}
+  explicit ToolLengthModels(const machine::Machine& m);
+  /// Nominal model with `mm`; actual model with `mm` plus the calibrated deviation (0 without
+  /// [errors] "tool.length").
   const std::pair<kin::ModelPtr, kin::ModelPtr>& with_tool_length(double mm);
+  /// False when the machine file calibrates the tool length ([errors] "tool.length") and `mm`
+  /// is not the length of that tool ([tool] length).
+  [[nodiscard]] bool length_error_known(double mm) const {
+    return deviation_ == 0 || std::abs(mm - m_.tool_length) <= 1e-9;
+  }
+  /// The message for a block whose tool length is not that tool's (PP-E621).
+  [[nodiscard]] std::string unknown_length_error(double mm, std::uint32_t h) const;
 
  private:
   const machine::Machine& m_;
+  double deviation_ = 0;  ///< actual − nominal "tool.length" of the machine file, mm
   std::map<double, std::pair<kin::ModelPtr, kin::ModelPtr>> cache_;
 };
+
+inline constexpr std::string_view kToolLengthError = "PP-E621";  // [errors] tool.length, another tool
 
 /// The controller map of a motion's context (form, work offset + shifts, tool length); nullopt
 /// when the machine file lacks the work offset or the tool length. For checks and comparisons;

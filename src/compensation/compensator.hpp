@@ -61,6 +61,10 @@ class Compensator final : public gcode::BlockVisitor {
     if (opt_.progress && reader_ != nullptr && (r_.blocks & 8191) == 0)
       opt_.progress("compensate", static_cast<double>(reader_->bytes_read()), static_cast<double>(opt_.input_bytes));
     if (!b.eol.empty()) eol_ = std::string(b.eol);
+    if (!recompensation_checked_ && refuse_recompensation(b.raw, b.line, file_, opt_, sink_)) {
+      recompensation_checked_ = true;  // reported once, at the first header
+      block_error_ = true;
+    }
     maybe_header(b);
     track_.update(b);
     after_.clear();
@@ -172,6 +176,10 @@ class Compensator final : public gcode::BlockVisitor {
              fmt::format("a {} machine takes its tool length from [tool] length ({} mm) only, but H{} is {} mm; make "
                          "them equal or use a machine file per tool",
                          m_.model_kind, m_.tool_length, m.tool_length_h, length));
+      return std::nullopt;
+    }
+    if (!models_.length_error_known(length)) {
+      refuse(b, m.column, kToolLengthError, models_.unknown_length_error(length, m.tool_length_active ? m.tool_length_h : 0));
       return std::nullopt;
     }
     const auto& [nom, act] = models_.with_tool_length(length);
@@ -553,6 +561,7 @@ class Compensator final : public gcode::BlockVisitor {
   std::optional<ProgramMap> map_;
   MapKey map_key_;
   bool block_error_ = false;
+  bool recompensation_checked_ = false;  ///< PP-E620 reported
   bool header_done_ = false;
   bool rapid_as_written_ = false;
   bool arc_mode_broken_ = false;  ///< an arc was linearised; a following modal arc needs its G word

@@ -190,6 +190,11 @@ class Builder final : public gcode::BlockVisitor {
     const bool on_z = form == comp::Form::axes && m.tool_length_active;
     if (map_index_ >= 0 && form == key_form_ && *offset == key_offset_ && on_z == key_on_z_ && length == key_length_)
       return map_index_;
+    if (!models_.length_error_known(length)) {
+      error(b, m, comp::kToolLengthError,
+            models_.unknown_length_error(length, m.tool_length_active ? m.tool_length_h : 0));
+      return -1;
+    }
     end_run();
     const auto& [nom, act] = models_.with_tool_length(length);
     p_.maps.emplace_back(m_, nom, act, form, *offset, on_z, length);

@@ -28,6 +28,8 @@ Simulation simulate(const Path& commanded, const Reference& ref, const kin::Mode
   const double dt = commanded.period;
   Simulation sim;
   sim.max_following.assign(uj, 0.0);
+  sim.run_tip_max.assign(commanded.runs.size(), 0.0);
+  sim.run_axis_max.assign(commanded.runs.size(), 0.0);
   std::vector<double> tip_mm, axis_rad;  // per sample, for the summaries
   double worst_tip = -1, worst_axis = -1;
   // s: start of the current run in simulation time. Runs follow each other on the interpolation
@@ -93,6 +95,8 @@ Simulation simulate(const Path& commanded, const Reference& ref, const kin::Mode
         worst_axis = ce.angle;
         sim.worst_axis_line = line;
       }
+      sim.run_tip_max[r] = std::max(sim.run_tip_max[r], ce.distance);
+      sim.run_axis_max[r] = std::max(sim.run_axis_max[r], ce.angle);
       tip_mm.push_back(ce.distance);
       axis_rad.push_back(ce.angle);
       if (opt.keep_every > 0 && sim.samples % opt.keep_every == 0) {

@@ -13,6 +13,7 @@
 #include "postproc/contour/path.hpp"
 #include "postproc/contour/predict.hpp"
 #include "postproc/contour/reference.hpp"
+#include "postproc/contour/simulate.hpp"
 #include "postproc/gcode/diagnostic.hpp"
 #include "postproc/gcode/dialect.hpp"
 #include "postproc/gcode/line_reader.hpp"
@@ -50,7 +51,19 @@ struct CompensateOptions {
   /// Set by compensate_program when it wrote a resolved program's corrections back into its own
   /// lines: the header says so.
   bool resolved_in_place = false;
+  /// Compensate a program that already carries postproc's compensation header (header_comment);
+  /// without it such a program is refused (PP-E620, docs/compensation-verification.md).
+  bool allow_recompensation = false;
 };
+
+/// Where `line` carries postproc's compensation header (as header_comment writes it: "postproc
+/// VERSION compensate mode=… machine=… sha256=…" in a comment): its 0-based byte offset, or npos.
+[[nodiscard]] std::size_t compensation_header_offset(std::string_view line);
+
+/// Refuses (PP-E620, located at the header of line `line_no` = `line`) a program that already
+/// carries postproc's compensation header, unless opt.allow_recompensation. True when refused.
+bool refuse_recompensation(std::string_view line, std::uint64_t line_no, std::string_view file,
+                           const CompensateOptions& opt, gcode::DiagnosticSink& sink);
 
 /// Figures of one run (the --report JSON carries them).
 struct CompensateResult {
@@ -76,11 +89,17 @@ struct CompensateResult {
   double max_residual_mm = 0;            ///< tool-tip error of the corrected (written) end points, mm
   double max_residual_rad = 0;           ///< … tool-axis angle, rad
   std::uint64_t worst_line = 0;          ///< line of max_error_before_mm
-  // --mode contour / all: the predicted servo contour errors (contour/predict.hpp)
+  // --mode contour / all: the servo contour errors of the time-domain simulation (contour/simulate.hpp)
+  // of the contour stage's input and of the program as written (docs/compensation-verification.md)
   double contour_before_mm = 0;          ///< largest tool-tip contour error of the program, mm
   double contour_before_rad = 0;         ///< largest tool-axis contour error, rad
-  double contour_after_mm = 0;           ///< … of the corrected commands, mm
+  double contour_after_mm = 0;           ///< … of the program as written (read back, simulated), mm
   double contour_after_rad = 0;          ///< rad
+  double contour_predicted_after_mm = 0;   ///< the iteration's quasi-static prediction (not verified), mm
+  double contour_predicted_after_rad = 0;  ///< rad
+  bool contour_verified = false;         ///< before / after come from the simulation (false: not simulated)
+  std::uint64_t contour_runs = 0;        ///< runs (stretches of feed moves) of the path
+  std::uint64_t contour_runs_withheld = 0;  ///< runs written without the contour correction (PP-W620/W621)
   std::uint64_t contour_worst_line = 0;  ///< line of contour_before_mm
   int contour_iterations = 0;
   bool contour_converged = false;
@@ -104,6 +123,12 @@ struct ContourDetails {
   contour::Path path;
   std::optional<contour::Reference> reference;
   contour::Precompensation result;
+  std::vector<char> run_withheld;  ///< per run of `path`: written without the contour correction
+  /// The verification (docs/compensation-verification.md): time-domain simulation of the contour
+  /// stage's input and of the program as written (read back); empty when it could not be run.
+  std::optional<contour::Simulation> simulated_before, simulated_after;
+  /// result.after is the prediction of the commands as written (withheld runs: the input's
+  /// commands), not the iteration's last iterate, when a run was withheld.
 };
 
 /// `compensate --mode contour`: predicts the servo contour errors of the program held in `text`

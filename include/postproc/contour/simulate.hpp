@@ -38,6 +38,8 @@ struct Simulation {
   std::uint64_t samples = 0;
   std::uint64_t worst_tip_line = 0;  ///< source line at the largest tip error
   std::uint64_t worst_axis_line = 0;
+  std::vector<double> run_tip_max;   ///< per run of the commanded path: largest tool-tip error, mm
+  std::vector<double> run_axis_max;  ///< per run: largest tool-axis error, rad
   std::vector<SimSample> kept;
 };
 
