@@ -605,3 +605,17 @@ TEST(ResolveFanuc, SubprogramRunningOffTheFileIsLocatedAtItsLastLine) {
   EXPECT_EQ(d.where.line, 5u);
 }
 }  // namespace
+
+namespace {
+// Found by fuzzing: an endless M99 Pn loop of long blocks used 10 GB before the block limit; the
+// resolved text is capped too (PP-E705 names both limits).
+TEST(ResolveFanuc, EndlessLoopIsStoppedByTheTextLimitToo) {
+  ResolveOptions opt;
+  opt.max_resolved_bytes = 4096;
+  Result x = run("O0001\nN10 G1 X1.2345 Y2.3456 Z3.4567 A4.5678 B5.6789 F100.\nM99 P10\n", opt);
+  const Diagnostic d = first_error(x);
+  EXPECT_EQ(d.code, "PP-E705");
+  EXPECT_NE(d.message.find("MiB of resolved program"), std::string::npos) << d.message;
+  EXPECT_LE(x.r.text.size(), 4096u);
+}
+}  // namespace

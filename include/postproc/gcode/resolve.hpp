@@ -45,6 +45,9 @@ struct ResolveOptions {
   std::vector<std::string> search_dirs;
   /// Resolved blocks at most (a loop that never ends is refused, PP-E705).
   std::uint64_t max_blocks = 200'000'000;
+  /// Bytes of resolved program text at most (held in memory; an endless loop of long blocks would
+  /// otherwise use gigabytes before the block limit): also PP-E705.
+  std::uint64_t max_resolved_bytes = std::uint64_t{1} << 30;
   /// Call depth at most (PP-E706).
   int max_call_depth = 64;
 };

@@ -66,9 +66,8 @@ void Runner::fail(const Failure& e) {
 void Runner::emit(SourceFile& f, std::size_t line, std::span<const Edit> edits) {
   if (!out_.emit(f, line, edits)) {
     report({0, static_cast<std::uint32_t>(std::max<std::size_t>(1, f.raw(line).size()))}, Severity::error, "PP-E705",
-           fmt::format("the program executes more than {} blocks: a loop that does not end? Check the loop's "
-                       "condition (or raise the block limit)",
-                       opt_.max_blocks));
+           fmt::format("the program executes {}: a loop that does not end? Check the loop's condition",
+                       runaway_limits(opt_)));
     throw Stop{};
   }
 }

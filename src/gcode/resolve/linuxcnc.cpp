@@ -588,8 +588,7 @@ class Machine {
 
   [[noreturn]] void runaway(SourceFile& f, std::size_t i) {
     f.report(i, Span{0, static_cast<std::uint32_t>(f.raw(i).size())}, Severity::error, "PP-E705",
-             fmt::format("the program executes more than {} blocks: a loop that does not end?{}", opt_.max_blocks,
-                         context()));
+             fmt::format("the program executes {}: a loop that does not end?{}", runaway_limits(opt_), context()));
     throw Stop{};
   }
 

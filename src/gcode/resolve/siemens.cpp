@@ -657,8 +657,8 @@ bool Siemens::step(Frame& fr, Line& L) {
     }
     if (!emitted) {
       report(f, i, L, {0, static_cast<std::uint32_t>(std::max<std::size_t>(1, f.raw(i).size()))}, Severity::error, "PP-E705",
-             fmt::format("more than {} blocks executed: the program does not end (an endless loop?); check the loop condition, "
-                         "or raise the block limit", opt_.max_blocks));
+             fmt::format("{} executed: the program does not end (an endless loop?); check the loop condition",
+                         runaway_limits(opt_)));
       return false;
     }
     if (stop) return false;
@@ -698,8 +698,8 @@ void Siemens::run() {
         cur_file_ = &f;
         cur_line_ = fr.pc;
         report(f, fr.pc, L, {0, static_cast<std::uint32_t>(std::max<std::size_t>(1, f.raw(fr.pc).size()))}, Severity::error, "PP-E705",
-               fmt::format("more than {} blocks executed: the program does not end (an endless loop?); check the loop condition, "
-                           "or raise the block limit", opt_.max_blocks));
+               fmt::format("{} executed: the program does not end (an endless loop?); check the loop condition",
+                           runaway_limits(opt_)));
         return;
       }
       ++fr.pc;

@@ -142,7 +142,8 @@ bool Emitter::emit(SourceFile& f, std::size_t line, std::span<const Edit> edits)
     if (line_.find_first_not_of(" \t") == std::string::npos) return out_.executed_blocks <= opt_.max_blocks;
     text = line_;
   }
-  if (out_.source_line.size() >= opt_.max_blocks) return false;
+  if (out_.source_line.size() >= opt_.max_blocks || out_.text.size() + text.size() >= opt_.max_resolved_bytes)
+    return false;
   out_.text.append(text);
   out_.text += '\n';
   out_.source_line.push_back(line + 1);
@@ -150,6 +151,10 @@ bool Emitter::emit(SourceFile& f, std::size_t line, std::span<const Edit> edits)
   out_.stack.push_back(stack_id());
   out_.substituted.push_back(substituted);
   return true;
+}
+
+std::string runaway_limits(const ResolveOptions& opt) {
+  return fmt::format("more than {} blocks or {} MiB of resolved program", opt.max_blocks, opt.max_resolved_bytes >> 20);
 }
 
 std::string format_value(double v, char letter) {

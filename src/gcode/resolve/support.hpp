@@ -95,6 +95,8 @@ class Emitter {
 /// removed. Whole values keep a point for length/angle/feed letters (`X100.`: Fanuc would read
 /// `X100` as increments) and none for code letters (G M T H D N O P L E).
 [[nodiscard]] std::string format_value(double v, char letter);
+/// "more than N blocks or M MiB of resolved program" (the limits of PP-E705).
+[[nodiscard]] std::string runaway_limits(const ResolveOptions& opt);
 
 /// True when `b` holds anything a resolver evaluates: an assignment, control flow, declaration
 /// or label token, or a word whose value is an expression or parameter.
