@@ -174,16 +174,10 @@ Dialect settle_gcode_system(const Dialect& d, LineReader& in, std::string_view f
   Dialect settled = d;
   const auto report = [&](Severity sev, std::string_view code, std::uint64_t line, std::uint32_t column,
                           std::string msg, const std::string& source = {}, std::uint32_t length = 1) {
-    Diagnostic diag;
-    diag.file = std::string(file);
-    diag.where.line = line;
-    diag.where.column = column;
-    diag.source_line = source;
-    diag.length = length;
-    diag.severity = sev;
-    diag.code = std::string(code);
-    diag.message = std::move(msg);
-    sink.report(std::move(diag));
+    Block at;  // the evidence's block as written, for the located message and its caret
+    at.raw = source;
+    at.line = line;
+    report_at(LexContext{file, &sink}, at, Span{column - 1, column - 1 + length}, sev, code, std::move(msg));
   };
   const std::uint64_t start = in.line_number();
   GCodeSystemScan scan = scan_lathe_gcode_system(in, d);

@@ -22,6 +22,7 @@
 #include "postproc/gcode/interpreter.hpp"
 #include "src/gcode/block_words.hpp"
 #include "src/gcode/codes.hpp"
+#include "src/gcode/text.hpp"
 
 namespace postproc::gcode {
 namespace {
@@ -151,18 +152,16 @@ void Interpreter::round_with_arcs(const Block& current, const Corner& c, Motion&
   const PlaneAxes p = plane_axes(c.plane);
   const std::string word(current.text(c.at));
   const auto refuse = [&](std::string why) {
-    report(current, c.at, Severity::warning, d_.id == DialectId::siemens ? codes::kSiemensCorner : codes::kFanucCorner,
-           fmt::format("'{}': {}; this version does not build it, both moves are refused — write the rounding as its "
-                       "own block",
-                       word, why));
-    std::erase_if(motions, [&](const Motion& mo) { return mo.line == current.line; });
-    corner_pending_line_ = current.line;
+    withhold_corner(current, c, Severity::warning,
+                    fmt::format("'{}': {}; this version does not build it, both moves are refused — write the rounding "
+                                "as its own block",
+                                word, why),
+                    motions);
   };
   const auto too_large = [&](std::string why) {
-    report(current, c.at, Severity::error, codes::kControllerRefuses,
-           fmt::format("'{}': {}: the control stops with an alarm; make the rounding smaller", word, why));
-    std::erase_if(motions, [&](const Motion& mo) { return mo.line == current.line; });
-    corner_pending_line_ = current.line;
+    withhold_corner(current, c, Severity::error,
+                    fmt::format("'{}': {}: the control stops with an alarm; make the rounding smaller", word, why),
+                    motions);
   };
   const bool m_arc = m.type != MotionType::linear, n_arc = n.type != MotionType::linear;
   if ((m_arc && (m.arc.turns != 1 || m.arc.full_circle || std::abs(m.arc.sweep) >= 2 * std::numbers::pi)) ||
@@ -262,15 +261,9 @@ bool Interpreter::corner_word(const Block& b, const BlockWords& w, GMeaning mode
   } else if (d_.id == DialectId::siemens && w.siemens_corner_word >= 0) {
     word = w.siemens_corner_word;
     const std::string_view name = b.text(b.words[static_cast<std::size_t>(word)].name);
-    const auto is = [&](std::string_view n) {
-      if (name.size() != n.size()) return false;
-      for (std::size_t i = 0; i < n.size(); ++i)
-        if (std::toupper(static_cast<unsigned char>(name[i])) != n[i]) return false;
-      return true;
-    };
-    if (is("CHR")) kind = Corner::Kind::leg;
-    else if (is("CHF")) kind = Corner::Kind::length;
-    else if (is("RND")) kind = Corner::Kind::radius;
+    if (text::iequals(name, "CHR")) kind = Corner::Kind::leg;
+    else if (text::iequals(name, "CHF")) kind = Corner::Kind::length;
+    else if (text::iequals(name, "RND")) kind = Corner::Kind::radius;
     else return false;  // RNDM= (modal rounding) stays refused
   } else {
     return false;
@@ -321,18 +314,30 @@ bool Interpreter::lathe_corner(const Block& b, const BlockWords& w, GMeaning mod
   return true;
 }
 
+void Interpreter::withhold_corner(const Block& current, const Corner& c, Severity sev, std::string message,
+                                  std::vector<Motion>& motions) {
+  // An error is the control's own alarm; a warning, a corner this version does not build. Either
+  // way the block's moves are withheld and the next block's move, whose start the corner moves, too.
+  report(current, c.at, sev,
+         sev == Severity::error ? codes::kControllerRefuses
+         : d_.id == DialectId::siemens ? codes::kSiemensCorner
+                                       : codes::kFanucCorner,
+         std::move(message));
+  std::erase_if(motions, [&](const Motion& mo) { return mo.line == current.line; });
+  corner_pending_line_ = current.line;
+}
+
 void Interpreter::resolve_corner(const Block& current, const Block& next, std::vector<Motion>& motions) {
   if (!corner_) return;
   const Corner c = *corner_;
   corner_.reset();
   const std::string word(current.text(c.at));
   const auto refuse = [&](std::string why) {
-    report(current, c.at, Severity::warning, d_.id == DialectId::siemens ? codes::kSiemensCorner : codes::kFanucCorner,
-           fmt::format("'{}': {}; this version does not build it, both moves are refused — write the chamfer or "
-                       "rounding as its own block",
-                       word, why));
-    std::erase_if(motions, [&](const Motion& m) { return m.line == current.line; });
-    corner_pending_line_ = current.line;
+    withhold_corner(current, c, Severity::warning,
+                    fmt::format("'{}': {}; this version does not build it, both moves are refused — write the chamfer "
+                                "or rounding as its own block",
+                                word, why),
+                    motions);
   };
   const PlaneAxes p = plane_axes(c.plane);
   const auto is_arc = [](const Motion& mo) { return mo.type == MotionType::arc_cw || mo.type == MotionType::arc_ccw; };
@@ -383,12 +388,11 @@ void Interpreter::resolve_corner(const Block& current, const Block& next, std::v
     const int other = c.next_axis == 0 ? 2 : 0;
     const double along = n.end[c.next_axis] - n.start[c.next_axis];
     if (std::abs(n.end[other] - n.start[other]) > 1e-9 || along * c.next_sign <= 0) {
-      report(current, c.at, Severity::error, codes::kControllerRefuses,
-             fmt::format("'{}' needs the next move (line {}) to run along {} in the {} direction only; the control "
-                         "stops with an alarm",
-                         word, next.line, c.next_axis == 0 ? 'X' : 'Z', c.next_sign > 0 ? "+" : "-"));
-      std::erase_if(motions, [&](const Motion& mo) { return mo.line == current.line; });
-      corner_pending_line_ = current.line;
+      withhold_corner(current, c, Severity::error,
+                      fmt::format("'{}' needs the next move (line {}) to run along {} in the {} direction only; the "
+                                  "control stops with an alarm",
+                                  word, next.line, c.next_axis == 0 ? 'X' : 'Z', c.next_sign > 0 ? "+" : "-"),
+                      motions);
       return;
     }
   }
@@ -410,12 +414,11 @@ void Interpreter::resolve_corner(const Block& current, const Block& next, std::v
   if (c.kind == Corner::Kind::radius) leg = c.size_mm * std::tan(turn / 2);  // tangent length of the rounding
   if (leg > l1 + 1e-9 || leg > l2 + 1e-9) {
     // Fanuc PS0055 / Sinumerik alarm 10800-range: the element does not fit on the moves.
-    report(current, c.at, Severity::error, codes::kControllerRefuses,
-           fmt::format("'{}' needs {:.4f} mm of each move, but the moves are {:.4f} mm and {:.4f} mm long in the "
-                       "plane: the control stops with an alarm; make the chamfer or rounding smaller",
-                       word, leg, l1, l2));
-    std::erase_if(motions, [&](const Motion& mo) { return mo.line == current.line; });
-    corner_pending_line_ = current.line;
+    withhold_corner(current, c, Severity::error,
+                    fmt::format("'{}' needs {:.4f} mm of each move, but the moves are {:.4f} mm and {:.4f} mm long in "
+                                "the plane: the control stops with an alarm; make the chamfer or rounding smaller",
+                                word, leg, l1, l2),
+                    motions);
     return;
   }
   const Eigen::Vector2d t1 = p1 - leg * d1, t2 = p1 + leg * d2;

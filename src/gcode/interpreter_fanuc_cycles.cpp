@@ -247,8 +247,8 @@ void Interpreter::fanuc_cycle_words(const Block& b, const BlockWords& w, int cod
   if (!cycle_block) {
     // First block: G71 U(Δd) R(e); G72 W(Δd) R(e); G73 U(Δi) W(Δk) R(d). The values are modal
     // (and replace parameters 5132/5133, 5135–5137).
-    const AxisMask allowed = code == 71 ? u_bit : code == 72 ? w_bit : static_cast<AxisMask>(u_bit | w_bit);
-    if ((w.axis_present & ~allowed) != 0 || (code == 71 && has_w) || (code == 72 && has_u) || has_x || has_z)
+    const AxisMask allowed_axes = code == 71 ? u_bit : code == 72 ? w_bit : static_cast<AxisMask>(u_bit | w_bit);
+    if ((w.axis_present & ~allowed_axes) != 0 || (code == 71 && has_w) || (code == 72 && has_u) || has_x || has_z)
       return refuse(false, fmt::format("{}: axis words other than {} in the first block of the cycle are not part of "
                                        "its format; not followed",
                                        name, code == 71 ? "U" : code == 72 ? "W" : "U and W"));
@@ -728,36 +728,7 @@ void Interpreter::fanuc_peck(const Block& b, const BlockWords& w, int code, Moti
 }
 
 void Interpreter::fanuc_emit(const Block& b, Span at, MotionSink& out) {
-  const PlaneAxes pa = plane_axes(Plane::zx);
-  for (const turning::Move& mv : fanuc_cycles_->moves) {
-    Motion m;
-    m.line = b.line;
-    m.column = at.begin + 1;
-    fill_state(m);
-    m.word_index.fill(-1);
-    m.start = s_.position;
-    s_.position[2] = mv.end.real();
-    s_.position[0] = mv.end.imag();
-    s_.known |= kXZ;
-    m.end = s_.position;
-    m.known = s_.known;
-    m.type = turning::motion_type(mv.kind);
-    if (m.type == MotionType::arc_cw || m.type == MotionType::arc_ccw) {
-      const Eigen::Vector2d c(mv.centre.real(), mv.centre.imag());
-      const Eigen::Vector2d s(m.start[pa.u], m.start[pa.v]), e(m.end[pa.u], m.end[pa.v]);
-      const Eigen::Vector2d rs = s - c, re = e - c;
-      const bool clockwise = m.type == MotionType::arc_cw;
-      double sweep = std::atan2(rs.x() * re.y() - rs.y() * re.x(), rs.dot(re));
-      if (clockwise && sweep >= 0) sweep -= 2 * std::numbers::pi;
-      if (!clockwise && sweep <= 0) sweep += 2 * std::numbers::pi;
-      m.arc.centre = Eigen::Vector3d(m.end[0], m.end[1], m.end[2]);
-      m.arc.centre[pa.u] = c.x();
-      m.arc.centre[pa.v] = c.y();
-      m.arc.radius = rs.norm();
-      m.arc.sweep = sweep;
-    }
-    out.motion(m, b);
-  }
+  emit_turning_moves(b, at, fanuc_cycles_->moves, 1.0, out);  // Fanuc cycle moves are in mm already
 }
 
 const char* Interpreter::cycle_blocking_mode() const {

@@ -316,39 +316,7 @@ void Interpreter::lathe_cycle(const Block& b, const BlockWords& w, MotionSink& o
       at_pt = mv.end;
     }
   }
-  const PlaneAxes pa = plane_axes(Plane::zx);
-  for (const turning::Move& mv : moves) {
-    Motion m;
-    m.line = b.line;
-    m.column = at.begin + 1;
-    fill_state(m);
-    m.word_index.fill(-1);
-    m.start = s_.position;
-    s_.position[2] = mv.end.real() * scale;
-    s_.position[0] = mv.end.imag() * scale;
-    s_.known |= static_cast<AxisMask>(bit(Axis::x) | bit(Axis::z));
-    m.end = s_.position;
-    m.known = s_.known;
-    m.type = turning::motion_type(mv.kind);
-    if (m.type == MotionType::arc_cw || m.type == MotionType::arc_ccw) {
-      const Eigen::Vector2d c(mv.centre.real() * scale, mv.centre.imag() * scale);
-      const Eigen::Vector2d s(m.start[pa.u], m.start[pa.v]), e(m.end[pa.u], m.end[pa.v]);
-      const Eigen::Vector2d rs = s - c, re = e - c;
-      const bool clockwise = m.type == MotionType::arc_cw;
-      double sweep = std::atan2(rs.x() * re.y() - rs.y() * re.x(), rs.dot(re));
-      const bool same = (e - s).norm() < 1e-9;
-      if (clockwise && sweep >= 0) sweep -= 2 * std::numbers::pi;
-      if (!clockwise && sweep <= 0) sweep += 2 * std::numbers::pi;
-      if (same) sweep = clockwise ? -2 * std::numbers::pi : 2 * std::numbers::pi;
-      m.arc.centre = Eigen::Vector3d(m.end[0], m.end[1], m.end[2]);
-      m.arc.centre[pa.u] = c.x();
-      m.arc.centre[pa.v] = c.y();
-      m.arc.radius = rs.norm();
-      m.arc.sweep = sweep;
-      m.arc.full_circle = same;
-    }
-    out.motion(m, b);
-  }
+  emit_turning_moves(b, at, moves, scale, out);
   // rs274 leaves the motion mode of the last move it made (a following "X50" feeds in G1).
   switch (moves.back().kind) {
     case turning::Move::Kind::rapid: s_.motion = GMeaning::rapid; s_.motion_code10 = 0; break;
@@ -387,6 +355,43 @@ void Interpreter::spindle_synced_move(const Block& b, const BlockWords& w, Motio
   m.feed_mode = FeedMode::per_rev;
   m.feed_known = true;
   out.motion(m, b);
+}
+
+void Interpreter::emit_turning_moves(const Block& b, Span at, const std::vector<turning::Move>& moves, double scale,
+                                     MotionSink& out) {
+  const PlaneAxes pa = plane_axes(Plane::zx);
+  for (const turning::Move& mv : moves) {
+    Motion m;
+    m.line = b.line;
+    m.column = at.begin + 1;
+    fill_state(m);
+    m.word_index.fill(-1);
+    m.start = s_.position;
+    s_.position[2] = mv.end.real() * scale;
+    s_.position[0] = mv.end.imag() * scale;
+    s_.known |= static_cast<AxisMask>(bit(Axis::x) | bit(Axis::z));
+    m.end = s_.position;
+    m.known = s_.known;
+    m.type = turning::motion_type(mv.kind);
+    if (m.type == MotionType::arc_cw || m.type == MotionType::arc_ccw) {
+      const Eigen::Vector2d c(mv.centre.real() * scale, mv.centre.imag() * scale);
+      const Eigen::Vector2d s(m.start[pa.u], m.start[pa.v]), e(m.end[pa.u], m.end[pa.v]);
+      const Eigen::Vector2d rs = s - c, re = e - c;
+      const bool clockwise = m.type == MotionType::arc_cw;
+      double sweep = std::atan2(rs.x() * re.y() - rs.y() * re.x(), rs.dot(re));
+      const bool same = (e - s).norm() < 1e-9;
+      if (clockwise && sweep >= 0) sweep -= 2 * std::numbers::pi;
+      if (!clockwise && sweep <= 0) sweep += 2 * std::numbers::pi;
+      if (same) sweep = clockwise ? -2 * std::numbers::pi : 2 * std::numbers::pi;
+      m.arc.centre = Eigen::Vector3d(m.end[0], m.end[1], m.end[2]);
+      m.arc.centre[pa.u] = c.x();
+      m.arc.centre[pa.v] = c.y();
+      m.arc.radius = rs.norm();
+      m.arc.sweep = sweep;
+      m.arc.full_circle = same;
+    }
+    out.motion(m, b);
+  }
 }
 
 }  // namespace postproc::gcode

@@ -14,6 +14,9 @@
 #include "postproc/gcode/motion.hpp"
 
 namespace postproc::gcode {
+namespace turning {
+struct Move;
+}  // namespace turning
 namespace threading {
 struct Move;
 }
@@ -182,6 +185,10 @@ class Interpreter {
   void fanuc_single(const Block& b, const BlockWords& w, int code, MotionSink& out);
   void fanuc_peck(const Block& b, const BlockWords& w, int code, MotionSink& out);
   void fanuc_emit(const Block& b, Span at, MotionSink& out);
+  /// Emits an expanded lathe cycle's moves (program units × `scale` = mm, X as a radius) as the
+  /// block's motions, from the current point; updates the position (interpreter_lathe.cpp).
+  void emit_turning_moves(const Block& b, Span at, const std::vector<turning::Move>& moves, double scale,
+                          MotionSink& out);
   // Lathe threading cycles (src/gcode/interpreter_threading.cpp): true when the block was handled.
   struct ThreadingState;
   bool threading_cycle(const Block& b, const BlockWords& w, MotionSink& out);
@@ -215,6 +222,8 @@ class Interpreter {
   std::optional<AxisVector> corner_start_;
   bool corner_word(const Block& b, const BlockWords& w, GMeaning mode);
   bool lathe_corner(const Block& b, const BlockWords& w, GMeaning mode);
+  void withhold_corner(const Block& current, const Corner& c, Severity sev, std::string message,
+                       std::vector<Motion>& motions);
   void round_with_arcs(const Block& current, const Corner& c, Motion& m, const Motion& n, std::vector<Motion>& motions);
   void execute_block(const Block& block, MotionSink& out);
   std::uint64_t corner_pending_line_ = 0;
