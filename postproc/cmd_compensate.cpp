@@ -12,6 +12,8 @@
 #include "postproc/compensation/compensate.hpp"
 #include "postproc/compensation/result_json.hpp"
 #include "postproc/contour/report.hpp"
+#include "postproc/gcode/detect.hpp"
+#include "postproc/gcode/line_reader.hpp"
 #include "postproc/io/input_file.hpp"
 #include "postproc/machine/machine.hpp"
 
@@ -128,7 +130,13 @@ void setup_compensate(CLI::App& app, int& rc) {
     if (!o->integer_input.empty())
       dopt.integer_input = o->integer_input == "increment" ? gcode::Dialect::IntegerInput::increment
                                                             : gcode::Dialect::IntegerInput::calculator;
-    const gcode::Dialect d = *gcode::make_dialect(machine->dialect_name, dopt);
+    gcode::Dialect d = *gcode::make_dialect(machine->dialect_name, dopt);
+    if (d.gcode_system == '?' && o->input != "-") {
+      // Settled once here; every pass over the program (compensate, contour, verification) then
+      // reads it in the same system without scanning it again.
+      gcode::LineReader scan(o->input);
+      d = gcode::settle_gcode_system(d, scan, o->input, sink);
+    }
     comp::CompensateOptions opt;
     opt.max_deviation_mm = o->max_deviation_um / 1000.0;
     opt.max_angle_rad = o->max_angle_arcsec / 3600.0 * 3.14159265358979323846 / 180.0;
