@@ -629,29 +629,29 @@ std::string expand_fanuc_rough(const FanucRough& w, std::vector<Segment> profile
   };
   FanucOut o{f, out};
   const double e = w.escape;
+  // One layer at x: infeed, cut to the profile, 45° escape of e, rapid back to the start's Z.
+  const auto layer = [&](double x) {
+    double zc = 0;
+    if (!layer_end(x, zc)) return false;
+    o.move(w.infeed_rapid, Point(z0, x));
+    o.line(Point(zc, x));
+    if (e > 0) o.rapid(Point(zc + e, x + e));
+    o.rapid(Point(z0, x + e));
+    return true;
+  };
   int k = 1;
   for (;; ++k) {
     const double x = x0 - k * w.depth;
     if (x <= xb + 1e-9) break;
     if (k > 100000) return "more than 100000 layers; check the depth of cut";
-    double zc = 0;
-    if (!layer_end(x, zc)) return "a layer of the cut does not meet the profile ahead of the start point";
-    o.move(w.infeed_rapid, Point(z0, x));
-    o.line(Point(zc, x));
-    if (e > 0) o.rapid(Point(zc + e, x + e));
-    o.rapid(Point(z0, x + e));
+    if (!layer(x)) return "a layer of the cut does not meet the profile ahead of the start point";
   }
   if (w.final_cut) {
     // Last: to A' (with the allowance) in the ns block's mode, then along the profile to B.
     o.move(w.infeed_rapid, a2);
     for (const Segment& s : profile) o.draw(s);
-  } else {
-    double zc = 0;
-    if (!layer_end(xb, zc)) return "the last layer does not meet the profile ahead of the start point";
-    o.move(w.infeed_rapid, Point(z0, xb));
-    o.line(Point(zc, xb));
-    if (e > 0) o.rapid(Point(zc + e, xb + e));
-    o.rapid(Point(z0, xb + e));
+  } else if (!layer(xb)) {
+    return "the last layer does not meet the profile ahead of the start point";
   }
   o.rapid(a);
   return {};
