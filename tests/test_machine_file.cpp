@@ -128,6 +128,43 @@ TEST(MachineFile, NonPhysicalValuesAreRefused) {
   EXPECT_EQ(first_error(q).substr(0, 7), "PP-M006");
 }
 
+/// Values no machine could have are refused where they are read, located, not later at a program
+/// line (issue 21: a pivot at 1e300 mm failed in the kinematics, a 1e-300 s period reported 0 µm).
+TEST(MachineFile, ValuesBeyondAnyMachineAreRefusedWhereRead) {
+  const auto refused_at = [](std::string from, std::string to) {
+    std::string text = kBase;
+    const auto at = text.find(from);
+    EXPECT_NE(at, std::string::npos) << from;
+    text.replace(at, from.size(), to);
+    Parsed p;
+    parse(text, p);
+    EXPECT_FALSE(p.m) << to;
+    return first_error(p);
+  };
+  EXPECT_EQ(refused_at("spindle_point = [0, 0, 0]", "spindle_point = [0, 0, 1e300]"), "PP-M006@10:24");
+  EXPECT_EQ(refused_at("spindle_point = [0, 0, 0]", "spindle_point = [0, 0, \"2e12 um\"]"), "PP-M006@10:24");
+  EXPECT_EQ(refused_at("spindle_point = [0, 0, 0]", "spindle_point = [0, 0, inf]"), "PP-M006@10:24");
+  EXPECT_EQ(refused_at("min = -300", "min = -1.5e6"), "PP-M006@16:7");
+  EXPECT_EQ(refused_at("direction = [1, 0, 0]", "direction = [1e300, 1e300, 0]"), "PP-M006@15:14");
+  // The interpolation period: 1 µs … 100 ms.
+  Parsed tiny;
+  std::string t1 = kBase;
+  t1.replace(t1.find("model = "), 0, "interpolation_period = \"1e-300 s\"\n");
+  parse(t1, tiny);
+  EXPECT_EQ(first_error(tiny).substr(0, 7), "PP-M006");
+  Parsed fine;
+  std::string t2 = kBase;
+  t2.replace(t2.find("model = "), 0, "interpolation_period = \"1 us\"\n");
+  parse(t2, fine);
+  EXPECT_TRUE(fine.m) << first_error(fine);
+  // Just inside the envelope is still read.
+  Parsed big;
+  std::string text = kBase;
+  text.replace(text.find("max = 300"), 9, "max = 999999");
+  parse(text, big);
+  EXPECT_TRUE(big.m) << first_error(big);
+}
+
 TEST(MachineFile, UnknownErrorParameterListsTheKnownOnes) {
   Parsed p;
   parse(kBase + "\n[errors]\nEX0C = \"5 um\"\n", p);  // the machine has no C axis

@@ -166,7 +166,16 @@ kin::ModelPtr apply_map(TomlDoc& doc, Fields& f, kin::ModelPtr base) {
         ok = false;
         break;
       }
-      data.emplace_back(*x * factor.value_or(1), *y * factor.value_or(1), *z * factor.value_or(1));
+      const Eigen::Vector3d err(*x * factor.value_or(1), *y * factor.value_or(1), *z * factor.value_or(1));
+      if (!err.allFinite() || err.cwiseAbs().maxCoeff() > 1e6) {
+        doc.error(e->get(i)->source(), codes::kRange,
+                  fmt::format("[volumetric_map] errors[{}] is not finite or beyond 1e6 mm; check the value and the unit "
+                              "(\"{}\")",
+                              i, unit));
+        ok = false;
+        break;
+      }
+      data.push_back(err);
     }
   } else {
     ok = false;
@@ -250,7 +259,7 @@ std::optional<Machine> parse_machine(std::string file, std::string text, gcode::
                                        : (orient == "virtual-ab" ? Orientation::virtual_ab : Orientation::rotary_axes);
     const auto feed = f.text("feed", false, kFeeds).value_or(m.coordinates == ProgramCoordinates::axes ? "combined-axes" : "tool-tip");
     m.feed = feed == "tool-tip" ? FeedReference::tool_tip : FeedReference::combined_axes;
-    if (auto p = f.quantity("interpolation_period", Dim::time, "s", false, {0, 0.1, true})) m.interpolation_period = *p;
+    if (auto p = f.quantity("interpolation_period", Dim::time, "s", false, {1e-6, 0.1})) m.interpolation_period = *p;
     if (m.model_kind != "serial" && m.coordinates == ProgramCoordinates::axes)
       f.error_at("program", codes::kInconsistent,
                  fmt::format("a {} machine is programmed in tool-tip coordinates; write program = \"tool-tip\"",

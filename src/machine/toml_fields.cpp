@@ -56,6 +56,27 @@ std::string_view type_name(const toml::node& n) {
   }
 }
 
+/// The largest magnitude a machine could ever have for a quantity of dimension d, in d's returned
+/// unit: beyond it a value is a typo or a corrupted file, refused where it is read (issue 21)
+/// rather than failing later at a program line or making a solver diverge.
+struct Envelope {
+  double limit;
+  std::string_view shown;  ///< the limit as the message states it
+};
+Envelope envelope_of(Dim d) {
+  switch (d) {
+    case Dim::length: return {1e6, "1e6 mm (1 km)"};
+    case Dim::angle: return {1e6 * kPi / 180, "1e6 deg"};
+    case Dim::inverse_time: return {1e6, "1e6 1/s"};
+    case Dim::time: return {1e6, "1e6 s"};
+    case Dim::velocity: return {1e9, "1e9 mm/min"};
+    case Dim::acceleration: return {1e9, "1e9 mm/s^2"};
+    case Dim::jerk: return {1e13, "1e13 mm/s^3"};
+    case Dim::ratio: return {1e6, "1e6"};
+  }
+  return {1e6, "1e6"};
+}
+
 std::optional<double> number_of(const toml::node& n) {
   if (auto v = n.value<double>()) return *v;  // integers convert too
   return std::nullopt;
@@ -136,6 +157,21 @@ const toml::node* Fields::get(std::string_view key, bool required, std::string_v
 
 std::optional<double> Fields::quantity_node(const toml::node& n, std::string_view what, Dim d,
                                             std::string_view default_unit) {
+  const auto v = parse_quantity(n, what, d, default_unit);
+  if (!v) return v;
+  const Envelope e = envelope_of(d);
+  if (!std::isfinite(*v) || std::abs(*v) > e.limit) {
+    doc_.error(n.source(), codes::kRange,
+               fmt::format("{} is beyond anything a machine could have (a {} of magnitude at most {}); check the "
+                           "value and its unit",
+                           what, to_string(d), e.shown));
+    return std::nullopt;
+  }
+  return v;
+}
+
+std::optional<double> Fields::parse_quantity(const toml::node& n, std::string_view what, Dim d,
+                                             std::string_view default_unit) {
   if (auto v = number_of(n)) {
     if (!std::isfinite(*v)) {
       doc_.error(n.source(), codes::kRange, fmt::format("{} must be a finite number", what));

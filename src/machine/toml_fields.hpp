@@ -110,11 +110,14 @@ class Fields {
   [[nodiscard]] TomlDoc& doc() { return doc_; }
   /// Reports an error at the value of `key` (or at the table when the key is absent).
   void error_at(std::string_view key, std::string_view code, std::string message);
-  /// Parses one quantity node (number or "<number> <unit>"); reports at the node.
+  /// Parses one quantity node (number or "<number> <unit>"); reports at the node. Values beyond a
+  /// machine's physical envelope (e.g. lengths above 1e6 mm, non-finite results) are refused (PP-M006).
   std::optional<double> quantity_node(const toml::node& n, std::string_view what, Dim d, std::string_view default_unit);
 
  private:
   const toml::node* get(std::string_view key, bool required, std::string_view expected);
+  /// quantity_node without the physical envelope check.
+  std::optional<double> parse_quantity(const toml::node& n, std::string_view what, Dim d, std::string_view default_unit);
   TomlDoc& doc_;
   const toml::table& t_;
   std::string path_;
