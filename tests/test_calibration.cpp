@@ -161,6 +161,23 @@ TEST(MeasurementFiles, AttitudesGiveTheToolAxis) {
   }
 }
 
+TEST(MeasurementFiles, EveryLineEndIsALineEnd) {
+  // LF, CR LF and a CR alone (old Mac exports) give the same rows, with the same line numbers.
+  const auto mach = load("machines/trunnion_bc_fanuc.toml");
+  for (const std::string eol : {"\n", "\r\n", "\r"}) {
+    const std::string text = "# kind: positions" + eol + "X_mm,Y_mm,Z_mm,B_deg,C_deg,x_mm,y_mm,z_mm" + eol +
+                             "1,2,3,4,5,6,7,8" + eol + "2,3,4,5,6,7,8,9" + eol;
+    gcode::DiagnosticSink sink;
+    auto t = cal::CsvTable::parse("eol.csv", text, sink);
+    ASSERT_TRUE(t) << "eol " << eol.size();
+    std::vector<Measurement> out;
+    ASSERT_TRUE(cal::read_measurements(*t, *mach.actual, out));
+    ASSERT_EQ(out.size(), 2u);
+    EXPECT_EQ(t->rows()[1].line, 4u);
+    EXPECT_NEAR(out[1].measured.p.z(), 9.0, 1e-12);
+  }
+}
+
 struct BadFile {
   const char* name;
   std::string text;
@@ -190,6 +207,12 @@ TEST(MeasurementFiles, MalformedFilesGiveLocatedErrors) {
       {"unclosed quote", head + "\"1,2,3,4,5,6,7,8\n", "PP-C001", 3, 1},
       {"header only", head, "PP-C001", 2, 1},
       {"struts on a serial machine", "# kind: struts\nX_mm\n1\n", "PP-C006", 2, 1},
+      // Issue 21: values no machine or instrument could give are refused at the cell.
+      {"angle beyond any machine", head + "1,2,3,1e6,5,6,7,8\n", "PP-C005", 3, 7},
+      {"length beyond any machine", head + "1,2,3,4,5,1e308,7,8\n", "PP-C005", 3, 11},
+      {"axis outside its travel", head + "1,2,3,111,5,6,7,8\n", "PP-C005", 3, 7},
+      {"length beyond any machine in um", head.substr(0, 18) + "X_um,Y_mm,Z_mm,B_deg,C_deg,x_mm,y_mm,z_mm\n2e12,2,3,4,5,6,7,8\n",
+       "PP-C005", 3, 1},
   };
   for (const BadFile& c : cases) {
     gcode::DiagnosticSink sink;

@@ -4,6 +4,7 @@
 #include <cctype>
 #include <charconv>
 #include <cmath>
+#include <numbers>
 
 #include <fmt/format.h>
 
@@ -121,11 +122,13 @@ std::optional<CsvTable> CsvTable::parse(std::string file, std::string_view text,
   std::string_view rest = text;
   if (rest.substr(0, 3) == "\xEF\xBB\xBF") rest.remove_prefix(3);
   while (!rest.empty()) {
-    const auto nl = rest.find('\n');
-    std::string_view line = rest.substr(0, nl);
-    rest = nl == std::string_view::npos ? std::string_view{} : rest.substr(nl + 1);
+    // A line ends in LF, CR LF or a CR alone (old Mac files, some instrument exports).
+    const auto eol = rest.find_first_of("\r\n");
+    std::string_view line = rest.substr(0, eol);
+    std::size_t next = eol == std::string_view::npos ? rest.size() : eol + 1;
+    if (eol != std::string_view::npos && rest[eol] == '\r' && next < rest.size() && rest[next] == '\n') ++next;
+    rest = rest.substr(next);
     ++line_no;
-    if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
     const std::string_view content = trim(line);
     if (content.empty()) continue;
     if (content.front() == '#') {
@@ -236,6 +239,8 @@ int CsvTable::quantity_column(std::string_view base, Quantity q, bool required, 
     return -1;
   }
   scale = *f;
+  columns_[static_cast<std::size_t>(c)].quantity = q;
+  columns_[static_cast<std::size_t>(c)].to_base = *f;
   return c;
 }
 
@@ -252,6 +257,25 @@ std::optional<double> CsvTable::number(std::size_t row, int column, double scale
           fmt::format("'{}' in column '{}' is not a number; write a decimal number such as 12.5", s,
                       columns_[static_cast<std::size_t>(column)].name));
     return std::nullopt;
+  }
+  const Column& col = columns_[static_cast<std::size_t>(column)];
+  if (col.quantity) {
+    // The envelope of anything a machine or an instrument could give; beyond it a value is a typo,
+    // a unit mistake or a corrupted export, and a solver fed with it diverges without saying why.
+    const double base = std::abs(v * col.to_base);
+    const double limit = *col.quantity == Quantity::length  ? 1e6
+                         : *col.quantity == Quantity::angle ? 1e4 * std::numbers::pi / 180
+                                                            : 1e6;
+    if (base > limit) {
+      error(row, column, codes::kCsvRange,
+            fmt::format("'{}' in column '{}' is beyond anything a machine or instrument could give (at most {}); "
+                        "check the value and the column's unit",
+                        s, col.name,
+                        *col.quantity == Quantity::length  ? "1e6 mm"
+                        : *col.quantity == Quantity::angle ? "1e4 deg"
+                                                           : "1e6"));
+      return std::nullopt;
+    }
   }
   return v * scale;
 }

@@ -64,6 +64,7 @@ bool ratio_columns(CsvTable& t, std::array<std::string_view, 3> names, bool requ
 
 JointColumns joint_columns(CsvTable& t, const kin::Model& model) {
   JointColumns out;
+  out.joints = model.joints();
   for (const kin::Joint& joint : model.joints()) {
     double s = 1;
     out.column.push_back(
@@ -79,6 +80,18 @@ std::optional<kin::JointVector> joints_of_row(CsvTable& t, const JointColumns& c
   for (std::size_t j = 0; j < c.column.size(); ++j) {
     const auto v = t.number(row, c.column[j], c.scale[j]);
     if (!v) return std::nullopt;
+    // A measurement is taken at a pose the machine reached: axis values outside its travel are a
+    // wrong file, column or unit (the solver would otherwise fit them and report a residual).
+    const kin::Joint& joint = c.joints[j];
+    constexpr double kSlack = 1e-3;  // mm / degrees: rounding of a pose recorded at a limit
+    if (*v < joint.min - kSlack || *v > joint.max + kSlack) {
+      const char* unit = joint.type == kin::JointType::rotary ? "deg" : "mm";
+      t.error(row, c.column[j], codes::kCsvRange,
+              fmt::format("{} = {:g} {} is outside the machine's travel of {} ({:g} … {:g} {}); check the row, the "
+                          "column's unit and the machine file's min/max",
+                          joint.name, *v, unit, joint.name, joint.min, joint.max, unit));
+      return std::nullopt;
+    }
     q[static_cast<Eigen::Index>(j)] = *v;
   }
   return q;

@@ -38,6 +38,10 @@ class CsvTable {
     std::string base;   ///< name without the unit suffix ("x" of "x_mm")
     std::string unit;   ///< the suffix after the last '_' or inside [ ] / ( ); empty if none
     std::uint32_t at = 1;  ///< 1-based byte column in the header line
+    /// Set once quantity_column() has read the column: its dimension and the factor of its unit
+    /// to mm / rad, for the physical envelope number() checks.
+    std::optional<Quantity> quantity;
+    double to_base = 1;
   };
   struct Row {
     std::uint64_t line = 0;             ///< 1-based line in the file
@@ -46,7 +50,7 @@ class CsvTable {
     std::vector<std::uint32_t> at;      ///< 1-based byte column of each cell
   };
 
-  /// Parses CSV text. Reports PP-C001 for an empty file (no header), a row with another number of
+  /// Parses CSV text (lines end in LF, CR LF or CR alone). Reports PP-C001 for an empty file (no header), a row with another number of
   /// fields than the header, an unterminated quote; nullopt when any error was reported.
   [[nodiscard]] static std::optional<CsvTable> parse(std::string file, std::string_view text,
                                                      gcode::DiagnosticSink& sink);
@@ -66,7 +70,9 @@ class CsvTable {
   /// A quantity column: finds `base`, checks its unit is one of q's (PP-C004) and returns the
   /// factor to mm / rad in `scale`. Missing and required: PP-C002. Returns -1 when absent/bad.
   int quantity_column(std::string_view base, Quantity q, bool required, double& scale);
-  /// The number in a cell (times scale); PP-C003 at the cell when it is not a finite number.
+  /// The number in a cell (times scale); PP-C003 at the cell when it is not a finite number, PP-C005
+  /// when a quantity column's value is beyond anything a machine or an instrument could give (a
+  /// length above 1e6 mm, an angle above 1e4°, a plain number above 1e6).
   std::optional<double> number(std::size_t row, int column, double scale = 1.0);
   /// Marks a column as read; report_unused() names the others (PP-C006).
   void use(int column);

@@ -51,6 +51,7 @@ struct Measurement {
 struct JointColumns {
   std::vector<int> column;    ///< per joint, -1 when missing or bad
   std::vector<double> scale;  ///< to mm / degrees
+  std::vector<kin::Joint> joints;  ///< the model's joints (names, travel limits)
   [[nodiscard]] bool ok() const {
     for (int c : column)
       if (c < 0) return false;
