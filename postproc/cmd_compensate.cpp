@@ -215,10 +215,12 @@ void setup_compensate(CLI::App& app, int& rc) {
     else
       std::fputs(fmt::format("postproc: {} blocks, {} moves, {} blocks changed ({} words changed, {} inserted), {} moves "
                              "subdivided, {} arcs kept, {} linearised (+{} lines); largest correction {:.4f} mm / {:.5f} "
-                             "deg; error before {:.4f} mm (line {}), predicted residual after {:.5f} mm\n",
+                             "deg, tool axis {:.4f} mrad; error before {:.4f} mm / {:.4f} mrad (line {}), predicted "
+                             "residual after {:.5f} mm / {:.5f} mrad\n",
                              r.blocks, r.motions, r.changed_blocks, r.words_changed, r.words_inserted,
                              r.subdivided_blocks, r.arcs_kept, r.arcs_linearized, r.segments_added, r.max_correction_mm,
-                             r.max_correction_deg, r.max_error_before_mm, r.worst_line, r.max_residual_mm)
+                             r.max_correction_deg, r.max_axis_correction_rad * 1e3, r.max_error_before_mm,
+                             r.max_error_before_rad * 1e3, r.worst_line, r.max_residual_mm, r.max_residual_rad * 1e3)
                      .c_str(),
                  stderr);
     if (servo)

@@ -3,6 +3,7 @@
 // the intended path are subdivided, and anything that cannot be resolved exactly is refused.
 #include "postproc/compensation/compensate.hpp"
 
+#include "postproc/kinematics/hexapod.hpp"
 #include "src/compensation/compensator.hpp"
 
 namespace postproc::comp {
@@ -63,6 +64,9 @@ void Compensator::write_segments(const Block& b, const Motion& m, gcode::BlockEd
 std::string header_comment(const gcode::Dialect& d, const machine::Machine& m, const CompensateOptions& opt) {
   std::string text = fmt::format("postproc {} compensate mode={} machine={} sha256={}", opt.tool_version, opt.mode,
                                  m.file, m.sha256);
+  // The controller conventions the corrections were computed under (docs/machine-file.md).
+  if (const auto* hex = dynamic_cast<const kin::Hexapod*>(m.nominal.get()))
+    text += fmt::format(" hexapod-spin={}", kin::to_string(hex->config().spin));
   if (opt.flatten) text += " flattened=parameters, calls and loops resolved into literal moves";
   if (opt.resolved_in_place && !opt.flatten)
     text += " resolved=parameters, calls and loops kept, literal words corrected in place";

@@ -25,6 +25,7 @@ void merge_geometric(CompensateResult& r, const CompensateResult& g) {
   r.worst_line = g.worst_line;
   r.max_correction_mm = std::max(r.max_correction_mm, g.max_correction_mm);
   r.max_correction_deg = std::max(r.max_correction_deg, g.max_correction_deg);
+  r.max_axis_correction_rad = std::max(r.max_axis_correction_rad, g.max_axis_correction_rad);
 }
 
 }  // namespace

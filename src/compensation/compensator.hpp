@@ -366,7 +366,7 @@ class Compensator final : public gcode::BlockVisitor {
       return;
     }
     const ProgramMap& map = *map_;
-    measure(m, map, out);  // first: later checks run the remap on other points
+    measure(m, map, out, q);  // first: later checks run the remap on other points
     if (m.tilted_plane) {
       check_unchanged(b, m);
       note_written(m, m.end);
@@ -403,12 +403,22 @@ class Compensator final : public gcode::BlockVisitor {
   }
 
   /// Error of the original program on the real machine and the residual of the corrected one.
-  void measure(const Motion& m, const ProgramMap& map, const Command& out) {
+  void measure(const Motion& m, const ProgramMap& map, const Command& out, const kin::JointVector& q_written) {
     // The intended pose and the nominal joints of the end point come from the remap itself.
     const kin::Pose& want = map.last_intended();
-    kin::Pose before, after;
+    kin::Pose before, after, written_nominal;
     kin::JointVector qa;
     if (!map.actual().forward(map.last_nominal_joints(), before).ok()) return;
+    // The tool-axis correction on every machine kind: the tool axis the nominal machine would
+    // have for the written block against the intended one (rotary words, tool vectors or struts).
+    // A tool vector is that axis as written; otherwise forward kinematics of the written joints.
+    std::optional<Eigen::Vector3d> written_axis;
+    if (map.form() == Form::tcp_vector) written_axis = out.vector.normalized();
+    else if (q_written.size() == map.last_nominal_joints().size() && map.nominal().forward(q_written, written_nominal).ok())
+      written_axis = written_nominal.axis();
+    if (written_axis)
+      r_.max_axis_correction_rad = std::max(r_.max_axis_correction_rad,
+                                            std::acos(std::clamp(written_axis->dot(want.axis()), -1.0, 1.0)));
     const double e = (before.p - want.p).norm();
     const double ea = std::acos(std::clamp(before.axis().dot(want.axis()), -1.0, 1.0));
     if (e > r_.max_error_before_mm) {

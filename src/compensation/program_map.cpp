@@ -5,6 +5,7 @@
 
 #include <Eigen/QR>
 
+#include "postproc/kinematics/hexapod.hpp"
 #include "postproc/kinematics/serial.hpp"
 
 namespace postproc::comp {
@@ -201,6 +202,49 @@ kin::Solve ProgramMap::real(const Command& cmd, const kin::JointVector& start, k
   return actual_->forward(q, p);
 }
 
+kin::Solve ProgramMap::hexapod_spin_consistent(const kin::Hexapod& nominal, const kin::Pose& goal,
+                                                const kin::JointVector& start, const kin::JointVector& q_nom,
+                                                kin::JointVector& q) const {
+  // A vector block fixes the tool tip and axis; the controller picks the rotation about the axis by
+  // its spin rule, on its nominal model, from the written block. The real machine must put its
+  // tip and axis at the goal (its own spin is free: ψ below) while the written block, read by
+  // the controller's rule, gives exactly the struts q(ψ). So solve for ψ the one equation
+  // spin_of(nominal FK(q(ψ))) = 0, q(ψ) the actual model's closed-form inverse of (P, R(ψ)) —
+  // f(ψ) ≈ ψ + const, so the secant method converges in a few steps.
+  const Eigen::Vector3d o = goal.axis();
+  kin::IkOptions full;
+  full.match = kin::PoseMatch::full;
+  full.check_limits = false;
+  kin::Pose seen = goal;
+  const auto spin_error = [&](double psi, kin::JointVector& qq, double& f) -> kin::Solve {
+    kin::Pose want = goal;
+    want.r = Eigen::AngleAxisd(psi, o).toRotationMatrix() * goal.r;
+    if (auto s = actual_->inverse(want, q_nom, qq, full); !s.ok()) return s;
+    kin::Pose p;
+    if (auto s = nominal.forward(qq, p, seen); !s.ok()) return s;
+    seen = p;
+    f = nominal.spin_of(p, start);
+    return {};
+  };
+  double psi0 = 0, f0 = 0;
+  if (auto s = spin_error(psi0, q, f0); !s.ok()) return s;
+  double psi1 = -f0, f1 = f0;
+  kin::JointVector q1;
+  for (int it = 0; it < 20 && std::abs(f0) > kToleranceRad; ++it) {
+    if (auto s = spin_error(psi1, q1, f1); !s.ok()) return s;
+    const double slope = (f1 - f0) / (psi1 - psi0);
+    psi0 = psi1;
+    f0 = f1;
+    q = q1;
+    if (!(std::abs(slope) > 0.1) || !std::isfinite(slope)) break;  // f(ψ) ≈ ψ + c: never near 0
+    psi1 = psi0 - f0 / slope;
+  }
+  kin::Solve s;
+  s.residual_rad = std::abs(f0);
+  if (!(std::abs(f0) <= 1e3 * kToleranceRad)) s.status = kin::Status::no_convergence;
+  return s;
+}
+
 kin::Solve ProgramMap::correct(const Command& cmd, const kin::JointVector& start, Command& out,
                                kin::JointVector& q_actual) const {
   kin::Pose& goal = last_goal_;
@@ -210,6 +254,10 @@ kin::Solve ProgramMap::correct(const Command& cmd, const kin::JointVector& start
   opt.check_limits = false;
   opt.tolerance_mm = kToleranceMm;
   opt.tolerance_rad = kToleranceRad;
+  if (const auto* hex = dynamic_cast<const kin::Hexapod*>(nominal_.get()); hex != nullptr && form_ == Form::tcp_vector) {
+    if (auto s = hexapod_spin_consistent(*hex, goal, start, q_nom, q_actual); !s.ok()) return s;
+    return command(q_actual, cmd, out);
+  }
   // Serial machines with fewer than five joints (3-axis, lathes) can only match what they have.
   kin::Solve s = actual_->inverse(goal, q_nom, q_actual, opt);
   bool near_singular = !s.ok() && (s.status == kin::Status::singular || s.status == kin::Status::no_convergence ||

@@ -25,6 +25,7 @@ nlohmann::json result_json(const CompensateResult& r, std::string_view mode, con
                  {"singular_points_tip_only", r.singular_fallbacks}};
   j["figures"] = {{"max_correction_mm", r.max_correction_mm},
                   {"max_correction_deg", r.max_correction_deg},
+                  {"max_axis_correction_rad", r.max_axis_correction_rad},
                   {"max_error_before_mm", r.max_error_before_mm},
                   {"max_error_before_deg", r.max_error_before_rad * kDeg},
                   {"worst_line_before", r.worst_line},

@@ -299,23 +299,36 @@ Jacobian Hexapod::jacobian(const JointVector& q) const {
   return jacobian_at(p);
 }
 
+std::string_view to_string(HexapodSpin s) {
+  return s == HexapodSpin::minimal_from_home ? "minimal-from-home" : "previous";
+}
+
+Eigen::Matrix3d Hexapod::spin_reference(const Eigen::Vector3d& axis, const JointVector& start,
+                                        const Eigen::Vector3d& near) const {
+  const Eigen::Vector3d o = axis.normalized();
+  const Eigen::Matrix3d r_home = tool_pose(home_).r;
+  const Eigen::Matrix3d from_home = Eigen::Quaterniond::FromTwoVectors(r_home.col(2), o).toRotationMatrix() * r_home;
+  if (cfg_.spin == HexapodSpin::minimal_from_home) return from_home;
+  // The previous block's orientation swung onto the new axis. FK of start is seeded with the
+  // home orientation swung the same way and `near` (start is normally the previous block, nearby).
+  Pose guess;
+  guess.p = near;
+  guess.r = from_home;
+  Pose at_start;
+  Solve fs = forward(start, at_start, guess);
+  if (!fs.ok()) fs = forward(start, at_start);
+  const Eigen::Matrix3d r0 = fs.ok() ? at_start.r : r_home;
+  return Eigen::Quaterniond::FromTwoVectors(r0.col(2), o).toRotationMatrix() * r0;
+}
+
+double Hexapod::spin_of(const Pose& pose, const JointVector& start) const {
+  const Eigen::Matrix3d rel = spin_reference(pose.axis(), start, pose.p).transpose() * pose.r;  // about z
+  return std::atan2(rel(1, 0) - rel(0, 1), rel(0, 0) + rel(1, 1));
+}
+
 Solve Hexapod::inverse(const Pose& target, const JointVector& start, JointVector& q, const IkOptions& opt) const {
   Pose full = target;
-  if (opt.match == PoseMatch::point_and_axis) {
-    // The free rotation about the tool axis: take start's orientation and swing its axis onto the
-    // target's by the smallest rotation. FK of start is seeded with the target point and the
-    // home orientation swung the same way (start is normally the previous block, nearby).
-    const Eigen::Vector3d o = target.axis().normalized();
-    const Eigen::Matrix3d r_home = tool_pose(home_).r;
-    Pose guess;
-    guess.p = target.p;
-    guess.r = Eigen::Quaterniond::FromTwoVectors(r_home.col(2), o).toRotationMatrix() * r_home;
-    Pose at_start;
-    Solve fs = forward(start, at_start, guess);
-    if (!fs.ok()) fs = forward(start, at_start);
-    const Eigen::Matrix3d r0 = fs.ok() ? at_start.r : r_home;
-    full.r = Eigen::Quaterniond::FromTwoVectors(r0.col(2), o).toRotationMatrix() * r0;
-  }
+  if (opt.match == PoseMatch::point_and_axis) full.r = spin_reference(target.axis(), start, target.p);
   const PlatformPose x = platform_pose(full);
   const StrutMatrix d = strut_vectors(x, base_, platform_);
   q.resize(kHexapodStruts);

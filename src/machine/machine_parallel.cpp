@@ -101,6 +101,8 @@ kin::ModelPtr read_hexapod(TomlDoc& doc, Fields& f, const Machine& m) {
   auto axis = f.direction("tool_axis", false);
   auto wp = f.vector3("workpiece_origin", Dim::length, "mm", false);
   auto home = f.vector3("home", Dim::length, "mm", true);
+  static constexpr std::string_view kSpin[] = {"previous", "minimal-from-home"};
+  const auto spin = f.text("spin", false, kSpin);
   f.finish();
   if (!base || !platform || !offsets || !smin || !smax || !home) return nullptr;
   cfg.base_joints = *base;
@@ -113,6 +115,7 @@ kin::ModelPtr read_hexapod(TomlDoc& doc, Fields& f, const Machine& m) {
   cfg.tool_tip = -m.tool_length * cfg.tool_axis;
   if (wp) cfg.workpiece.translation() = *wp;
   cfg.home.translation() = *home;
+  if (spin) cfg.spin = *spin == "minimal-from-home" ? kin::HexapodSpin::minimal_from_home : kin::HexapodSpin::previous;
   for (int i = 0; i < 6; ++i)
     if ((*smin)[static_cast<std::size_t>(i)] >= (*smax)[static_cast<std::size_t>(i)]) {
       f.error_at("strut_max", codes::kRange, fmt::format("[hexapod] strut {}: strut_max must be above strut_min", i + 1));

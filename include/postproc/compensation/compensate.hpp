@@ -84,6 +84,9 @@ struct CompensateResult {
   std::uint64_t bytes_in = 0;
   double max_correction_mm = 0;          ///< largest change of a linear axis / tool-tip word, mm
   double max_correction_deg = 0;         ///< … of a rotary axis word, degrees
+  /// Largest change of the tool axis the written blocks command on the nominal machine, rad: the
+  /// tool-axis correction whatever carries it (rotary words, a tool vector, hexapod struts).
+  double max_axis_correction_rad = 0;
   double max_error_before_mm = 0;        ///< tool-tip error of the original program on the real machine, mm
   double max_error_before_rad = 0;       ///< … tool-axis angle, rad
   double max_residual_mm = 0;            ///< tool-tip error of the corrected (written) end points, mm

@@ -21,6 +21,10 @@
 #include "postproc/kinematics/model.hpp"
 #include "postproc/machine/machine.hpp"
 
+namespace postproc::kin {
+class Hexapod;
+}  // namespace postproc::kin
+
 namespace postproc::comp {
 
 /// What a block's axis words mean.
@@ -72,6 +76,12 @@ class ProgramMap {
 
  private:
   [[nodiscard]] kin::Pose target_of(const Command& cmd) const;
+  /// The hexapod's correction of a tool-vector block: struts q that put the real tool tip and
+  /// axis at `goal` and that the controller's own spin rule (from `start`, its previous struts)
+  /// reproduces from the written block.
+  [[nodiscard]] kin::Solve hexapod_spin_consistent(const kin::Hexapod& nominal, const kin::Pose& goal,
+                                                   const kin::JointVector& start, const kin::JointVector& q_nom,
+                                                   kin::JointVector& q) const;
   const machine::Machine* m_;
   kin::ModelPtr nominal_, actual_;
   Form form_;

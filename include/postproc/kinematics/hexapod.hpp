@@ -21,6 +21,8 @@
 /// calibration estimates them directly rather than deviations from them.
 
 #include <array>
+#include <cstdint>
+#include <string_view>
 #include <limits>
 #include <memory>
 #include <vector>
@@ -31,6 +33,18 @@ namespace postproc::kin {
 
 inline constexpr int kHexapodStruts = 6;
 inline constexpr int kHexapodParameters = 42;  ///< 18 base + 18 platform coordinates + 6 offsets
+
+/// The controller's rule for the rotation about the tool axis, which a tool-tip program with a
+/// tool vector (G43.5 I J K, TRAORI with vectors, M128 LN) leaves free on a six-axis machine.
+enum class HexapodSpin : std::uint8_t {
+  /// The tool orientation of the previous block (the joints the controller last commanded) swung
+  /// by the smallest rotation onto the new axis: history-dependent.
+  previous,
+  /// The home orientation swung by the smallest rotation onto the new axis: a function of the
+  /// axis alone, so a restart in mid-program gives the same struts.
+  minimal_from_home,
+};
+[[nodiscard]] std::string_view to_string(HexapodSpin s);
 
 /// Design geometry of a hexapod. Index i of every array is strut i + 1 ("q<i+1>").
 struct HexapodConfig {
@@ -57,6 +71,8 @@ struct HexapodConfig {
   /// Platform pose in the base frame where forward kinematics starts without a better guess; it
   /// also fixes the assembly mode (FK refuses iterates whose struts turn past 90° from here).
   Eigen::Isometry3d home = Eigen::Isometry3d::Identity();
+  /// How inverse() with PoseMatch::point_and_axis chooses the rotation about the tool axis.
+  HexapodSpin spin = HexapodSpin::previous;
 };
 
 /// A realistic design: base joints on a 400 mm circle in pairs 30° apart (centred on 0°, 120°,
@@ -110,14 +126,20 @@ class Hexapod final : public Model {
   /// The same Jacobian at a known tool pose (no forward kinematics).
   [[nodiscard]] Jacobian jacobian_at(const Pose& pose) const;
   /// Closed-form inverse kinematics. PoseMatch::full uses target.r. PoseMatch::point_and_axis
-  /// leaves the rotation about the tool axis free: the orientation used is the tool orientation
-  /// at `start` (forward kinematics) turned by the smallest rotation taking its axis onto the
-  /// target axis, i.e. the orientation with the target axis nearest start's (when FK of start
-  /// fails, the home orientation is used instead). Status: unreachable when a joint-to-joint
+  /// leaves the rotation about the tool axis free and takes spin_reference(target axis, start). Status: unreachable when a joint-to-joint
   /// distance is ≤ 1e-6 mm (strut direction undefined; joint = that strut); out_of_limits (values
   /// still returned) when a strut is outside its travel and opt.check_limits.
   [[nodiscard]] Solve inverse(const Pose& target, const JointVector& start, JointVector& q,
                               const IkOptions& opt = {}) const override;
+  /// The tool orientation (workpiece frame) the controller's spin rule (config().spin) gives a
+  /// tool axis `axis`: the home tool orientation, or under HexapodSpin::previous the tool
+  /// orientation at `start` (forward kinematics; home when it fails), turned by the smallest
+  /// rotation taking its axis onto `axis`. `near` (a tool tip near start's, e.g. the target)
+  /// seeds that forward kinematics.
+  [[nodiscard]] Eigen::Matrix3d spin_reference(const Eigen::Vector3d& axis, const JointVector& start,
+                                               const Eigen::Vector3d& near) const;
+  /// The signed rotation about the tool axis (rad) from the spin_reference of pose's axis to pose.
+  [[nodiscard]] double spin_of(const Pose& pose, const JointVector& start) const;
   [[nodiscard]] std::shared_ptr<const Model> with_values(std::vector<double> values) const override;
   /// Rotation base frame → workpiece frame (constant).
   [[nodiscard]] Eigen::Matrix3d machine_to_workpiece(const JointVector& q) const override;
