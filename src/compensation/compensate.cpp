@@ -49,8 +49,17 @@ void Compensator::write_segments(const Block& b, const Motion& m, gcode::BlockEd
   AxisVector prev = pts.front().c;
   for (std::size_t i = 1; i <= pts.size(); ++i) {
     const Command& p = i < pts.size() ? pts[i] : out;
-    std::string line = writer_.segment_line(b, m, mask_, prev, p, m.feed_mode == gcode::FeedMode::inverse_time ? n : 0);
-    if (!line.empty()) after_.push_back(std::move(line));
+    std::optional<std::string> line =
+        writer_.segment_line(b, m, mask_, prev, p, m.feed_mode == gcode::FeedMode::inverse_time ? n : 0);
+    if (!line) {
+      refuse(b, m.column, kRefused,
+             "a segment of this subdivided move cannot be written under the rotary axis's roll-over rule "
+             "([axes.…] rollover); program the move incrementally or in shorter steps");
+      after_.clear();
+      written_known_ = 0;
+      return;
+    }
+    if (!line->empty()) after_.push_back(std::move(*line));
     prev = p.c;
   }
   written_ = out.c;
@@ -67,6 +76,10 @@ std::string header_comment(const gcode::Dialect& d, const machine::Machine& m, c
   // The controller conventions the corrections were computed under (docs/machine-file.md).
   if (const auto* hex = dynamic_cast<const kin::Hexapod*>(m.nominal.get()))
     text += fmt::format(" hexapod-spin={}", kin::to_string(hex->config().spin));
+  for (int a = 0; a < gcode::kAxisCount; ++a)
+    if (m.dialect_options.rollover[static_cast<std::size_t>(a)] != gcode::RotaryRollover::off)
+      text += fmt::format(" rollover-{}={}", gcode::kAxisLetters[static_cast<std::size_t>(a)],
+                          gcode::to_string(m.dialect_options.rollover[static_cast<std::size_t>(a)]));
   if (opt.flatten) text += " flattened=parameters, calls and loops resolved into literal moves";
   if (opt.resolved_in_place && !opt.flatten)
     text += " resolved=parameters, calls and loops kept, literal words corrected in place";

@@ -119,6 +119,15 @@ std::uint32_t column_of(const Word& w) { return w.span.begin + 1; }
 
 }  // namespace
 
+std::string WordWriter::rollover_refusal(int a, double target, double from) const {
+  return fmt::format("the corrected rotary axis {} must move from {:.6f} to {:.6f} deg, which no absolute word reaches "
+                     "under the controller's roll-over rule '{}' (docs/machine-file.md); check [axes.{}] rollover or "
+                     "program this move incrementally",
+                     gcode::kAxisLetters[static_cast<std::size_t>(a)], from, target,
+                     gcode::to_string(d_.rollover[static_cast<std::size_t>(a)]),
+                     gcode::kAxisLetters[static_cast<std::size_t>(a)]);
+}
+
 WordWriter::Outcome WordWriter::rewrite(const Block& b, const Motion& m, gcode::AxisMask mask, const AxisVector& start,
                                         gcode::AxisMask start_known, const Command& target, gcode::BlockEditor& ed,
                                         std::uint64_t g93_segments) {
@@ -158,7 +167,13 @@ WordWriter::Outcome WordWriter::rewrite(const Block& b, const Motion& m, gcode::
                                           gcode::kAxisLetters[static_cast<std::size_t>(a)]), 0, 0};
         return o;
       }
-      const double v = track_.absolute ? pv : pv - held;
+      double v = track_.absolute ? pv : pv - held;
+      if (track_.absolute && gcode::is_rotary(a) && d_.rollover[static_cast<std::size_t>(a)] != gcode::RotaryRollover::off) {
+        const double from = have_start ? held : 0.0;
+        const auto rw = gcode::rollover_word(d_.rollover[static_cast<std::size_t>(a)], pv, from, pv);
+        if (!rw) return {false, m.column, rollover_refusal(a, pv, from), 0, 0};
+        v = *rw;
+      }
       ed.insert_after(anchor, sep + std::string(1, gcode::kAxisLetters[static_cast<std::size_t>(a)]) +
                                   gcode::format_counts(std::llround(v * s), dm, default_style(), d_.decimal_point_required));
       ++o.inserted;
@@ -192,7 +207,16 @@ WordWriter::Outcome WordWriter::rewrite(const Block& b, const Motion& m, gcode::
       o = {false, column_of(w), "an incremental word needs a correction but the position before it is unknown", 0, 0};
       return o;
     }
-    const double v = inc ? pv - held : pv;
+    double v = inc ? pv - held : pv;
+    if (!inc && gcode::is_rotary(a) && d_.rollover[static_cast<std::size_t>(a)] != gcode::RotaryRollover::off) {
+      // The controller reads the word within the turn from where it stands (the written start);
+      // before the axis is known, the reader counts from 0° (the interpreter's convention: only
+      // the position within the turn is fixed then).
+      const double from = have_start ? held : 0.0;
+      const auto rw = gcode::rollover_word(d_.rollover[static_cast<std::size_t>(a)], pv, from, w.whole ? pv : w.number);
+      if (!rw) return {false, column_of(w), rollover_refusal(a, pv, from), 0, 0};
+      v = *rw;
+    }
     const std::int64_t want = std::llround(v * s);
     std::int64_t old = 0;
     const bool exact = gcode::literal_counts(text, dec - implied, old);
@@ -256,7 +280,7 @@ WordWriter::Outcome WordWriter::rewrite(const Block& b, const Motion& m, gcode::
   return o;
 }
 
-std::string WordWriter::segment_line(const Block& b, const Motion& m, gcode::AxisMask mask, const AxisVector& from,
+std::optional<std::string> WordWriter::segment_line(const Block& b, const Motion& m, gcode::AxisMask mask, const AxisVector& from,
                                      const Command& to, std::uint64_t g93_segments) {
   const std::string sep = b.raw.find_first_of(" \t") == std::string_view::npos ? "" : " ";
   std::string line;
@@ -273,7 +297,12 @@ std::string WordWriter::segment_line(const Block& b, const Motion& m, gcode::Axi
     const double pv = program_units(a, to.c[a], m);
     const double pf = program_units(a, from[a], m);
     if (std::abs(pv - pf) < 1e-9 || std::llround(pv * s) == std::llround(pf * s)) continue;
-    const double v = track_.absolute ? pv : pv - pf;
+    double v = track_.absolute ? pv : pv - pf;
+    if (track_.absolute && gcode::is_rotary(a) && d_.rollover[static_cast<std::size_t>(a)] != gcode::RotaryRollover::off) {
+      const auto rw = gcode::rollover_word(d_.rollover[static_cast<std::size_t>(a)], pv, pf, pv);
+      if (!rw) return std::nullopt;
+      v = *rw;
+    }
     add(std::string(1, gcode::kAxisLetters[static_cast<std::size_t>(a)]) +
         gcode::format_counts(std::llround(v * s), dm, default_style(), d_.decimal_point_required));
   }

@@ -134,14 +134,18 @@ class WordWriter {
   Outcome rewrite(const gcode::Block& b, const gcode::Motion& m, gcode::AxisMask mask, const gcode::AxisVector& start,
                   gcode::AxisMask start_known, const Command& target, gcode::BlockEditor& ed,
                   std::uint64_t g93_segments = 0);
-  /// A new line continuing the block's motion from `from` to `to`.
-  std::string segment_line(const gcode::Block& b, const gcode::Motion& m, gcode::AxisMask mask,
-                           const gcode::AxisVector& from, const Command& to, std::uint64_t g93_segments);
+  /// A new line continuing the block's motion from `from` to `to`; nullopt when a rotary word
+  /// cannot be written under its axis's roll-over rule.
+  std::optional<std::string> segment_line(const gcode::Block& b, const gcode::Motion& m, gcode::AxisMask mask,
+                                          const gcode::AxisVector& from, const Command& to,
+                                          std::uint64_t g93_segments);
 
  private:
   /// The style of inserted words and new lines: plain, leading zero, trimmed trailing zeros.
   [[nodiscard]] static gcode::NumberStyle default_style() { return gcode::NumberStyle{false, true, 3, false, false}; }
   [[nodiscard]] bool vector_form(const gcode::Motion& m) const;
+  /// The refusal of a rotary word no roll-over word can express (PP-E6xx message text).
+  [[nodiscard]] std::string rollover_refusal(int a, double target, double from) const;
   const gcode::Dialect& d_;
   const machine::Machine& m_;
   const gcode::ModalTrack& track_;

@@ -325,6 +325,12 @@ std::optional<Machine> parse_machine(std::string file, std::string text, gcode::
       }
       Fields f(doc, *at, "axes." + key);
       AxisSettings s;
+      if (gcode::is_rotary(ax)) {
+        // Roll-over positioning of absolute words (docs/machine-file.md "Controller conventions").
+        static constexpr std::string_view kRollover[] = {"off", "shortest", "signed", "modulo"};
+        if (auto r = f.text("rollover", false, kRollover))
+          m.dialect_options.rollover[static_cast<std::size_t>(ax)] = *gcode::rollover_from_name(*r);
+      }
       read_axis(f, s, gcode::is_rotary(ax));
       m.axes[static_cast<std::size_t>(ax)] = s;
     }

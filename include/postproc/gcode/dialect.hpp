@@ -12,6 +12,8 @@
 #include <string_view>
 #include <vector>
 
+#include "postproc/gcode/rotary_rollover.hpp"
+
 namespace postproc::gcode {
 
 enum class DialectId : std::uint8_t { fanuc, siemens, linuxcnc, heidenhain_iso };
@@ -115,6 +117,8 @@ struct Dialect {
   /// The controller's tool table, where the machine file (or a tool table file) gives it: tool length
   /// offsets and cutter radii in mm, by H/D offset number (Fanuc, Siemens D) or tool number
   /// (LinuxCNC). A number missing here is unknown: a block whose position depends on it is refused.
+  /// Roll-over positioning per program axis (rotary axes only; off elsewhere).
+  std::array<RotaryRollover, 9> rollover{};
   std::map<std::uint32_t, double> tool_lengths;
   std::map<std::uint32_t, double> tool_radii;
   /// Motion mode at power-on: Fanuc G00 (or G01 with parameter 3402#0 G01=1); cancel_motion where
@@ -150,6 +154,7 @@ struct DialectOptions {
   /// Fanuc only: how whole numbers without a point are read; unknown = warn once (PP-U218).
   Dialect::IntegerInput integer_input = Dialect::IntegerInput::unknown;
   std::map<std::uint32_t, double> tool_lengths;  ///< mm, see Dialect::tool_lengths
+  std::array<RotaryRollover, 9> rollover{};       ///< see Dialect::rollover ([axes.C] rollover)
   std::map<std::uint32_t, double> tool_radii;    ///< mm, see Dialect::tool_radii
   /// Fanuc only: power-on motion mode, 0 = G00 (factory setting) or 1 = G01 (parameter 3402#0 G01).
   int power_on_motion = 0;
