@@ -6,8 +6,10 @@
 #include <fmt/format.h>
 
 #include "common.hpp"
+#include "postproc/io/signal_cleanup.hpp"
 
 int main(int argc, char** argv) {
+  postproc::io::install_signal_cleanup();
   CLI::App app{"postproc: read, check, rewrite and compensate NC programs through calibrated machine models"};
   app.set_version_flag("--version", std::string("postproc ") + POSTPROC_VERSION);
   app.require_subcommand(1);

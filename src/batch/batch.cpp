@@ -143,7 +143,7 @@ std::map<std::string, nlohmann::json> previous_entries(const fs::path& out_dir, 
     std::error_code ec;
     if (!fs::exists(p, ec)) continue;
     try {
-      const nlohmann::json j = nlohmann::json::parse(io::read_file(p.string(), "manifest"));
+      const nlohmann::json j = nlohmann::json::parse(io::read_state_file(p.string(), "manifest"));
       for (const nlohmann::json& e : j.at("files")) by_path.emplace(e.at("path").get<std::string>(), e);
     } catch (const std::exception& e) {
       notes.push_back(fmt::format("{}: earlier manifest not usable ({}); its files are compensated again", p.string(),
@@ -276,7 +276,7 @@ class Runner {
     std::error_code ec;
     if (out_sha.empty() || !fs::is_regular_file(out, ec)) return false;
     try {
-      if (machine::sha256_hex(io::read_file(out.string(), "output")) != out_sha) return false;
+      if (machine::sha256_hex(io::read_state_file(out.string(), "output")) != out_sha) return false;
     } catch (const Error&) {
       return false;
     }
