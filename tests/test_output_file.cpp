@@ -221,6 +221,9 @@ TEST(OutputFile, NoOutputOverAnyInputOfTheRunThroughLinks) {
   const std::string machine = dir.file("m.toml");
   write_file(machine, "[machine]\n");
   postproc::io::note_input(machine, "machine file");
+  EXPECT_EQ(code_of([&] { OutputFile out(machine); }), ExitCode::ok);  // no run under way: not noted
+  const postproc::io::RunInputs run;
+  postproc::io::note_input(machine, "machine file");
   fs::create_symlink(machine, dir.file("link.toml"));
   fs::create_hard_link(machine, dir.file("hard.toml"));
   for (const std::string& target : {machine, dir.file("link.toml"), dir.file("hard.toml")}) {

@@ -19,6 +19,7 @@
 #include "postproc/compensation/result_json.hpp"
 #include "postproc/error.hpp"
 #include "postproc/io/input_file.hpp"
+#include "postproc/io/input_guard.hpp"
 #include "postproc/io/output_file.hpp"
 #include "postproc/machine/machine.hpp"
 
@@ -403,6 +404,7 @@ std::vector<std::string> shard_files(const std::vector<std::string>& files, Shar
 
 BatchResult run_batch(const BatchOptions& opt, const FileDone& on_file) {
   const auto t0 = Clock::now();
+  const io::RunInputs run;  // no output of the batch over any program, subprogram or machine file it read
   std::error_code ec;
   if (!fs::is_directory(opt.job_dir, ec))
     throw Error(ExitCode::no_input, fmt::format("{}: not a folder (give the job folder to walk)", opt.job_dir.string()));

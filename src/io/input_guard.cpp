@@ -20,6 +20,7 @@ struct Noted {
 
 std::mutex g_lock;
 std::map<Identity, Noted> g_inputs;
+int g_runs = 0;
 
 bool identity(const std::string& path, Identity& id) {
   struct stat st {};
@@ -30,11 +31,21 @@ bool identity(const std::string& path, Identity& id) {
 
 }  // namespace
 
+RunInputs::RunInputs() {
+  const std::lock_guard<std::mutex> g(g_lock);
+  ++g_runs;
+}
+
+RunInputs::~RunInputs() {
+  const std::lock_guard<std::mutex> g(g_lock);
+  if (--g_runs == 0) g_inputs.clear();
+}
+
 void note_input(const std::string& path, std::string_view what) {
   Identity id;
   if (path.empty() || path == "-" || !identity(path, id)) return;
   const std::lock_guard<std::mutex> g(g_lock);
-  g_inputs.insert_or_assign(id, Noted{path, std::string(what)});
+  if (g_runs > 0) g_inputs.insert_or_assign(id, Noted{path, std::string(what)});
 }
 
 std::string input_at(const std::string& path) {
