@@ -189,6 +189,25 @@ for args in "compensate big.nc -m m.toml -o m.toml" "compensate big.nc -m m.toml
   [[ $rc == 64 ]] || fail "$args: exit $rc, expected 64"
   grep -q "PP-E901" run.err || fail "$args: no PP-E901 message: $(tail -1 run.err)"
 done
+# predict, diff and calibrate: reports and machine files over the machine, measurement and
+# --validate files.
+head -n 300 big.nc > small.nc
+echo M30 >> small.nc
+cp "$ROOT/samples/machines/hybrid_3prs_doc001_nominal.toml" nominal.toml
+cp "$ROOT/samples/measurements/hybrid_3prs_poses5.csv" p5.csv
+cp "$ROOT/samples/measurements/hybrid_3prs_poses6.csv" p6.csv
+cp "$ROOT/samples/measurements/hybrid_3prs_attitudes.csv" att.csv
+sha256sum small.nc nominal.toml p5.csv p6.csv att.csv >> inputs.sha
+for args in "predict small.nc -m m.toml --json m.toml" "diff small.nc small.nc -m m.toml --json link.toml" \
+  "calibrate -m nominal.toml p5.csv att.csv -o p5.csv" "calibrate -m nominal.toml p6.csv --validate p5.csv -o c.toml --report p5.csv" \
+  "calibrate -m nominal.toml p6.csv -o c.toml --report p6.csv"; do
+  # shellcheck disable=SC2086
+  "$P" $args > /dev/null 2> run.err
+  rc=$?
+  [[ $rc == 64 ]] || fail "$args: exit $rc, expected 64"
+  grep -q "PP-E901" run.err || fail "$args: no PP-E901 message: $(tail -1 run.err)"
+done
+[[ ! -e c.toml ]] || fail "a refused calibrate wrote c.toml"
 "$P" compensate big.nc -m m.toml -o x.nc --report x.nc > /dev/null 2> run.err
 [[ $? == 64 ]] && grep -q PP-E902 run.err || fail "two outputs on one file: not refused with PP-E902"
 [[ ! -e x.nc ]] || fail "a refused run wrote x.nc"
