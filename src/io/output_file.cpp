@@ -84,7 +84,9 @@ std::string target_key(const std::string& path) {
 }  // namespace
 
 OutputFile::OutputFile(std::string path, std::string_view input_path, bool allow_overwrite) : path_(std::move(path)) {
-  {
+  std::error_code dev_ec;
+  // A character device (/dev/null) may take several outputs: nothing there is replaced.
+  if (!fs::is_character_file(path_, dev_ec)) {
     const std::string key = target_key(path_);
     const std::lock_guard<std::mutex> g(g_open_lock);
     if (!g_open.insert(key).second)
