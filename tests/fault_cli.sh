@@ -24,6 +24,8 @@ cd "$T" || exit 1
 
 "$GEN" --blocks 60000 --out big.nc --dialect fanuc > /dev/null 2>&1 || { echo "cannot generate"; exit 1; }
 cp "$M" m.toml
+head -n 300 big.nc > small.nc
+echo M30 >> small.nc
 sums() { sha256sum big.nc m.toml; }
 sums > inputs.sha
 inputs_unchanged() { sha256sum --quiet -c inputs.sha > /dev/null 2>&1 || fail "$1: an input changed"; }
@@ -125,6 +127,12 @@ for cmd in convert compensate; do
   [[ ! -e out.json ]] || fail "$cmd on a full disk: the report was written although the program was not"
   [[ -z $(temporaries) ]] || fail "$cmd on a full disk: temporaries left: $(temporaries)"
 done
+# Standard output on a full device: exit 73, and no report for the program that was not written.
+rm -f out.json
+"$P" compensate small.nc -m m.toml -o - --report out.json > /dev/full 2> run.err
+rc=$?
+[[ $rc == 73 ]] || fail "compensate -o - > /dev/full: exit $rc, expected 73"
+[[ ! -e out.json ]] || fail "compensate -o - > /dev/full: the report was written although the program was not"
 # A read-only folder: exit 73, nothing written (root ignores folder modes: skipped then).
 mkdir ro && chmod 555 ro
 if ! touch ro/probe 2> /dev/null; then
@@ -191,8 +199,6 @@ for args in "compensate big.nc -m m.toml -o m.toml" "compensate big.nc -m m.toml
 done
 # predict, diff and calibrate: reports and machine files over the machine, measurement and
 # --validate files.
-head -n 300 big.nc > small.nc
-echo M30 >> small.nc
 cp "$ROOT/samples/machines/hybrid_3prs_doc001_nominal.toml" nominal.toml
 cp "$ROOT/samples/measurements/hybrid_3prs_poses5.csv" p5.csv
 cp "$ROOT/samples/measurements/hybrid_3prs_poses6.csv" p6.csv
