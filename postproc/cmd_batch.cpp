@@ -123,7 +123,9 @@ void run_merge(const BatchArgs& a, int& rc) {
     }
   }
   const nlohmann::json merged = batch::merge_manifests(shards, names);
-  write_text(out, "", merged.dump(2) + "\n");
+  OutputSet outputs;
+  outputs.add(out, merged.dump(2) + "\n");
+  outputs.commit();
   const auto& s = merged["summary"];
   std::string text = fmt::format("postproc: batch merge: {} manifests → {}: {}\n", names.size(), out, totals(s));
   if (!merged["complete"].get<bool>())

@@ -291,13 +291,13 @@ void run_calibrate(const CalibrateArgs& a, int& rc) {
   }
   io::OutputFile out(a.output, a.machine, a.in_place);
   out.write(out_text);
+  OutputSet outputs;
   for (const std::string& rp : a.reports) {
-    io::OutputFile rep(rp, a.machine, false);
     const bool html = rp.ends_with(".html") || rp.ends_with(".htm");
-    rep.write(html ? cal::report_html(run) : cal::report_json(run));
-    rep.commit();
+    outputs.add(rp, html ? cal::report_html(run) : cal::report_json(run));
   }
-  out.commit();
+  outputs.commit(&out);  // the machine file and its reports together, or none of them
+  note_backup_kept(out);
   printer.finish();
   std::fputs(fmt::format("postproc: wrote {}\n", a.output).c_str(), stderr);
   rc = 0;

@@ -110,17 +110,13 @@ void simulate_step_gauge_files(const SimulateArgs& a, const machine::Machine& m)
                           "uniform reading noise ±{} um, seed {}",
                           POSTPROC_VERSION, a.machine, m.sha256, a.noise_um, a.seed);
   const auto files = cal::simulate_step_gauge([&](const Eigen::Vector3d& p) { return *map.error(p); }, layouts, o);
+  OutputSet outputs;
   for (std::size_t i = 0; i < files.size(); ++i) {
     const std::string base = a.output + "_" + layouts[i].name;
-    io::OutputFile g(base + ".csv", a.machine, false);
-    g.write(files[i].gauge_csv);
-    g.commit();
-    if (!files[i].edge_csv.empty()) {
-      io::OutputFile e(base + "_edges.csv", a.machine, false);
-      e.write(files[i].edge_csv);
-      e.commit();
-    }
+    outputs.add(base + ".csv", files[i].gauge_csv);
+    if (!files[i].edge_csv.empty()) outputs.add(base + "_edges.csv", files[i].edge_csv);
   }
+  outputs.commit();
   std::fputs(fmt::format("postproc: wrote {} simulated step-gauge placements to {}_*.csv\n", files.size(), a.output).c_str(),
              stderr);
 }
@@ -160,12 +156,10 @@ void setup_calibrate_plan(CLI::App& calibrate, int& rc) {
     out.write(plan_csv(*m.nominal, r.joints,
                        fmt::format("{} poses for {} measurements of {} (sha256 {}), seed {}, {:.2f} s", r.joints.size(), a->kind,
                                    a->machine, m.sha256, a->seed, r.seconds)));
-    if (!a->program.empty()) {
-      io::OutputFile prog(a->program, a->machine, false);
-      prog.write(cal::plan_program(m, r.joints, fmt::format("calibration poses for {}", m.name)));
-      prog.commit();
-    }
-    out.commit();
+    OutputSet outputs;
+    if (!a->program.empty())
+      outputs.add(a->program, cal::plan_program(m, r.joints, fmt::format("calibration poses for {}", m.name)));
+    outputs.commit(&out);
     std::fputs(fmt::format("postproc: wrote {} poses to {}{}\n", r.joints.size(), a->output,
                            a->program.empty() ? "" : " and the program " + a->program)
                    .c_str(),

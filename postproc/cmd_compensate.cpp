@@ -179,8 +179,9 @@ void setup_compensate(CLI::App& app, int& rc) {
     printer.finish();
     const bool ok = !sink.has_errors();
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    OutputSet outputs;
     if (!o->report.empty()) {
-      write_text(o->report, o->input, report_json(*o, *machine, r, contour, seconds, ok, sink).dump(2) + "\n");
+      outputs.add(o->report, report_json(*o, *machine, r, contour, seconds, ok, sink).dump(2) + "\n");
     }
     if (!o->html.empty() && ok) {
       contour::ContourReport cr;
@@ -197,14 +198,16 @@ void setup_compensate(CLI::App& app, int& rc) {
       if (contour.simulated_before) cr.simulated_before = &*contour.simulated_before;
       if (contour.simulated_after) cr.simulated_after = &*contour.simulated_after;
       cr.fit_residual_mm = r.fit_residual_mm;
-      write_text(o->html, o->input, contour::report_html(cr));
+      outputs.add(o->html, contour::report_html(cr));
     }
     if (!ok) {
+      outputs.commit();  // the report of the refusal; the program is not written
       std::fputs(fmt::format("postproc: {}: refused; nothing was written\n", o->input).c_str(), stderr);
       rc = static_cast<int>(ExitCode::refused);
       return;
     }
-    out.commit();
+    outputs.commit(&out);  // the program and its reports together, or none of them
+    note_backup_kept(out);
     if (o->mode == "contour")
       std::fputs(fmt::format("postproc: {} blocks, {} moves, {} blocks changed ({} words changed, {} inserted); largest "
                              "correction {:.4f} mm / {:.5f} deg\n",

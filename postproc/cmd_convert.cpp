@@ -148,6 +148,7 @@ void setup_convert(CLI::App& app, int& rc) {
     }
     print_summary(o->opt, r);
     out.commit();
+    note_backup_kept(out);
     rc = 0;  // written; warnings (unresolved constructs) were printed but change nothing here
   });
 }

@@ -145,8 +145,9 @@ void setup_diff(CLI::App& app, int& rc) {
     }
     const bool with_machine = m.has_value();
     const auto worst = comp::worst_blocks(r, o->worst);
+    OutputSet outputs;
     if (!o->csv.empty()) {
-      write_text(o->csv, o->original, csv_of(r, with_machine));
+      outputs.add(o->csv, csv_of(r, with_machine));
     }
     const char* what = with_machine ? "tool-tip distance" : "linear-axis change";
     if (!o->json.empty()) {
@@ -182,7 +183,7 @@ void setup_diff(CLI::App& app, int& rc) {
         j["predicted"] = {{"original", prediction_json(pred->before)},
                           {"corrected", prediction_json(pred->after)},
                           {"fit_residual_um", pred->fit_residual_mm * 1000}};
-      write_text(o->json, o->original, j.dump(2) + "\n");
+      outputs.add(o->json, j.dump(2) + "\n");
     }
     if (!o->html.empty()) {
       comp::DiffReport rep;
@@ -202,8 +203,9 @@ void setup_diff(CLI::App& app, int& rc) {
         rep.predicted_before = &pred->before;
         rep.predicted_after = &pred->after;
       }
-      write_text(o->html, o->original, comp::diff_report_html(rep));
+      outputs.add(o->html, comp::diff_report_html(rep));
     }
+    outputs.commit();
     std::string s = fmt::format(
         "postproc: diff {} → {}: {} / {} motions, aligned {}, {} pairs ({} changed, {} unmatched)\n"
         "  {}: max {:.3f} µm, RMS {:.3f} µm, p95 {:.3f} µm\n",

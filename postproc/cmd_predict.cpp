@@ -113,9 +113,11 @@ void setup_predict(CLI::App& app, int& rc) {
     r.before = &p;
     r.fit_residual_mm = ref.max_fit_residual_mm();
     r.worst = o->worst;
-    if (!o->csv.empty()) write_text(o->csv, o->input, contour::report_csv(r));
-    if (!o->json.empty()) write_text(o->json, o->input, contour::report_json(r));
-    if (!o->html.empty()) write_text(o->html, o->input, contour::report_html(r));
+    OutputSet outputs;
+    if (!o->csv.empty()) outputs.add(o->csv, contour::report_csv(r));
+    if (!o->json.empty()) outputs.add(o->json, contour::report_json(r));
+    if (!o->html.empty()) outputs.add(o->html, contour::report_html(r));
+    outputs.commit();
     const auto line_of = [&](std::size_t i) { return l->path.points.empty() ? 0 : l->path.points[i].line; };
     std::fputs(fmt::format("postproc: {}: {} points on {} runs ({} feed moves, {} arcs as chords), {:.3f} s of cutting\n"
                            "  tool-tip contour error: max {:.3f} µm (line {}), RMS {:.3f} µm, p95 {:.3f} µm\n"
@@ -185,6 +187,7 @@ void setup_simulate(CLI::App& app, int& rc) {
     const contour::Simulation s = contour::simulate(l->path, ref, *l->machine.actual, so);
     bar.finish();
     const kin::Model& model = *l->machine.actual;
+    OutputSet outputs;
     if (!o->csv.empty()) {
       std::string csv = "t_s,run,line";
       for (const kin::Joint& j : model.joints()) csv += fmt::format(",{0}_command_{1},{0}_actual_{1}", j.name,
@@ -196,7 +199,7 @@ void setup_simulate(CLI::App& app, int& rc) {
         csv += fmt::format(",{:.9g},{:.9g},{:.9g},{:.6g},{:.6g}\n", x.tip.x(), x.tip.y(), x.tip.z(), x.tip_mm * kUm,
                            x.axis_rad * kArcsec);
       }
-      write_text(o->csv, o->input, csv);
+      outputs.add(o->csv, csv);
     }
     if (!o->json.empty()) {
       nlohmann::json j;
@@ -215,8 +218,9 @@ void setup_simulate(CLI::App& app, int& rc) {
         f[model.joints()[k].name] = {{"value", s.max_following[k]}, {"unit", joint_unit(model, k)}};
       j["max_following"] = f;
       j["fit_residual_um"] = ref.max_fit_residual_mm() * kUm;
-      write_text(o->json, o->input, j.dump(2) + "\n");
+      outputs.add(o->json, j.dump(2) + "\n");
     }
+    outputs.commit();
     std::fputs(fmt::format("postproc: {}: simulated {} periods of {} ms\n"
                            "  tool-tip contour error: max {:.3f} µm (line {}), RMS {:.3f} µm, p95 {:.3f} µm\n"
                            "  tool-axis contour error: max {:.2f} arcsec (line {}), RMS {:.2f} arcsec, p95 {:.2f} arcsec\n",

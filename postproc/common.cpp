@@ -131,10 +131,29 @@ machine::Machine load_or_refuse(const std::string& path, std::size_t per_code_li
   return std::move(*m);
 }
 
-void write_text(const std::string& path, const std::string& input, const std::string& text) {
-  io::OutputFile out(path, input, false);
-  out.write(text);
-  out.commit();
+void note_backup_kept(const io::OutputFile& out) {
+  if (out.backup_kept())
+    std::fputs(fmt::format("postproc: PP-W901 {}.bak already exists and was kept (it holds the original from an "
+                           "earlier --in-place run); remove it to keep this run's input as the backup instead\n",
+                           out.path())
+                   .c_str(),
+               stderr);
+}
+
+io::OutputFile& OutputSet::open(const std::string& path, const std::string& input, bool allow_overwrite) {
+  files_.push_back(std::make_unique<io::OutputFile>(path, input, allow_overwrite));
+  return *files_.back();
+}
+
+void OutputSet::add(const std::string& path, const std::string& text) {
+  open(path, "").write(text);
+}
+
+void OutputSet::commit(io::OutputFile* program) {
+  std::vector<io::OutputFile*> all;
+  if (program != nullptr) all.push_back(program);
+  for (const auto& f : files_) all.push_back(f.get());
+  io::OutputFile::commit_all(all);
 }
 
 }  // namespace postproc::cli

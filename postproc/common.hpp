@@ -1,6 +1,7 @@
 #pragma once
 // Shared CLI plumbing: dialect options, diagnostic printing, exit codes.
 #include <cstdio>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -10,6 +11,7 @@
 #include "postproc/gcode/dialect.hpp"
 #include "postproc/gcode/diagnostic.hpp"
 #include "postproc/gcode/resolve.hpp"
+#include "postproc/io/output_file.hpp"
 #include "postproc/machine/machine.hpp"
 
 namespace postproc::cli {
@@ -54,8 +56,24 @@ struct DiagnosticPrinter {
 /// refused" when it has errors.
 machine::Machine load_or_refuse(const std::string& path, std::size_t per_code_limit = 20);
 
-/// Writes a report (`text`) to `path` through a temporary file; never over `input`.
-void write_text(const std::string& path, const std::string& input, const std::string& text);
+/// The files one command writes (program, --report, --json, --html, --csv …): each is written to
+/// its temporary as soon as it is produced, and all are published together by commit(), so a full
+/// disk or a refused rename leaves every target as it was (io::OutputFile::commit_all).
+class OutputSet {
+ public:
+  /// Opens `path` (never over an input of the run) and writes `text`.
+  void add(const std::string& path, const std::string& text);
+  /// Opens an output the command writes itself.
+  io::OutputFile& open(const std::string& path, const std::string& input, bool allow_overwrite = false);
+  /// Publishes every output added, together with `program` when given.
+  void commit(io::OutputFile* program = nullptr);
+
+ private:
+  std::vector<std::unique_ptr<io::OutputFile>> files_;
+};
+
+/// After an --in-place run: says so when an existing NAME.bak (an earlier original) was kept.
+void note_backup_kept(const io::OutputFile& out);
 
 /// Exit code for a program given its diagnostics.
 ExitCode exit_code_for(const gcode::DiagnosticSink& sink);

@@ -6,8 +6,12 @@
 #include <fmt/format.h>
 
 #include "common.hpp"
+#include "postproc/io/input_guard.hpp"
+#include "postproc/io/signal_cleanup.hpp"
 
 int main(int argc, char** argv) {
+  postproc::io::install_signal_cleanup();
+  const postproc::io::RunInputs run;  // no output of this run over any of its inputs
   CLI::App app{"postproc: read, check, rewrite and compensate NC programs through calibrated machine models"};
   app.set_version_flag("--version", std::string("postproc ") + POSTPROC_VERSION);
   app.require_subcommand(1);

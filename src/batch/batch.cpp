@@ -19,6 +19,7 @@
 #include "postproc/compensation/result_json.hpp"
 #include "postproc/error.hpp"
 #include "postproc/io/input_file.hpp"
+#include "postproc/io/input_guard.hpp"
 #include "postproc/io/output_file.hpp"
 #include "postproc/machine/machine.hpp"
 
@@ -143,7 +144,7 @@ std::map<std::string, nlohmann::json> previous_entries(const fs::path& out_dir, 
     std::error_code ec;
     if (!fs::exists(p, ec)) continue;
     try {
-      const nlohmann::json j = nlohmann::json::parse(io::read_file(p.string(), "manifest"));
+      const nlohmann::json j = nlohmann::json::parse(io::read_state_file(p.string(), "manifest"));
       for (const nlohmann::json& e : j.at("files")) by_path.emplace(e.at("path").get<std::string>(), e);
     } catch (const std::exception& e) {
       notes.push_back(fmt::format("{}: earlier manifest not usable ({}); its files are compensated again", p.string(),
@@ -276,7 +277,7 @@ class Runner {
     std::error_code ec;
     if (out_sha.empty() || !fs::is_regular_file(out, ec)) return false;
     try {
-      if (machine::sha256_hex(io::read_file(out.string(), "output")) != out_sha) return false;
+      if (machine::sha256_hex(io::read_state_file(out.string(), "output")) != out_sha) return false;
     } catch (const Error&) {
       return false;
     }
@@ -403,6 +404,7 @@ std::vector<std::string> shard_files(const std::vector<std::string>& files, Shar
 
 BatchResult run_batch(const BatchOptions& opt, const FileDone& on_file) {
   const auto t0 = Clock::now();
+  const io::RunInputs run;  // no output of the batch over any program, subprogram or machine file it read
   std::error_code ec;
   if (!fs::is_directory(opt.job_dir, ec))
     throw Error(ExitCode::no_input, fmt::format("{}: not a folder (give the job folder to walk)", opt.job_dir.string()));

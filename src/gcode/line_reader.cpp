@@ -7,6 +7,7 @@
 #include <fmt/format.h>
 
 #include "postproc/error.hpp"
+#include "postproc/io/input_file.hpp"
 
 namespace postproc::gcode {
 
@@ -14,6 +15,7 @@ LineReader::LineReader(const std::string& path, std::size_t chunk) : path_(path)
   if (path == "-") {
     file_ = stdin;
   } else {
+    io::accept_input(path, "NC program");
     file_ = std::fopen(path.c_str(), "rb");
     if (file_ == nullptr)
       throw Error(ExitCode::no_input, fmt::format("{}: cannot open for reading: {}", path, std::strerror(errno)));

@@ -6,12 +6,15 @@
 
 #include <fmt/format.h>
 
+#include "postproc/io/input_file.hpp"
+
 #include "src/gcode/number_text.hpp"
 #include "src/gcode/text.hpp"
 
 namespace postproc::gcode {
 
 bool read_linuxcnc_tool_table(const std::string& path, DialectOptions& opt, DiagnosticSink& sink) {
+  io::accept_input(path, "tool table");
   std::ifstream in(path, std::ios::binary);
   auto fail = [&](std::uint64_t line, std::uint32_t col, std::uint32_t len, const std::string& text, std::string msg) {
     Diagnostic d;
