@@ -7,6 +7,7 @@
 #include <fmt/format.h>
 
 #include "common.hpp"
+#include "postproc/io/input_file.hpp"
 #include "postproc/gcode/detect.hpp"
 #include "postproc/gcode/program.hpp"
 #include "postproc/gcode/summary.hpp"
@@ -34,6 +35,7 @@ class Summarise final : public gcode::BlockVisitor {
 /// First bytes of a file, for dialect suggestions (stdin cannot be re-read: no suggestion there).
 std::string head_of(const std::string& path, std::size_t bytes = 1 << 18) {
   if (path == "-") return {};
+  io::check_input_kind(path, "NC program");  // a folder is exit 66 before any dialect question
   std::ifstream f(path, std::ios::binary);
   if (!f) throw Error(ExitCode::no_input, fmt::format("{}: cannot open for reading: {}", path, std::strerror(errno)));
   std::string s(bytes, '\0');

@@ -218,7 +218,7 @@ done
 [[ $? == 64 ]] && grep -q PP-E902 run.err || fail "two outputs on one file: not refused with PP-E902"
 [[ ! -e x.nc ]] || fail "a refused run wrote x.nc"
 mkdir d.nc
-for args in "check d.nc --dialect fanuc" "convert d.nc -o y.nc --dialect fanuc" "compensate d.nc -m m.toml -o y.nc" \
+for args in "check d.nc --dialect fanuc" "check d.nc" "convert d.nc -o y.nc --dialect fanuc" "compensate d.nc -m m.toml -o y.nc" \
   "compensate big.nc -m d.nc -o y.nc"; do
   # shellcheck disable=SC2086
   "$P" $args > /dev/null 2> run.err
