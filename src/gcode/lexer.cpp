@@ -2,6 +2,7 @@
 #include "postproc/gcode/lexer.hpp"
 
 #include <charconv>
+#include <cmath>
 #include <string>
 
 #include <fmt/format.h>
@@ -96,6 +97,18 @@ class Lexer {
       first_item = false;
       i = skip_space(next);
     }
+    // A literal beyond the range of a double reads as ±inf (number_text.hpp): refused here, at
+    // the word, rather than later as a word this dialect does not know.
+    // The word is dropped so that nothing later reads an infinite value.
+    std::erase_if(b_.words, [&](const Word& w) {
+      if (w.kind != ValueKind::number || std::isfinite(w.number)) return false;
+      out_of_range(w.value);
+      return true;
+    });
+    if (b_.has_n && !std::isfinite(b_.n_number)) {
+      out_of_range(b_.n_span);
+      b_.has_n = false;
+    }
     return ok_;
   }
 
@@ -109,6 +122,14 @@ class Lexer {
     if (static_cast<unsigned char>(c) < 32 || static_cast<unsigned char>(c) >= 127)
       return fmt::format("\\x{:02X}", static_cast<unsigned char>(c));
     return std::string(1, c);
+  }
+
+  void out_of_range(Span value) {
+    ok_ = false;
+    if (ctx_.sink)
+      report_at(ctx_, b_, value, Severity::error, "PP-E205",
+                fmt::format("the number '{}{}' is out of range (beyond ±1.8e308); correct the value",
+                            s_.substr(value.begin, std::min<std::uint32_t>(value.size(), 40)), value.size() > 40 ? "…" : ""));
   }
 
   void push_token(TokenKind k, Span span, Span name) { b_.tokens.push_back(Token{span, k, name}); }
@@ -250,17 +271,22 @@ class Lexer {
       buf[len++] = s_[k++];
       last = k;
     }
-    for (; k < n() && len < sizeof buf; ++k) {
+    bool full = false;
+    for (; k < n(); ++k) {
       const char c = s_[k];
       if (is_space(c)) continue;
       if (!is_digit(c) && c != '.') break;
+      if (len == sizeof buf) {
+        full = true;  // longer than any real value: read as a plain literal (out of range or exact)
+        break;
+      }
       buf[len++] = c;
       last = k + 1;
       digit = digit || is_digit(c);
     }
     bool point = false;
     double v = 0;
-    if (!digit || lex_number(std::string_view(buf, len), 0, false, v, &point) != len) {
+    if (full || !digit || lex_number(std::string_view(buf, len), 0, false, v, &point) != len) {
       // Not one number ("X1..2"): read what a plain literal gives, as without blanks.
       const std::uint32_t e = lex_number(s_, i, false, v, &point);
       if (e == i) return 0;
@@ -637,7 +663,7 @@ void report_at(const LexContext& ctx, const Block& block, Span span, Severity se
   d.file = std::string(ctx.file);
   d.where = {block.line, span.begin + 1};
   d.message = std::move(message);
-  d.source_line = std::string(block.raw);
+  set_source_line(d, block.raw);
   d.length = std::max<std::uint32_t>(1, span.size());
   ctx.sink->report(std::move(d));
 }
