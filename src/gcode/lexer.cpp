@@ -59,6 +59,13 @@ class Lexer {
     }
     bool first_item = true;
     while (i < n()) {
+      if (b_.words.size() + b_.tokens.size() >= kMaxBlockItems) {
+        // A real block has a few dozen words: a huge line of them (a program without line ends)
+        // is refused once, here, rather than lexed into gigabytes of words and diagnostics.
+        bad(i, "PP-E110", fmt::format("the block has more than {} words and statements", kMaxBlockItems),
+            "a block holds one line of the program; check its line ends");
+        return false;
+      }
       const char c = s_[i];
       std::uint32_t next = 0;
       if (is_alpha(c) && !d_.multi_letter_identifiers) {
