@@ -344,6 +344,7 @@ Value Runner::eval(const LinePlan& p, std::int32_t idx) {
         case Fn::bcd: {  // binary → BCD
           std::int64_t v = to_int(a), out = 0;
           if (v < 0) arith_error("BCD of a negative value", n.span);
+          if (v >= 1'000'000'000'000'000) arith_error("BCD of a value with more than 15 digits (beyond a 64-bit BCD word)", n.span);
           for (int shift = 0; v > 0; shift += 4, v /= 10) out |= (v % 10) << shift;
           return {static_cast<double>(out), false};
         }
