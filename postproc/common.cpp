@@ -107,12 +107,23 @@ void add_resolve_options(CLI::App& cmd, ResolveArgs& a) {
       ->allow_extra_args(false)
       ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll)
       ->check(CLI::ExistingDirectory);
+  cmd.add_option("--max-silent-lines", a.max_silent_lines,
+                 "programs with parameters: lines executed in a row without writing a block at most, before the run is "
+                 "refused as an endless loop (PP-E705)")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  cmd.add_option("--max-array-elements", a.max_array_elements,
+                 "Sinumerik programs: elements of all DEF arrays alive at once at most (PP-E714)")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
 }
 
 gcode::ResolveOptions make_resolve_options(const ResolveArgs& a) {
   gcode::ResolveOptions o;
   for (const std::string& s : a.set) o.set.insert(gcode::parse_setting(s));
   o.search_dirs = a.subprogram_dirs;
+  o.max_silent_lines = a.max_silent_lines;
+  o.max_array_elements = a.max_array_elements;
   return o;
 }
 

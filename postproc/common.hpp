@@ -37,6 +37,8 @@ gcode::Dialect make_dialect(const DialectArgs& a);
 struct ResolveArgs {
   std::vector<std::string> set;
   std::vector<std::string> subprogram_dirs;
+  std::uint64_t max_silent_lines = gcode::ResolveOptions{}.max_silent_lines;
+  std::uint64_t max_array_elements = gcode::ResolveOptions{}.max_array_elements;
 };
 void add_resolve_options(CLI::App& cmd, ResolveArgs& a);
 /// Parses the --set values; throws Error(usage) on a malformed one.

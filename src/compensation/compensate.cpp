@@ -123,7 +123,7 @@ bool refuse_recompensation(std::string_view line, std::uint64_t line_no, std::st
       "applies the corrections a second time; compensate the original program, or give --allow-recompensation if "
       "a second compensation is intended",
       machine);
-  d.source_line = std::string(line);
+  gcode::set_source_line(d, line);
   d.length = static_cast<std::uint32_t>(line.size() - at);
   sink.report(std::move(d));
   return true;

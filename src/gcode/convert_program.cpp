@@ -44,8 +44,8 @@ ConvertResult convert_program(std::string_view text, std::string_view file, cons
     d.code = std::string(codes::kUnitsRefused);
     d.file = std::string(file);
     d.where = {first, 1};
-    d.source_line = std::string(line_of(text, first));
-    d.length = static_cast<std::uint32_t>(std::max<std::size_t>(1, d.source_line.size()));
+    set_source_line(d, line_of(text, first));
+    d.length = static_cast<std::uint32_t>(std::max<std::size_t>(1, line_of(text, first).size()));
     d.message =
         "--units refused: the program uses parameters, expressions, subprograms or control flow (first here); lengths "
         "held in parameters and on lines this run does not reach cannot be converted exactly: give --flatten to "

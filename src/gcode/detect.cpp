@@ -58,9 +58,11 @@ bool after_o_word(std::string_view before, const Marker& m) {
 std::optional<DialectGuess> guess_dialect(std::string_view text, std::size_t max_lines) {
   std::size_t start = 0;
   for (std::size_t ln = 1; ln <= max_lines && start < text.size(); ++ln) {
-    std::size_t end = text.find('\n', start);
+    // Lines end in LF, CR LF or a lone CR (old Mac and some DNC tools): as LineReader reads them.
+    std::size_t end = text.find_first_of("\r\n", start);
     if (end == std::string_view::npos) end = text.size();
     const std::string_view line = text.substr(start, end - start);
+    if (end + 1 < text.size() && text[end] == '\r' && text[end + 1] == '\n') ++end;
     for (const Marker& m : kMarkers) {
       // Markers inside ( ) comments say nothing about the dialect: "(ROUGH SUB-PROGRAM)".
       const std::size_t last = m.at_line_start ? 0 : line.size();

@@ -2,6 +2,7 @@
 #include "postproc/gcode/lexer.hpp"
 
 #include <charconv>
+#include <cmath>
 #include <string>
 
 #include <fmt/format.h>
@@ -57,7 +58,16 @@ class Lexer {
       i = skip_space(j);
     }
     bool first_item = true;
+    // Only a line of more than kMaxBlockItems bytes can hold that many items (each takes a byte).
+    const bool long_line = n() > kMaxBlockItems;
     while (i < n()) {
+      if (long_line && b_.words.size() + b_.tokens.size() >= kMaxBlockItems) {
+        // A real block has a few dozen words: a huge line of them (a program without line ends)
+        // is refused once, here, rather than lexed into gigabytes of words and diagnostics.
+        bad(i, "PP-E110", fmt::format("the block has more than {} words and statements", kMaxBlockItems),
+            "a block holds one line of the program; check its line ends");
+        return false;
+      }
       const char c = s_[i];
       std::uint32_t next = 0;
       if (is_alpha(c) && !d_.multi_letter_identifiers) {
@@ -96,6 +106,7 @@ class Lexer {
       first_item = false;
       i = skip_space(next);
     }
+    if (long_literal_) refuse_infinite_literals();
     return ok_;
   }
 
@@ -109,6 +120,35 @@ class Lexer {
     if (static_cast<unsigned char>(c) < 32 || static_cast<unsigned char>(c) >= 127)
       return fmt::format("\\x{:02X}", static_cast<unsigned char>(c));
     return std::string(1, c);
+  }
+
+  /// A literal of more than 15 characters may have more than 15 digits, the only case that can
+  /// read as ±inf (number_text.hpp): the block is checked for them at its end (not every block:
+  /// the lexer's fast path stays as it was).
+  void note_literal(std::uint32_t b, std::uint32_t e) {
+    if (e > b + 15) long_literal_ = true;
+  }
+
+  /// A literal beyond the range of a double is refused at its word (PP-E205) rather than later
+  /// as a word this dialect does not know; the word is dropped so that nothing reads ±inf.
+  void refuse_infinite_literals() {
+    std::erase_if(b_.words, [&](const Word& w) {
+      if (w.kind != ValueKind::number || std::isfinite(w.number)) return false;
+      out_of_range(w.value);
+      return true;
+    });
+    if (b_.has_n && !std::isfinite(b_.n_number)) {
+      out_of_range(b_.n_span);
+      b_.has_n = false;
+    }
+  }
+
+  void out_of_range(Span value) {
+    ok_ = false;
+    if (ctx_.sink)
+      report_at(ctx_, b_, value, Severity::error, "PP-E205",
+                fmt::format("the number '{}{}' is out of range (beyond ±1.8e308); correct the value",
+                            s_.substr(value.begin, std::min<std::uint32_t>(value.size(), 40)), value.size() > 40 ? "…" : ""));
   }
 
   void push_token(TokenKind k, Span span, Span name) { b_.tokens.push_back(Token{span, k, name}); }
@@ -208,6 +248,7 @@ class Lexer {
     if (d_.id == DialectId::fanuc) return fanuc_spaced_number(j, w);
     bool point = false;
     const std::uint32_t e = lex_number(s_, j, d_.spaces_inside_words, w.number, &point);
+    note_literal(j, e);
     w.whole = !point;
     if (e == j) return 0;
     w.kind = ValueKind::number;
@@ -250,19 +291,26 @@ class Lexer {
       buf[len++] = s_[k++];
       last = k;
     }
-    for (; k < n() && len < sizeof buf; ++k) {
+    bool full = false;
+    for (; k < n(); ++k) {
       const char c = s_[k];
       if (is_space(c)) continue;
       if (!is_digit(c) && c != '.') break;
+      if (len == sizeof buf) {
+        full = true;  // longer than any real value: read as a plain literal (out of range or exact)
+        break;
+      }
       buf[len++] = c;
       last = k + 1;
       digit = digit || is_digit(c);
     }
     bool point = false;
     double v = 0;
-    if (!digit || lex_number(std::string_view(buf, len), 0, false, v, &point) != len) {
+    note_literal(0, static_cast<std::uint32_t>(len));
+    if (full || !digit || lex_number(std::string_view(buf, len), 0, false, v, &point) != len) {
       // Not one number ("X1..2"): read what a plain literal gives, as without blanks.
       const std::uint32_t e = lex_number(s_, i, false, v, &point);
+      note_literal(i, e);
       if (e == i) return 0;
       w.kind = ValueKind::number;
       w.number = v;
@@ -334,6 +382,7 @@ class Lexer {
         double v = 0;
         bool point = false;
         const std::uint32_t e = lex_number(s_, i + 1, d_.spaces_inside_words, v, &point);
+        note_literal(i + 1, e);
         if (e != i + 1 && (e >= n() || (s_[e] != '.' && !is_digit(s_[e]))) && !fanuc_digits_follow(e)) {
           if (L == 'N' && first_item && !b_.has_n) {
             b_.has_n = true;
@@ -493,6 +542,7 @@ class Lexer {
       w.has_equals = true;
       w.value = {v, end};
       const std::string_view text = s_.substr(v, end - v);
+      note_literal(v, end);
       if (std::uint32_t ne = scan_number(text, 0, false); ne == text.size() && ne > 0 && parse_number(text, w.number)) {
         w.kind = ValueKind::number;
       } else if (text.size() > 3 && iequals(text.substr(0, 3), "AC(")) {
@@ -624,6 +674,7 @@ class Lexer {
   const LexContext& ctx_;
   std::string_view s_;
   bool ok_ = true;
+  bool long_literal_ = false;
 };
 
 }  // namespace
@@ -637,7 +688,7 @@ void report_at(const LexContext& ctx, const Block& block, Span span, Severity se
   d.file = std::string(ctx.file);
   d.where = {block.line, span.begin + 1};
   d.message = std::move(message);
-  d.source_line = std::string(block.raw);
+  set_source_line(d, block.raw);
   d.length = std::max<std::uint32_t>(1, span.size());
   ctx.sink->report(std::move(d));
 }

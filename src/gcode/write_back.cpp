@@ -238,7 +238,7 @@ WriteBackResult write_back(std::string_view source, std::string_view file, const
     diag.code = "PP-E711";
     diag.file = std::string(in_file);
     diag.where = {line, why.column};
-    diag.source_line = std::string(text);
+    set_source_line(diag, text);
     diag.length = why.length;
     diag.message = why.why + "; give --flatten to write the resolved program as literal moves instead";
     sink.report(std::move(diag));

@@ -42,15 +42,30 @@ struct Diagnostic {
   std::string message;      ///< what is wrong and what to do
   std::string source_line;  ///< the raw block text (no EOL) for the caret display
   std::uint32_t length = 1; ///< number of bytes to underline
+  /// A long line is kept as a window around the column (set_source_line): the bytes of the line
+  /// left out before `source_line`, and whether some are left out after it.
+  std::uint32_t source_offset = 0;
+  bool source_cut = false;
 };
+
+/// Bytes of a source line a diagnostic keeps at most (a window around its column).
+inline constexpr std::size_t kMaxSourceEcho = 240;
+/// Bytes of a diagnostic message kept at most (a message quoting a huge token is shortened).
+inline constexpr std::size_t kMaxMessage = 2000;
+
+/// Sets `d.source_line` to `line`, or for a line longer than kMaxSourceEcho to a window of it
+/// around `d.where.column` (never splitting a UTF-8 character). Set `d.where` first.
+void set_source_line(Diagnostic& d, std::string_view line);
 
 /// Formats `file:line:col: severity: code: message`, then the source line and a caret.
 [[nodiscard]] std::string format(const Diagnostic& d, bool with_source = true);
 
-/// Collects diagnostics; counts per severity; stops storing after `max_stored` (counts go on).
+/// Collects diagnostics; counts per severity; stops storing after `max_stored` or `max_stored_bytes`
+/// of text (counts go on; dropped() tells how many were not stored).
 class DiagnosticSink {
  public:
-  explicit DiagnosticSink(std::size_t max_stored = 1000) : max_stored_(max_stored) {}
+  explicit DiagnosticSink(std::size_t max_stored = 1000, std::size_t max_stored_bytes = std::size_t{16} << 20)
+      : max_stored_(max_stored), max_stored_bytes_(max_stored_bytes) {}
   void report(Diagnostic d);
   /// Called for every diagnostic as it arrives (e.g. to print while streaming). Optional.
   std::function<void(const Diagnostic&)> on_report;
@@ -64,6 +79,8 @@ class DiagnosticSink {
 
  private:
   std::size_t max_stored_;
+  std::size_t max_stored_bytes_;
+  std::size_t stored_bytes_ = 0;
   std::size_t counts_[3] = {0, 0, 0};
   std::size_t dropped_ = 0;
   std::vector<Diagnostic> stored_;

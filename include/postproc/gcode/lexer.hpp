@@ -11,6 +11,9 @@
 namespace postproc::gcode {
 
 /// Context for located diagnostics.
+/// Words and statements in one block at most (more: PP-E110, the rest of the line is not lexed).
+inline constexpr std::size_t kMaxBlockItems = 10'000;
+
 struct LexContext {
   std::string_view file;   ///< name shown in diagnostics
   DiagnosticSink* sink = nullptr;

@@ -48,8 +48,14 @@ struct ResolveOptions {
   /// Bytes of resolved program text at most (held in memory; an endless loop of long blocks would
   /// otherwise use gigabytes before the block limit): also PP-E705.
   std::uint64_t max_resolved_bytes = std::uint64_t{1} << 30;
+  /// Lines executed in a row without writing a block at most (statements and control flow only: a
+  /// loop that computes forever is refused in well under a second, PP-E705). A loop that comes
+  /// back to its head with nothing changed is refused at once whatever this limit.
+  std::uint64_t max_silent_lines = 2'000'000;
   /// Call depth at most (PP-E706).
   int max_call_depth = 64;
+  /// Siemens: elements of all DEF arrays alive at once at most (checked before allocating, PP-E714).
+  std::uint64_t max_array_elements = 10'000'000;
 };
 
 /// Where a resolved line came from: the chain of calls that reached it (outermost first).

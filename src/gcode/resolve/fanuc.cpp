@@ -89,7 +89,7 @@ std::optional<std::size_t> Runner::program_line(SourceFile& f, double number) {
     }
   }
   if (number < 0) return std::nullopt;
-  auto it = idx->find(static_cast<std::uint64_t>(number));
+  auto it = idx->find(saturate<std::uint64_t>(number));
   if (it == idx->end()) return std::nullopt;
   return it->second;
 }
@@ -98,7 +98,7 @@ std::optional<Runner::Target> Runner::find_program(double number) {
   if (auto l = program_line(*file_, number)) return Target{file_, *l};
   if (file_ != &files_.main())
     if (auto l = program_line(files_.main(), number)) return Target{&files_.main(), *l};
-  const auto n = static_cast<std::uint64_t>(number);
+  const auto n = saturate<std::uint64_t>(number);
   std::vector<std::string> names;
   // O5001, O5001.nc, 5001.nc, … in any letter case (FileSet::find compares case-insensitively): the
   // names a program is stored under when it is punched out of or loaded into the control's memory.
@@ -142,13 +142,13 @@ std::optional<std::size_t> Runner::find_end(SourceFile& f, std::size_t from, int
     if (l.find_first_of("EeDd") == std::string_view::npos) continue;
     LinePlan* p = plan(f, i);
     for (const Item& it : p->items) {
-      if ((it.kind == ItemKind::while_do || it.kind == ItemKind::do_loop) && static_cast<int>(it.number) == id)
+      if ((it.kind == ItemKind::while_do || it.kind == ItemKind::do_loop) && saturate<int>(it.number) == id)
         throw Failure{"PP-E708",
                       fmt::format("DO {} is opened again at line {} before its END {}: loops with the same number "
                                   "cannot nest; number nested loops 1, 2, 3",
                                   id, i + 1, id),
                       span};
-      if (it.kind == ItemKind::end_loop && static_cast<int>(it.number) == id) return i;
+      if (it.kind == ItemKind::end_loop && saturate<int>(it.number) == id) return i;
     }
   }
   throw Failure{"PP-E708", fmt::format("DO {} has no END {} after it in {}; add END {}", id, id, f.name(), id), span};
@@ -170,8 +170,8 @@ void Runner::call(bool macro, double program, int repeats, const Locals& args, c
     throw Failure{"PP-E704",
                   fmt::format("program O{:04d} is not in {} nor a file O{:04d}[.nc|.tap|…] or {:04d}.nc in the search folders ({}); "
                               "add the subprogram or its file",
-                              static_cast<std::uint64_t>(program), file_->name(), static_cast<std::uint64_t>(program),
-                              static_cast<std::uint64_t>(program), dirs.empty() ? "none" : dirs),
+                              saturate<std::uint64_t>(program), file_->name(), saturate<std::uint64_t>(program),
+                              saturate<std::uint64_t>(program), dirs.empty() ? "none" : dirs),
                   at.span};
   }
   out_.push_call(CallFrame{file_->name(), pc_ + 1, std::move(callee)});
@@ -187,11 +187,13 @@ void Runner::call(bool macro, double program, int repeats, const Locals& args, c
     locals_.push_back(args);
   }
   frames_.push_back(std::move(fr));
+  guard_.changed();
   file_ = t->file;
   pc_ = t->line;
 }
 
 void Runner::do_return(std::optional<double> to_n, Span span) {
+  guard_.changed();  // a return, or the next pass of a repeated call
   Frame& fr = frames_.back();
   if (!to_n && fr.repeats_left > 1) {
     --fr.repeats_left;
@@ -323,7 +325,7 @@ void Runner::step() {
         break;
       case ItemKind::while_do:
       case ItemKind::do_loop: {
-        const int id = static_cast<int>(it.number);
+        const int id = saturate<int>(it.number);
         if (!p.loop_end) p.loop_end = find_end(f, line, id, it.span);
         const bool again = !fr.loops.empty() && fr.loops.back().begin == line;
         const bool go = it.kind == ItemKind::do_loop || cond(p, it.e1);
@@ -338,7 +340,7 @@ void Runner::step() {
         break;
       }
       case ItemKind::end_loop: {
-        const int id = static_cast<int>(it.number);
+        const int id = saturate<int>(it.number);
         if (fr.loops.empty() || fr.loops.back().id != id || fr.loops.back().end != line)
           throw Failure{"PP-E708",
                         fr.loops.empty() || fr.loops.back().end == line
@@ -374,6 +376,7 @@ void Runner::step() {
   if (g67) {
     action_[*g67] = 1;
     modal_.reset();
+    guard_.changed();
   }
   const char* const call_code = g65 ? "G65" : g66 ? "G66" : "M98";
   if ((g65 && g66) || ((g65 || g66) && m98))
@@ -385,13 +388,13 @@ void Runner::step() {
     program = vals[*p_word];
     if (l_word) {
       if (std::isnan(vals[*l_word])) repeats = 1;
-      else repeats = static_cast<int>(std::llround(vals[*l_word]));
+      else repeats = saturate<int>(std::round(vals[*l_word]));
     }
     if (m98 && !l_word && !g65) {
       const Item& pw = p.items[*p_word];
       const std::string_view pt = pw.value.of(f.raw(line));
       if (pw.literal && pt.size() > 4 && program > 9999 && !find_program(program)) {
-        repeats = static_cast<int>(program / 10000);
+        repeats = saturate<int>(program / 10000);
         program = std::fmod(program, 10000);
         if (repeats == 0) repeats = 1;
       }
@@ -438,6 +441,7 @@ void Runner::step() {
     if (g66) {
       // The mode is set; the calls come after the moves of the blocks that follow.
       modal_ = ModalCall{program, repeats, args};
+      guard_.changed();
       modal_callee_ = callee;
     } else {
       next = Next::call;
@@ -602,10 +606,26 @@ void Runner::run() {
         }
         return;
       }
+      const SourceFile* const at_file = file_;
+      const std::size_t at = pc_, depth = frames_.size();
+      if (!guard_.step(out_.emitted())) {
+        report({0, static_cast<std::uint32_t>(std::max<std::size_t>(1, file_->raw(pc_).size()))}, Severity::error,
+               "PP-E705", guard_.silent_message());
+        return;
+      }
       try {
         step();
       } catch (const Failure& e) {
         fail(e);
+        return;
+      }
+      // Back to an earlier line of the same program level (END m, GOTO back): with nothing
+      // changed since the last time here, the loop never ends.
+      if (file_ == at_file && frames_.size() == depth && pc_ <= at &&
+          !guard_.back_jump(file_->index(), depth, pc_)) {
+        pc_ = at;
+        report({0, static_cast<std::uint32_t>(std::max<std::size_t>(1, file_->raw(pc_).size()))}, Severity::error,
+               "PP-E705", LoopGuard::no_progress_message());
         return;
       }
     }

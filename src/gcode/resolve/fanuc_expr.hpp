@@ -12,6 +12,7 @@
 #include <string>
 #include <unordered_map>
 #include <vector>
+#include "src/gcode/number_text.hpp"
 #include "src/gcode/text.hpp"
 #include "support.hpp"
 
@@ -44,6 +45,7 @@ struct Node {
   std::int32_t a = -1, b = -1;
   double num = 0;  // literal, or the variable number of Op::var
   Span span;       // in the line's raw text
+  std::uint16_t height = 1;  // of the subtree (the evaluator's recursion depth)
 };
 
 struct Value {
@@ -59,7 +61,7 @@ struct ExprPool {
 class Parser {
  public:
   Parser(std::string_view raw, std::uint32_t begin, std::uint32_t end, ExprPool& pool)
-      : s_(raw), i_(begin), end_(end), pool_(pool) {}
+      : s_(raw), i_(begin), end_(end), pool_(pool), base_(begin), limit_(end) {}
 
   std::uint32_t pos() const { return i_; }
   void skip() {
@@ -98,12 +100,14 @@ class Parser {
   /// A variable reference at '#'.
   std::int32_t variable() {
     const std::uint32_t start = i_;
+    const Nesting nest(depth_);
+    if (nest.too_deep()) too_deep(start);
     expect('#', "for a variable");
     skip();
     if (i_ < end_ && is_digit(s_[i_])) {
-      double n = 0;
-      while (i_ < end_ && is_digit(s_[i_])) n = n * 10 + (s_[i_++] - '0');
-      return add({Op::var, Fn::sin, -1, -1, n, {start, i_}});
+      const std::uint32_t digits = i_;
+      while (i_ < end_ && is_digit(s_[i_])) ++i_;
+      return add({Op::var, Fn::sin, -1, -1, literal(digits, i_), {start, i_}});
     }
     std::int32_t inner = -1;
     if (i_ < end_ && s_[i_] == '[') {
@@ -117,7 +121,20 @@ class Parser {
   }
 
  private:
+  [[noreturn]] void too_deep(std::uint32_t at) const { throw Failure{"PP-E712", too_deep_message(), {at, at + 1}}; }
+  /// The digits [b, e) as a number: exact to double precision, or refused when beyond its range.
+  double literal(std::uint32_t b, std::uint32_t e) const {
+    double v = 0;
+    if (lex_number(s_.substr(0, e), b, false, v) != e) fail("malformed number", b);
+    if (!std::isfinite(v))
+      throw Failure{"PP-E205", fmt::format("the number '{}' is out of range (beyond ±1.8e308)", s_.substr(b, std::min<std::uint32_t>(e - b, 40))), {b, e}};
+    return v;
+  }
   std::int32_t add(Node n) {
+    const auto h = [&](std::int32_t k) { return k < 0 ? 0 : pool_.nodes[static_cast<std::size_t>(k)].height; };
+    const int height = 1 + std::max(h(n.a), h(n.b));
+    if (height > kMaxExpressionDepth) too_deep(n.span.begin);
+    n.height = static_cast<std::uint16_t>(height);
     pool_.nodes.push_back(n);
     return static_cast<std::int32_t>(pool_.nodes.size() - 1);
   }
@@ -126,16 +143,22 @@ class Parser {
     return text::iequals(w, "EQ") || text::iequals(w, "NE") || text::iequals(w, "GT") || text::iequals(w, "GE") || text::iequals(w, "LT") || text::iequals(w, "LE");
   }
   /// True when [from, to) holds a comparison at bracket depth 0 (a condition).
-  bool has_relop(std::uint32_t from, std::uint32_t to) const {
-    int depth = 0;
+  /// Skips bracketed parts through the table of matching brackets, so that every nesting level
+  /// does not scan the text inside it again: linear in the length of the line.
+  bool has_relop(std::uint32_t from, std::uint32_t to) {
     for (std::uint32_t j = from; j < to;) {
       const char c = s_[j];
-      if (c == '[') ++depth;
-      if (c == ']' && --depth < 0) return false;
+      if (c == '[') {
+        const std::uint32_t close = close_of(j);
+        if (close >= to) return false;  // not closed here: nothing more at depth 0
+        j = close + 1;
+        continue;
+      }
+      if (c == ']') return false;
       if (is_alpha(c)) {
         std::uint32_t e = j;
         while (e < to && is_alpha(s_[e])) ++e;
-        if (depth == 0 && is_relop(s_.substr(j, e - j))) return true;
+        if (is_relop(s_.substr(j, e - j))) return true;
         j = e;
         continue;
       }
@@ -143,13 +166,25 @@ class Parser {
     }
     return false;
   }
-  std::uint32_t matching(std::uint32_t open) const {
-    int depth = 0;
-    for (std::uint32_t j = open; j < end_; ++j) {
-      if (s_[j] == '[') ++depth;
-      if (s_[j] == ']' && --depth == 0) return j;
+  /// The ']' matching the '[' at `open`, or end_ when it is not closed before end_.
+  std::uint32_t matching(std::uint32_t open) {
+    const std::uint32_t close = close_of(open);
+    return close < end_ ? close : end_;
+  }
+  /// Matching brackets of the whole range [base_, limit_), found in one pass on first use.
+  std::uint32_t close_of(std::uint32_t open) {
+    if (close_.empty()) {
+      close_.assign(limit_ - base_ + 1, limit_);
+      std::vector<std::uint32_t> stack;
+      for (std::uint32_t j = base_; j < limit_; ++j) {
+        if (s_[j] == '[') stack.push_back(j);
+        if (s_[j] == ']' && !stack.empty()) {
+          close_[stack.back() - base_] = j;
+          stack.pop_back();
+        }
+      }
     }
-    return end_;
+    return open >= base_ && open < limit_ ? close_[open - base_] : limit_;
   }
 
   std::int32_t bracket() {
@@ -227,6 +262,8 @@ class Parser {
   std::int32_t unary(bool logic) {
     const char c = peek();
     const std::uint32_t start = i_;
+    const Nesting nest(depth_);
+    if (nest.too_deep()) too_deep(start);
     if (c == '-') {
       ++i_;
       const std::int32_t a = unary(logic);
@@ -244,16 +281,14 @@ class Parser {
     if (c == '#') return variable();
     if (c == '[') return bracket();
     if (is_digit(c) || c == '.') {
-      double v = 0;
       bool digits = false;
-      while (i_ < end_ && is_digit(s_[i_])) { v = v * 10 + (s_[i_++] - '0'); digits = true; }
+      while (i_ < end_ && is_digit(s_[i_])) { ++i_; digits = true; }
       if (i_ < end_ && s_[i_] == '.') {
         ++i_;
-        double scale = 0.1;
-        while (i_ < end_ && is_digit(s_[i_])) { v += (s_[i_++] - '0') * scale; scale /= 10; digits = true; }
+        while (i_ < end_ && is_digit(s_[i_])) { ++i_; digits = true; }
       }
       if (!digits) fail("a lone '.' is not a number", start);
-      return add({Op::num, Fn::sin, -1, -1, v, {start, i_}});
+      return add({Op::num, Fn::sin, -1, -1, literal(start, i_), {start, i_}});
     }
     if (is_alpha(c)) {
       const std::string_view w = peek_word();
@@ -310,6 +345,9 @@ class Parser {
   std::string_view s_;
   std::uint32_t i_, end_;
   ExprPool& pool_;
+  std::uint32_t base_, limit_;
+  std::vector<std::uint32_t> close_;  // [open − base_] → its ']' (limit_ when unmatched)
+  int depth_ = 0;
 };
 
 }  // namespace postproc::gcode::resolver::fanuc_expr

@@ -122,6 +122,7 @@ class Runner {
   const ResolveOptions& opt_;
   DiagnosticSink& sink_;
   ResolvedProgram& r_;
+  LoopGuard guard_{opt_};
 
   std::vector<std::vector<std::unique_ptr<LinePlan>>> plans_;               // [file][line]
   std::vector<std::unique_ptr<std::unordered_map<std::uint64_t, std::size_t>>> programs_;  // [file] O number → line

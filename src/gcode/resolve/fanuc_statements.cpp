@@ -230,14 +230,21 @@ Value Runner::read_var(double index, Span span) {
 void Runner::write_var(const LinePlan& p, double index, Value v, Span span) {
   const int n = var_number(index, span);
   if (n == 0) throw Failure{"PP-E703", "#0 is always vacant and cannot be assigned; assign another variable", span};
+  // A new value is progress for the loop guard (the same value written again is not).
+  const auto store = [&](Var& slot) {
+    const Var nv{v.vacant ? 0 : v.v, !v.vacant};
+    if (slot.v != nv.v || slot.set != nv.set) guard_.changed();
+    slot = nv;
+  };
   if (n <= 33) {
-    locals_.back()[static_cast<std::size_t>(n)] = {v.vacant ? 0 : v.v, !v.vacant};
+    store(locals_.back()[static_cast<std::size_t>(n)]);
     return;
   }
   if (n >= 100 && n <= 999) {
-    common_[static_cast<std::size_t>(n)] = {v.vacant ? 0 : v.v, !v.vacant};
+    store(common_[static_cast<std::size_t>(n)]);
     return;
   }
+  guard_.changed();
   if (n < 1000)
     throw Failure{"PP-E703", fmt::format("#{} is not a Fanuc Macro B variable (locals #1–#33, common #100–#499 and #500–#999)", n), span};
   if (n == 3000) {
@@ -269,10 +276,23 @@ void Runner::write_var(const LinePlan& p, double index, Value v, Span span) {
                 span};
 }
 
-std::int64_t to_int(double v) { return static_cast<std::int64_t>(std::llround(v)); }
-
 Value Runner::eval(const LinePlan& p, std::int32_t idx) {
   const Node& n = p.pool.nodes[static_cast<std::size_t>(idx)];
+  // Integer operands (MOD, AND/OR/XOR, BIN, BCD) must be exact integers of a 64-bit control word.
+  const auto to_int = [&](double v) {
+    if (!integer_range(v))
+      arith_error(fmt::format("'{}': the operand {} is too large for an integer operation (beyond ±2^53)",
+                              n.span.of(file_->raw(pc_)).substr(0, 60), format_value(v, 'P')),
+                  n.span);
+    return static_cast<std::int64_t>(std::llround(v));
+  };
+  // Overflow is an error at the expression that produced it, never an 'inf' word.
+  const auto finite = [&](double v, std::string_view what) -> Value {
+    if (!std::isfinite(v))
+      arith_error(fmt::format("'{}': the {} overflows (beyond ±1.8e308)", n.span.of(file_->raw(pc_)).substr(0, 60), what),
+                  n.span);
+    return {v, false};
+  };
   switch (n.op) {
     case Op::num: return {n.num, false};
     case Op::var: return read_var(n.num, n.span);
@@ -293,7 +313,7 @@ Value Runner::eval(const LinePlan& p, std::int32_t idx) {
         case Fn::tan: {
           const double c = std::cos(a * d2r);
           if (std::fabs(c) < 1e-12) arith_error(fmt::format("TAN[{}] is undefined (the angle is 90° + k·180°)", format_value(a, 'P')), n.span);
-          return {std::sin(a * d2r) / c, false};
+          return finite(std::sin(a * d2r) / c, "TAN");
         }
         case Fn::asin:
           if (a < -1 - 1e-12 || a > 1 + 1e-12) arith_error(fmt::format("ASIN[{}]: the argument must be from -1 to 1", format_value(a, 'P')), n.span);
@@ -324,6 +344,7 @@ Value Runner::eval(const LinePlan& p, std::int32_t idx) {
         case Fn::bcd: {  // binary → BCD
           std::int64_t v = to_int(a), out = 0;
           if (v < 0) arith_error("BCD of a negative value", n.span);
+          if (v >= 1'000'000'000'000'000) arith_error("BCD of a value with more than 15 digits (beyond a 64-bit BCD word)", n.span);
           for (int shift = 0; v > 0; shift += 4, v /= 10) out |= (v % 10) << shift;
           return {static_cast<double>(out), false};
         }
@@ -361,15 +382,16 @@ Value Runner::eval(const LinePlan& p, std::int32_t idx) {
     return std::fabs(a.v - b.v) <= 1e-12 * std::max({1.0, std::fabs(a.v), std::fabs(b.v)});
   };
   switch (n.op) {
-    case Op::add: return {a.v + b.v, false};
-    case Op::sub: return {a.v - b.v, false};
-    case Op::mul: return {a.v * b.v, false};
+    case Op::add: return finite(a.v + b.v, "sum");
+    case Op::sub: return finite(a.v - b.v, "difference");
+    case Op::mul: return finite(a.v * b.v, "product");
     case Op::div:
       if (b.v == 0) arith_error("division by zero", n.span);
-      return {a.v / b.v, false};
+      return finite(a.v / b.v, "quotient");
     case Op::mod: {
       const std::int64_t x = to_int(a.v), y = to_int(b.v);
       if (y == 0) arith_error("MOD by zero", n.span);
+      if (y == -1) return {0.0, false};  // x % -1 is 0 (and INT64_MIN % -1 would trap)
       return {static_cast<double>(x % y), false};
     }
     case Op::band: return {static_cast<double>(to_int(a.v) & to_int(b.v)), false};

@@ -130,7 +130,7 @@ class Machine {
       d.code = "PP-E709";
       d.file = main.name();
       d.where = {1, 1};
-      d.source_line = std::string(main.raw(0));
+      set_source_line(d, main.raw(0));
       d.message = fmt::format("the file only defines subroutines ({}…) and executes nothing; resolve the program that "
                               "calls them (this file is found next to it)",
                               subs_.begin()->first);
@@ -166,6 +166,10 @@ class Machine {
 
   void parse_error(SourceFile& f, std::size_t i, Span within, const ParseError& e) {
     const auto at = static_cast<std::uint32_t>(within.begin + std::min<std::size_t>(e.pos, within.size()));
+    if (e.code != "PP-E702") {  // a limit or range, not the syntax
+      f.report(i, Span{at, std::max(at + 1, within.end)}, Severity::error, e.code, e.what + context());
+      return;
+    }
     f.report(i, Span{at, std::max(at + 1, within.end)}, Severity::error, "PP-E702",
              fmt::format("{}; the expression cannot be evaluated (rs274ngc syntax: [ ] around expressions, "
                          "operators ** * / MOD + - EQ NE GT GE LT LE AND OR XOR){}",
@@ -486,13 +490,18 @@ class Machine {
     }
   }
 
+  /// Sets a named parameter; a new value (or a new name) is progress for the loop guard.
+  void store(std::unordered_map<int, double>& m, int id, double v) {
+    const auto [it, fresh] = m.try_emplace(id, v);
+    if (!fresh && it->second == v) return;
+    it->second = v;
+    guard_.changed();
+  }
+
   void assign(const Assign& a, double v, SourceFile& f, std::size_t i, Span span) {
     if (a.named) {
       const std::string& n = names_.name(a.name_id);
-      if (n[0] == '_')
-        globals_[a.name_id] = v;
-      else
-        frames_.back().locals[a.name_id] = v;
+      store(n[0] == '_' ? globals_ : frames_.back().locals, a.name_id, v);
       return;
     }
     const double idx = value(f, i, span, a.index);
@@ -502,6 +511,7 @@ class Machine {
       throw Stop{};
     }
     const int n = static_cast<int>(r);
+    if (numbered_[static_cast<std::size_t>(n)] != v) guard_.changed();
     numbered_[static_cast<std::size_t>(n)] = v;
     if (runtime_numbered(n)) set_numbered_.insert(n);
   }
@@ -510,10 +520,13 @@ class Machine {
   /// when it runs (LinuxCNC G-code "G38.x Straight Probe"): values the program set before are gone,
   /// so a later read is refused (PP-E701) unless --set gives it.
   void probe_results(const Line& l) {
+    const bool was = probing_;
     if (l.probe == Line::Probe::starts) probing_ = true;
     if (l.probe == Line::Probe::ends) probing_ = false;
+    if (probing_ != was) guard_.changed();
     if (!probing_ || (l.probe != Line::Probe::starts && !l.axis_words)) return;
     for (int n = 5061; n <= 5070; ++n) set_numbered_.erase(n);
+    guard_.changed();
   }
 
   // -- execute -------------------------------------------------------------------------------
@@ -528,6 +541,7 @@ class Machine {
     while (pc < to) {
       Line& l = line(f, pc);
       if (!l.ok) throw Stop{};
+      if (!guard_.step(out_.emitted())) endless(f, pc, guard_.silent_message());
       if (l.plain) {
         if (!out_.emit(f, pc, {})) runaway(f, pc);
         probe_results(l);
@@ -542,6 +556,8 @@ class Machine {
         Edit del{l.control_span, ""};
         if (f.raw(pc).find('(') != std::string_view::npos && !out_.emit(f, pc, std::span<const Edit>(&del, 1)))
           runaway(f, pc);
+        if (next <= pc && !guard_.back_jump(f.index(), frames_.size(), next))
+          endless(f, pc, LoopGuard::no_progress_message());
         pc = next;
         continue;
       }
@@ -586,6 +602,12 @@ class Machine {
     if (!written) (void)out_.emit(main, last - 1, {});
   }
 
+  [[noreturn]] void endless(SourceFile& f, std::size_t i, const std::string& why) {
+    f.report(i, Span{0, static_cast<std::uint32_t>(std::max<std::size_t>(1, f.raw(i).size()))}, Severity::error, "PP-E705",
+             why + context());
+    throw Stop{};
+  }
+
   [[noreturn]] void runaway(SourceFile& f, std::size_t i) {
     f.report(i, Span{0, static_cast<std::uint32_t>(f.raw(i).size())}, Severity::error, "PP-E705",
              fmt::format("the program executes {}: a loop that does not end?{}", runaway_limits(opt_), context()));
@@ -608,6 +630,7 @@ class Machine {
         if (!l.args.empty()) {
           globals_[names_.id("_value")] = value(f, i, l.control_span, l.args[0]);
           globals_[names_.id("_value_returned")] = 1;
+          guard_.changed();
         }
         return kReturn;
       case Kw::call: call(f, i, l); return i + 1;
@@ -635,7 +658,8 @@ class Machine {
       case Kw::repeat: {
         const double n = std::floor(value(f, i, l.control_span, l.args[0]));
         if (n < 1) return fi.end_of.at(i) + 1;
-        frames_.back().repeats[i] = static_cast<long>(n) - 1;
+        frames_.back().repeats[i] = saturate<long>(n) - 1;
+        guard_.changed();
         return i + 1;
       }
       case Kw::endrepeat: {
@@ -643,6 +667,7 @@ class Machine {
         long& left = frames_.back().repeats[s];
         if (left > 0) {
           --left;
+          guard_.changed();  // the pass count is state: a repeat with an empty body still ends
           return s + 1;
         }
         return i + 1;
@@ -752,6 +777,7 @@ class Machine {
     std::copy(numbered_.begin() + 1, numbered_.begin() + 31, fr.saved.begin() + 1);
     for (int k = 1; k <= 30; ++k) numbered_[static_cast<std::size_t>(k)] = k <= static_cast<int>(args.size()) ? args[static_cast<std::size_t>(k - 1)] : 0;
     frames_.push_back(std::move(fr));
+    guard_.changed();
     globals_[names_.id("_value_returned")] = 0;
     globals_[names_.id("_call_level")] = static_cast<double>(frames_.size() - 1);
     out_.push_call(CallFrame{f.name(), i + 1, l.oname + " call"});
@@ -767,6 +793,7 @@ class Machine {
   const ResolveOptions& opt_;
   DiagnosticSink& sink_;
   ResolvedProgram& r_;
+  LoopGuard guard_{opt_};
   Names names_;
   std::vector<double> numbered_;
   std::set<int> set_numbered_;

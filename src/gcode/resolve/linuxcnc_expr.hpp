@@ -12,6 +12,9 @@
 
 #include <fmt/format.h>
 
+#include "src/gcode/number_text.hpp"
+#include "src/gcode/resolve/support.hpp"
+
 namespace postproc::gcode::resolver::lcnc {
 
 // Expressions
@@ -41,6 +44,7 @@ void apply_operator(Op op, double* st, int& sp);
 struct ParseError {
   std::size_t pos;
   std::string what;
+  std::string code = "PP-E702";
 };
 
 /// Named parameters, interned: id → name (lower case, without #< >).
@@ -63,6 +67,8 @@ class Parser {
   Parser(std::string_view s, Names& names) : s_(s), names_(names) {}
   /// A real value: number, parameter, [expression], function, or a signed real value.
   void real_value(Code& c) {
+    const Nesting nest(depth_);
+    if (nest.too_deep()) throw ParseError{pos_, too_deep_message(), "PP-E712"};
     skip();
     if (pos_ >= s_.size()) fail("a value is missing");
     const char ch = s_[pos_];
@@ -164,9 +170,13 @@ class Parser {
   double number() {
     const std::size_t b = pos_;
     while (pos_ < s_.size() && (std::isdigit(static_cast<unsigned char>(s_[pos_])) || s_[pos_] == '.')) ++pos_;
-    const std::string t(s_.substr(b, pos_ - b));
-    if (t == "." || std::count(t.begin(), t.end(), '.') > 1) fail(fmt::format("'{}' is not a number", t));
-    return std::stod(t == "" ? "0" : t);
+    const std::string_view t = s_.substr(b, pos_ - b);
+    if (t.empty()) return 0;
+    double v = 0;
+    if (!parse_number(t, v)) fail(fmt::format("'{}' is not a number", t));
+    if (!std::isfinite(v))
+      throw ParseError{b, fmt::format("the number '{}' is out of range (beyond ±1.8e308)", t.substr(0, 40)), "PP-E205"};
+    return v;
   }
   int name() {
     expect('<');
@@ -239,6 +249,7 @@ class Parser {
   Names& names_;
   std::size_t pos_ = 0;
   std::size_t len_ = 0;
+  int depth_ = 0;
 };
 
 }  // namespace postproc::gcode::resolver::lcnc

@@ -7,9 +7,32 @@
 namespace postproc::gcode::resolver::lcnc {
 namespace {
 constexpr double kDeg = 3.14159265358979323846 / 180.0;
+
+std::string_view name_of(Op op) {
+  switch (op) {
+    case Op::add: return "sum";
+    case Op::sub: return "difference";
+    case Op::mul: return "product";
+    case Op::div: return "quotient";
+    case Op::pow: return "power (**)";
+    case Op::exp: return "EXP";
+    case Op::tan: return "TAN";
+    default: return "result";
+  }
+}
+
+void apply(Op op, double* st, int& sp);
 }  // namespace
 
 void apply_operator(Op op, double* st, int& sp) {
+  apply(op, st, sp);
+  // Overflow is an error at the expression, never an 'inf' word or a NaN in a comparison.
+  if (!std::isfinite(st[sp - 1]))
+    throw EvalError{"PP-E707", fmt::format("the {} overflows (beyond ±1.8e308)", name_of(op))};
+}
+
+namespace {
+void apply(Op op, double* st, int& sp) {
   if (op >= Op::abs) {
     double& x = st[sp - 1];
     switch (op) {
@@ -78,5 +101,7 @@ void apply_operator(Op op, double* st, int& sp) {
     default: break;
   }
 }
+
+}  // namespace
 
 }  // namespace postproc::gcode::resolver::lcnc

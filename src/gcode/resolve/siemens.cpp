@@ -87,6 +87,16 @@ double Siemens::eval(const Pool& p, std::uint32_t idx) {
     if (bad)
       throw Fail{"PP-E707", n.span, fmt::format("{} in '{}'; correct the values", what, n.span.of(cur_file_->raw(cur_line_)))};
   };
+  // Overflow is an error at the expression that produced it, never an 'inf' word.
+  auto finite = [&](double v, std::string_view what) {
+    domain(!std::isfinite(v), fmt::format("the {} overflows (beyond ±1.8e308)", what));
+    return v;
+  };
+  // Operands of DIV, B_AND, B_OR, B_XOR, B_NOT: exact integers of a 64-bit word.
+  auto integer = [&](double v) {
+    domain(!integer_range(std::trunc(v)), fmt::format("the operand {} is too large for an integer operation (beyond ±2^53)", v));
+    return static_cast<std::int64_t>(std::trunc(v));
+  };
   switch (n.op) {
     case Op::num: return n.num;
     case Op::rparam:
@@ -117,19 +127,19 @@ double Siemens::eval(const Pool& p, std::uint32_t idx) {
     }
     case Op::neg: return -kid(0);
     case Op::lnot: return kid(0) == 0 ? 1 : 0;
-    case Op::bnot: return static_cast<double>(~static_cast<std::int64_t>(std::trunc(kid(0))));
-    case Op::add: return kid(0) + kid(1);
-    case Op::sub: return kid(0) - kid(1);
-    case Op::mul: return kid(0) * kid(1);
+    case Op::bnot: return static_cast<double>(~integer(kid(0)));
+    case Op::add: return finite(kid(0) + kid(1), "sum");
+    case Op::sub: return finite(kid(0) - kid(1), "difference");
+    case Op::mul: return finite(kid(0) * kid(1), "product");
     case Op::div: {
       const double a = kid(0), b = kid(1);
       domain(b == 0, "division by zero");
-      return a / b;
+      return finite(a / b, "quotient");
     }
     case Op::idiv: {
       const double a = kid(0), b = kid(1);
       domain(b == 0, "division by zero");
-      return std::trunc(a / b);
+      return std::trunc(finite(a / b, "quotient"));
     }
     case Op::mod: {
       const double a = kid(0), b = kid(1);
@@ -145,9 +155,9 @@ double Siemens::eval(const Pool& p, std::uint32_t idx) {
     case Op::land: { const bool a = kid(0) != 0, b = kid(1) != 0; return a && b ? 1 : 0; }
     case Op::lor: { const bool a = kid(0) != 0, b = kid(1) != 0; return a || b ? 1 : 0; }
     case Op::lxor: { const bool a = kid(0) != 0, b = kid(1) != 0; return a != b ? 1 : 0; }
-    case Op::band: return static_cast<double>(static_cast<std::int64_t>(std::trunc(kid(0))) & static_cast<std::int64_t>(std::trunc(kid(1))));
-    case Op::bor: return static_cast<double>(static_cast<std::int64_t>(std::trunc(kid(0))) | static_cast<std::int64_t>(std::trunc(kid(1))));
-    case Op::bxor: return static_cast<double>(static_cast<std::int64_t>(std::trunc(kid(0))) ^ static_cast<std::int64_t>(std::trunc(kid(1))));
+    case Op::band: return static_cast<double>(integer(kid(0)) & integer(kid(1)));
+    case Op::bor: return static_cast<double>(integer(kid(0)) | integer(kid(1)));
+    case Op::bxor: return static_cast<double>(integer(kid(0)) ^ integer(kid(1)));
     case Op::func: {
       const double a = kid(0);
       const double rad = a * kPi / 180.0;
@@ -178,7 +188,12 @@ double Siemens::eval(const Pool& p, std::uint32_t idx) {
           break;
         }
       }
-      domain(!std::isfinite(v), "the result is not a finite number");
+      if (!std::isfinite(v)) {
+        std::string_view name = "the function";
+        for (const FnInfo& f : kFunctions)
+          if (f.fn == n.fn) name = f.name;
+        domain(true, fmt::format("{} overflows (beyond ±1.8e308)", name));
+      }
       if (std::fabs(v) < 1e-15) v = 0;
       return v;
     }
@@ -191,7 +206,9 @@ void Siemens::assign(const Pool& p, const Target& t, double v) {
     case Target::rconst:
     case Target::rindirect: {
       const int r = t.kind == Target::rconst ? t.r : to_index(eval(p, t.index[0]), p.nodes[t.index[0]].span);
-      *r_slot(r, t.span) = v;
+      double* slot = r_slot(r, t.span);
+      if (*slot != v) guard_.changed();  // a new value is progress for the loop guard
+      *slot = v;
       rstate_[static_cast<std::size_t>(r)] = 1;
       return;
     }
@@ -202,7 +219,9 @@ void Siemens::assign(const Pool& p, const Target& t, double v) {
       if (!numeric(var.type))
         throw Fail{"PP-E709", t.span, fmt::format("{} is a {} variable; the resolver evaluates only REAL, INT and BOOL values", t.name, type_name(var.type))};
       Node dummy;
-      *element(var, p, dummy, t.index.data(), t.index.size(), t.span) = convert(var.type, v);
+      double* slot = element(var, p, dummy, t.index.data(), t.index.size(), t.span);
+      if (*slot != convert(var.type, v)) guard_.changed();
+      *slot = convert(var.type, v);
       return;
     }
     case Target::sysvar:
@@ -211,6 +230,7 @@ void Siemens::assign(const Pool& p, const Target& t, double v) {
 }
 
 void Siemens::declare(Frame& fr, const Pool& p, const Decl& d) {
+  guard_.changed();
   for (const DeclVar& dv : d.vars) {
     if (fr.vars.count(dv.name))
       throw Fail{"PP-E702", dv.span, fmt::format("syntax error: '{}' is declared twice; remove one DEF", dv.name)};
@@ -219,11 +239,25 @@ void Siemens::declare(Frame& fr, const Pool& p, const Decl& d) {
     v.ndims = static_cast<std::uint8_t>(dv.dims.size());
     std::size_t size = 1;
     for (std::size_t k = 0; k < dv.dims.size(); ++k) {
-      const int n = to_index(eval(p, dv.dims[k]), p.nodes[dv.dims[k]].span);
+      const double dim = eval(p, dv.dims[k]);
+      if (dim > static_cast<double>(opt_.max_array_elements))
+        throw Fail{"PP-E714", p.nodes[dv.dims[k]].span,
+                   fmt::format("the array {} would have {} elements or more, more than {}, the limit of the resolver "
+                               "(--max-array-elements); declare a smaller array",
+                               dv.name, format_value(dim, 'P'), opt_.max_array_elements)};
+      const int n = to_index(dim, p.nodes[dv.dims[k]].span);
       if (n < 1) throw Fail{"PP-E702", dv.span, "syntax error: an array needs at least one element"};
       v.dims[k] = n;
-      size *= static_cast<std::size_t>(n);
+      size *= static_cast<std::size_t>(n);  // ≤ 1e6 per dimension, ≤ 3 dimensions: no overflow
     }
+    // Checked before allocating: an absurd DEF is a located refusal, not an out-of-memory failure.
+    if (size > opt_.max_array_elements || array_elements_ + size > opt_.max_array_elements)
+      throw Fail{"PP-E714", dv.span,
+                 fmt::format("the array {} has {} elements; with the arrays already declared that is more than {}, the "
+                             "limit of the resolver (--max-array-elements); declare a smaller array",
+                             dv.name, size, opt_.max_array_elements)};
+    array_elements_ += size;
+    fr.array_elements += size;
     v.own = std::make_shared<std::vector<double>>(size, 0.0);
     v.p = v.own->data();
     if (dv.rep) {
@@ -383,11 +417,13 @@ bool Siemens::push_call(Frame& caller, Line& L, const Call& c, SourceFile& targe
   }
   out_.push_call(CallFrame{f.name(), i + 1, c.name});
   frames_.push_back(std::move(fr));
+  guard_.changed();
   return true;
 }
 
 /// Leaves the current frame (RET, M17, end of file). False: the run ends.
 bool Siemens::do_return(bool) {
+  guard_.changed();  // a return, or the next pass of a repeated call
   Frame& fr = *frames_.back();
   if (fr.main) return false;
   if (fr.repeats_left > 0) {
@@ -397,8 +433,11 @@ bool Siemens::do_return(bool) {
     // Each pass starts with fresh local variables; VAR references stay bound to the caller's.
     fr.vars.clear();
     fr.for_end.clear();
+    array_elements_ -= fr.array_elements;
+    fr.array_elements = 0;
     return true;
   }
+  array_elements_ -= fr.array_elements;
   frames_.pop_back();
   out_.pop_call();
   ++frames_.back()->pc;
@@ -516,7 +555,7 @@ bool Siemens::step(Frame& fr, Line& L) {
       const double pv = L.p_expr ? eval(L.pool, *L.p_expr) : L.p_value;
       if (pv < 1 || pv != std::round(pv))
         throw Fail{"PP-E702", L.p_span, fmt::format("syntax error: the repeat count P{} must be a whole number ≥ 1", format_value(pv, 'P'))};
-      repeats = static_cast<int>(pv);
+      repeats = saturate<int>(pv);
       edits_.push_back({L.p_span, {}});
       ++dyn_deleted;
     }
@@ -588,6 +627,7 @@ bool Siemens::step(Frame& fr, Line& L) {
         const double to = eval(L.pool, L.for_to);
         assign(L.pool, L.for_var, from);
         fr.for_end[i] = to;
+        guard_.changed();
         if (from > to) next = partner(d) + 1;
         break;
       }
@@ -693,6 +733,17 @@ void Siemens::run() {
       continue;
     }
     Line& L = line(f, fr.pc);
+    const std::size_t at = fr.pc, depth = frames_.size();
+    const auto endless = [&](const std::string& why) {
+      cur_file_ = &f;
+      cur_line_ = at;
+      report(f, at, L, {0, static_cast<std::uint32_t>(std::max<std::size_t>(1, f.raw(at).size()))}, Severity::error,
+             "PP-E705", why);
+    };
+    if (!guard_.step(out_.emitted())) {
+      endless(guard_.silent_message());
+      return;
+    }
     if (L.trivial) {
       if (!out_.emit(f, fr.pc, {})) {
         cur_file_ = &f;
@@ -706,6 +757,13 @@ void Siemens::run() {
       continue;
     }
     if (!step(fr, L)) return;
+    // Back to an earlier line of the same call (ENDWHILE, ENDLOOP, UNTIL, GOTOB …): with nothing
+    // changed since the last time there, the loop never ends.
+    if (frames_.size() == depth && frames_.back().get() == &fr && fr.pc <= at &&
+        !guard_.back_jump(f.index(), depth, fr.pc)) {
+      endless(LoopGuard::no_progress_message());
+      return;
+    }
   }
 }
 

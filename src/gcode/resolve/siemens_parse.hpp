@@ -61,6 +61,7 @@ struct Node {
   int r = 0;                ///< R parameter number
   double num = 0;
   Span span;
+  std::uint16_t height = 1;  ///< of the subtree (the evaluator's recursion depth)
 };
 
 struct Pool {
@@ -147,7 +148,12 @@ class Parser {
   }
 
  private:
+  [[noreturn]] void too_deep(std::uint32_t at) const { throw Fail{"PP-E712", {at, at + 1}, too_deep_message()}; }
   std::uint32_t add(Node n) {
+    int height = 0;
+    for (std::uint32_t k = 0; k < n.count; ++k) height = std::max<int>(height, p_.nodes[p_.kids[n.first + k]].height);
+    if (height + 1 > kMaxExpressionDepth) too_deep(n.span.begin);
+    n.height = static_cast<std::uint16_t>(height + 1);
     p_.nodes.push_back(n);
     return static_cast<std::uint32_t>(p_.nodes.size() - 1);
   }
@@ -215,6 +221,8 @@ class Parser {
   }
   std::uint32_t unary() {
     const std::uint32_t at = pos();
+    const Nesting nest(depth_);
+    if (nest.too_deep()) too_deep(at);
     Op op;
     if (accept('-')) op = Op::neg;
     else if (accept('+')) return unary();
@@ -252,6 +260,8 @@ class Parser {
       i_ = b;
       fail_here("malformed number");
     }
+    if (!std::isfinite(v))
+      throw Fail{"PP-E205", {b, j}, fmt::format("the number '{}' is out of range (beyond ±1.8e308); correct the value", s_.substr(b, std::min<std::uint32_t>(j - b, 40)))};
     if (j < end_ && (is_alpha(s_[j]) || s_[j] == '_')) {
       i_ = j;
       fail_here("a number is directly followed by a name");
@@ -389,6 +399,7 @@ class Parser {
   std::string_view s_;
   std::uint32_t i_, end_;
   Pool& p_;
+  int depth_ = 0;
 };
 
 // ------------------------------------------------------------------------------------------------

@@ -60,6 +60,7 @@ struct Frame {
   std::size_t call_line = 0;
   std::unordered_map<std::string, Var> vars;
   std::unordered_map<std::size_t, double> for_end;
+  std::size_t array_elements = 0;  ///< of the DEF arrays of this frame (ResolveOptions::max_array_elements)
 };
 
 struct FileData {
@@ -129,8 +130,11 @@ class Siemens {
   }
   int to_index(double v, Span span) {
     const double r = std::round(v);
-    if (std::fabs(v - r) > 1e-9 || r < 0 || r > 1e6)
+    if (std::fabs(v - r) > 1e-9 || r < 0)
       throw Fail{"PP-E707", span, fmt::format("index {} is not a whole number ≥ 0; correct the index", format_value(v, 'X'))};
+    if (r > 1e6)
+      throw Fail{"PP-E707", span, fmt::format("index {} is beyond 1000000, the largest index or dimension the resolver "
+                                              "takes; correct the index", format_value(v, 'X'))};
     return static_cast<int>(r);
   }
 
@@ -170,6 +174,8 @@ class Siemens {
   SourceFile* cur_file_ = nullptr;
   std::size_t cur_line_ = 0;
   const Line* cur_L_ = nullptr;
+  std::size_t array_elements_ = 0;  ///< of all DEF arrays alive (frames on the stack)
+  LoopGuard guard_{opt_};
 };
 
 // ---- parsing ------------------------------------------------------------------------------------

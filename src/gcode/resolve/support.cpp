@@ -153,6 +153,33 @@ bool Emitter::emit(SourceFile& f, std::size_t line, std::span<const Edit> edits)
   return true;
 }
 
+bool LoopGuard::back_jump(std::uint32_t file, std::size_t depth, std::size_t target) {
+  const std::uint64_t key = (std::uint64_t{file} << 48) ^ (std::uint64_t{depth} << 40) ^ target;
+  const auto [it, fresh] = heads_.try_emplace(key, generation_);
+  if (fresh) return true;
+  const bool same = it->second == generation_;
+  it->second = generation_;
+  return !same;
+}
+
+std::string LoopGuard::silent_message() const {
+  return fmt::format("more than {} lines executed in a row without writing a block (ResolveOptions::max_silent_lines, "
+                     "--max-silent-lines): a loop that does not end? Check the loop's condition",
+                     max_silent_);
+}
+
+std::string LoopGuard::no_progress_message() {
+  return "the program comes back here with every variable, counter and call unchanged since it last came here: it "
+         "would repeat the same lines forever (an endless loop); check the loop's condition and that its body changes "
+         "the variable it tests";
+}
+
+std::string too_deep_message() {
+  return fmt::format("the expression nests deeper than {} levels (brackets, function calls, signs, indirect "
+                     "variables or a chain of operators); split it over several assignments",
+                     kMaxExpressionDepth);
+}
+
 std::string runaway_limits(const ResolveOptions& opt) {
   return fmt::format("more than {} blocks or {} MiB of resolved program", opt.max_blocks, opt.max_resolved_bytes >> 20);
 }

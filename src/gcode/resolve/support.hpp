@@ -3,12 +3,14 @@
 // lexed on demand, the emitter that writes the resolved program with its line and call-stack
 // maps, and number formatting.
 #include <cstdint>
+#include <limits>
 #include <map>
 #include <memory>
 #include <optional>
 #include <span>
 #include <string>
 #include <string_view>
+#include <unordered_map>
 #include <vector>
 
 #include "postproc/gcode/block.hpp"
@@ -91,10 +93,74 @@ class Emitter {
   std::string line_;
 };
 
+/// `v` converted to the integer type T, saturating at T's limits (NaN gives 0): a program value
+/// used as a count, an id or a program number never converts with undefined behaviour.
+template <class T>
+[[nodiscard]] T saturate(double v) {
+  if (!(v == v)) return T{0};
+  if (v <= static_cast<double>(std::numeric_limits<T>::min())) return std::numeric_limits<T>::min();
+  if (v >= static_cast<double>(std::numeric_limits<T>::max())) return std::numeric_limits<T>::max();
+  return static_cast<T>(v);
+}
+
+/// Endless-loop detection shared by the resolvers (PP-E705). The runner calls step() for every line
+/// it executes, changed() whenever its state changes (a variable takes a new value, a call or
+/// return, a loop counter moves) and back_jump() whenever control goes back to an earlier line of
+/// the same file and call level (a loop's next pass, a GOTO back).
+class LoopGuard {
+ public:
+  explicit LoopGuard(const ResolveOptions& opt) : max_silent_(opt.max_silent_lines) {}
+  /// One executed line; `emitted` = blocks written so far. False once more than
+  /// ResolveOptions::max_silent_lines lines ran in a row without writing a block.
+  [[nodiscard]] bool step(std::uint64_t emitted) {
+    if (emitted != last_emitted_) {
+      last_emitted_ = emitted;
+      silent_ = 0;
+    }
+    return ++silent_ <= max_silent_;
+  }
+  void changed() { ++generation_; }
+  /// False when the program comes back to line `target` of file `file` at call depth `depth` with
+  /// no state changed since it last came back there: the resolution is deterministic, so it would
+  /// run the same lines and write the same blocks forever.
+  [[nodiscard]] bool back_jump(std::uint32_t file, std::size_t depth, std::size_t target);
+  /// "N lines executed without writing a block" / the no-progress text, for PP-E705 messages.
+  [[nodiscard]] std::string silent_message() const;
+  [[nodiscard]] static std::string no_progress_message();
+
+ private:
+  std::uint64_t max_silent_;
+  std::uint64_t silent_ = 0, last_emitted_ = 0, generation_ = 0;
+  std::unordered_map<std::uint64_t, std::uint64_t> heads_;  // loop head → generation when last there
+};
+
 /// A value as the resolved text writes it: no exponent, up to 10 decimals, trailing zeros
 /// removed. Whole values keep a point for length/angle/feed letters (`X100.`: Fanuc would read
 /// `X100` as increments) and none for code letters (G M T H D N O P L E).
 [[nodiscard]] std::string format_value(double v, char letter);
+/// Expressions nest at most this deep (brackets, function calls, unary operators, indirect
+/// variables, operands of a chain of binary operators): deeper ones are refused (PP-E712) long
+/// before the parser's or the evaluator's recursion could exhaust the stack.
+inline constexpr int kMaxExpressionDepth = 256;
+/// The message of PP-E712.
+[[nodiscard]] std::string too_deep_message();
+/// Counts one level of expression nesting while alive (the parsers' recursion guard).
+class Nesting {
+ public:
+  explicit Nesting(int& depth) : depth_(++depth) {}
+  ~Nesting() { --depth_; }
+  Nesting(const Nesting&) = delete;
+  Nesting& operator=(const Nesting&) = delete;
+  [[nodiscard]] bool too_deep() const { return depth_ > kMaxExpressionDepth; }
+
+ private:
+  int& depth_;
+};
+
+/// True when `v` converts to a 64-bit integer exactly enough for the integer operators (MOD, DIV,
+/// bitwise AND/OR/XOR, BCD): finite and within ±2^53 (false for NaN).
+[[nodiscard]] inline bool integer_range(double v) { return v >= -9007199254740992.0 && v <= 9007199254740992.0; }
+
 /// "more than N blocks or M MiB of resolved program" (the limits of PP-E705).
 [[nodiscard]] std::string runaway_limits(const ResolveOptions& opt);
 
