@@ -11,6 +11,10 @@ set(POSTPROC_FUZZ_DIR "${CMAKE_CURRENT_LIST_DIR}" CACHE INTERNAL "fuzz/ director
 # Dialects with a pipeline target (fuzz_resolve.cpp): DialectId enumerators.
 set(POSTPROC_FUZZ_DIALECTS fanuc siemens linuxcnc heidenhain_iso CACHE INTERNAL "dialects of the resolve fuzz targets")
 
+# Data-file targets (fuzz_<kind>.cpp), each with its own seed corpus fuzz/corpus_<kind>/ and its
+# saved crashes in fuzz/crashes_<kind>/.
+set(POSTPROC_FUZZ_DATA_KINDS machine measurements CACHE INTERNAL "data-file fuzz targets")
+
 if(NOT TARGET postproc_fuzz_replay)
   add_executable(postproc_fuzz_replay
     "${POSTPROC_FUZZ_DIR}/replay_main.cpp"
@@ -30,6 +34,15 @@ if(NOT TARGET postproc_fuzz_replay)
       target_link_libraries(postproc_fuzz_replay_resolve_${_dialect} PRIVATE postproc_warnings)
     endif()
   endforeach()
+  # The replayers of the data-file targets: postproc_fuzz_replay_<kind>.
+  foreach(_kind IN LISTS POSTPROC_FUZZ_DATA_KINDS)
+    add_executable(postproc_fuzz_replay_${_kind} "${POSTPROC_FUZZ_DIR}/replay_main.cpp" "${POSTPROC_FUZZ_DIR}/fuzz_${_kind}.cpp")
+    target_compile_definitions(postproc_fuzz_replay_${_kind} PRIVATE POSTPROC_SAMPLES_DIR="${PROJECT_SOURCE_DIR}/samples")
+    target_link_libraries(postproc_fuzz_replay_${_kind} PRIVATE postproc::core)
+    if(TARGET postproc_warnings)
+      target_link_libraries(postproc_fuzz_replay_${_kind} PRIVATE postproc_warnings)
+    endif()
+  endforeach()
 endif()
 
 # Registers a test NAME that replays the seed corpus and every saved crash input through the
@@ -41,5 +54,9 @@ function(postproc_add_fuzz_replay_test name)
   foreach(_dialect IN LISTS POSTPROC_FUZZ_DIALECTS)
     add_test(NAME ${name}_resolve_${_dialect}
              COMMAND postproc_fuzz_replay_resolve_${_dialect} "${POSTPROC_FUZZ_DIR}/corpus" "${POSTPROC_FUZZ_DIR}/crashes")
+  endforeach()
+  foreach(_kind IN LISTS POSTPROC_FUZZ_DATA_KINDS)
+    add_test(NAME ${name}_${_kind}
+             COMMAND postproc_fuzz_replay_${_kind} "${POSTPROC_FUZZ_DIR}/corpus_${_kind}" "${POSTPROC_FUZZ_DIR}/crashes_${_kind}")
   endforeach()
 endfunction()
