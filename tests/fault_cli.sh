@@ -188,15 +188,22 @@ check_batch "batch on a full disk"
 #    on one file (PP-E902); a folder as input (exit 66, PP-E903).
 ln -s m.toml link.toml
 ln m.toml hard.toml
-for args in "compensate big.nc -m m.toml -o m.toml" "compensate big.nc -m m.toml -o x.nc --report m.toml" \
+# expect_refused RC CODE ARGS…: every run of postproc with one of the ARGS strings exits RC and
+# names CODE.
+expect_refused() {
+  local want=$1 code=$2 args rc
+  shift 2
+  for args in "$@"; do
+    # shellcheck disable=SC2086
+    "$P" $args > /dev/null 2> run.err
+    rc=$?
+    [[ $rc == "$want" ]] || fail "$args: exit $rc, expected $want"
+    grep -q "$code" run.err || fail "$args: no $code message: $(tail -1 run.err)"
+  done
+}
+expect_refused 64 PP-E901 "compensate big.nc -m m.toml -o m.toml" "compensate big.nc -m m.toml -o x.nc --report m.toml" \
   "compensate big.nc -m m.toml -o link.toml" "compensate big.nc -m m.toml -o hard.toml" \
-  "compensate big.nc -m m.toml -o x.nc --report big.nc"; do
-  # shellcheck disable=SC2086
-  "$P" $args > /dev/null 2> run.err
-  rc=$?
-  [[ $rc == 64 ]] || fail "$args: exit $rc, expected 64"
-  grep -q "PP-E901" run.err || fail "$args: no PP-E901 message: $(tail -1 run.err)"
-done
+  "compensate big.nc -m m.toml -o x.nc --report big.nc"
 # predict, diff and calibrate: reports and machine files over the machine, measurement and
 # --validate files.
 cp "$ROOT/samples/machines/hybrid_3prs_doc001_nominal.toml" nominal.toml
@@ -204,28 +211,16 @@ cp "$ROOT/samples/measurements/hybrid_3prs_poses5.csv" p5.csv
 cp "$ROOT/samples/measurements/hybrid_3prs_poses6.csv" p6.csv
 cp "$ROOT/samples/measurements/hybrid_3prs_attitudes.csv" att.csv
 sha256sum small.nc nominal.toml p5.csv p6.csv att.csv >> inputs.sha
-for args in "predict small.nc -m m.toml --json m.toml" "diff small.nc small.nc -m m.toml --json link.toml" \
+expect_refused 64 PP-E901 "predict small.nc -m m.toml --json m.toml" "diff small.nc small.nc -m m.toml --json link.toml" \
   "calibrate -m nominal.toml p5.csv att.csv -o p5.csv" "calibrate -m nominal.toml p6.csv --validate p5.csv -o c.toml --report p5.csv" \
-  "calibrate -m nominal.toml p6.csv -o c.toml --report p6.csv"; do
-  # shellcheck disable=SC2086
-  "$P" $args > /dev/null 2> run.err
-  rc=$?
-  [[ $rc == 64 ]] || fail "$args: exit $rc, expected 64"
-  grep -q "PP-E901" run.err || fail "$args: no PP-E901 message: $(tail -1 run.err)"
-done
+  "calibrate -m nominal.toml p6.csv -o c.toml --report p6.csv"
 [[ ! -e c.toml ]] || fail "a refused calibrate wrote c.toml"
 "$P" compensate big.nc -m m.toml -o x.nc --report x.nc > /dev/null 2> run.err
 [[ $? == 64 ]] && grep -q PP-E902 run.err || fail "two outputs on one file: not refused with PP-E902"
 [[ ! -e x.nc ]] || fail "a refused run wrote x.nc"
 mkdir d.nc
-for args in "check d.nc --dialect fanuc" "check d.nc" "convert d.nc -o y.nc --dialect fanuc" "compensate d.nc -m m.toml -o y.nc" \
-  "compensate big.nc -m d.nc -o y.nc"; do
-  # shellcheck disable=SC2086
-  "$P" $args > /dev/null 2> run.err
-  rc=$?
-  [[ $rc == 66 ]] || fail "$args: exit $rc, expected 66"
-  grep -q "PP-E903" run.err || fail "$args: no PP-E903 message"
-done
+expect_refused 66 PP-E903 "check d.nc --dialect fanuc" "check d.nc" "convert d.nc -o y.nc --dialect fanuc" \
+  "compensate d.nc -m m.toml -o y.nc" "compensate big.nc -m d.nc -o y.nc"
 inputs_unchanged "links and folders"
 
 # 7. --in-place twice: the first original stays the backup; the second run is refused (PP-E620).
