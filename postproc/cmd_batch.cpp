@@ -49,8 +49,10 @@ std::string file_line(const batch::FileResult& f, std::size_t done, std::size_t 
   std::string s = fmt::format("postproc: batch [{}/{}] {}: {}", done, total, f.path, f.status);
   if (f.status == "written" || f.status == "unchanged") {
     const auto& fig = f.figures;
-    s += fmt::format(" ({} blocks changed, largest correction {} mm", cell(num(fig, "counts", "changed_blocks"), 1, "{:.0f}"),
-                     cell(num(fig, "figures", "max_correction_mm"), 1, "{:.4f}"));
+    s += fmt::format(" ({} blocks changed, largest correction {} mm, tool axis {} mrad",
+                     cell(num(fig, "counts", "changed_blocks"), 1, "{:.0f}"),
+                     cell(num(fig, "figures", "max_correction_mm"), 1, "{:.4f}"),
+                     cell(num(fig, "figures", "max_axis_correction_rad"), 1e3, "{:.4f}"));
     if (contour)
       s += fmt::format(", contour {} → {} µm", cell(num(fig, "contour", "before_tip_um"), 1, "{:.3f}"),
                        cell(num(fig, "contour", "after_tip_um"), 1, "{:.3f}"));
@@ -66,8 +68,9 @@ std::string summary_table(const batch::BatchResult& r, bool contour) {
   std::size_t w = 4;
   for (const auto& f : r.files) w = std::max(w, f.path.size());
   w = std::min<std::size_t>(w, 60);
-  std::string s = fmt::format("{:<{}}  {:<9}  {:>9}  {:>9}  {:>15}  {:>16}  {:>14}", "file", w, "status", "blocks",
-                              "changed", "correction (mm)", "err before (mm)", "residual (mm)");
+  std::string s = fmt::format("{:<{}}  {:<9}  {:>9}  {:>9}  {:>15}  {:>16}  {:>14}  {:>18}  {:>16}", "file", w, "status",
+                              "blocks", "changed", "correction (mm)", "err before (mm)", "residual (mm)",
+                              "axis before (mrad)", "axis after (mrad)");
   if (contour) s += fmt::format("  {:>17}  {:>16}", "contour before (µm)", "contour after (µm)");
   s += fmt::format("  {:>8}\n", "time (s)");
   for (const auto& f : r.files) {
@@ -77,6 +80,10 @@ std::string summary_table(const batch::BatchResult& r, bool contour) {
                      cell(num(g, "figures", "max_correction_mm"), 1, "{:.4f}"),
                      cell(num(g, "figures", "max_error_before_mm"), 1, "{:.4f}"),
                      cell(num(g, "figures", "max_residual_after_mm"), 1, "{:.5f}"));
+    // Tool-axis error before and residual after on every machine kind (the reports hold degrees).
+    constexpr double kMradPerDeg = 1e3 * 3.14159265358979323846 / 180;
+    s += fmt::format("  {:>18}  {:>16}", cell(num(g, "figures", "max_error_before_deg"), kMradPerDeg, "{:.4f}"),
+                     cell(num(g, "figures", "max_residual_after_deg"), kMradPerDeg, "{:.5f}"));
     if (contour)
       s += fmt::format("  {:>18}  {:>17}", cell(num(g, "contour", "before_tip_um"), 1, "{:.3f}"),
                        cell(num(g, "contour", "after_tip_um"), 1, "{:.3f}"));
