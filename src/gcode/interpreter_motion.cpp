@@ -1,5 +1,5 @@
-// Modal interpreter, part 2: non-modal commands and motion geometry (targets, arcs). Drilling cycles:
-// interpreter_drill.cpp; polar words: interpreter_polar.cpp; Sinumerik arc forms: interpreter_siemens_arcs.cpp.
+// Modal interpreter, part 2: non-modal commands and motion geometry (arcs). End points of axis
+// words: interpreter_target.cpp; drilling cycles: interpreter_drill.cpp; polar words: interpreter_polar.cpp; Sinumerik arc forms: interpreter_siemens_arcs.cpp.
 #include <cmath>
 #include <numbers>
 
@@ -579,55 +579,6 @@ void Interpreter::do_motion(const Block& b, BlockWords& w, MotionSink& out_all) 
     s_.known &= static_cast<AxisMask>(~((1u << p.u) | (1u << p.v)));
     corner_angle_ = false;
   }
-}
-
-bool Interpreter::target(const Block& b, const BlockWords& w, Motion& m) {
-  m.start = s_.position;
-  m.programmed = w.axis_present;
-  m.frame = w.machine_frame ? Frame::machine : Frame::work;
-  for (int a = 0; a < kAxisCount; ++a) {
-    const AxisMask bitmask = static_cast<AxisMask>(1u << a);
-    if (!(w.axis_present & bitmask)) continue;
-    if (w.axis_unresolved & bitmask) {
-      s_.known &= static_cast<AxisMask>(~bitmask);
-      continue;
-    }
-    double v = to_mm(a, w.axis[a]);
-    if (a == 0 && s_.diameter_mode) v /= 2;  // X (and U) in diameter; centre words stay radius
-    const bool incremental =
-        (w.axis_incremental & bitmask) || (!s_.absolute && !(w.axis_absolute & bitmask) && !w.machine_frame);
-    const RotaryRollover roll = d_.rollover[static_cast<std::size_t>(a)];
-    if (incremental) {
-      s_.position[a] += v;  // unknown stays unknown
-    } else if (roll != RotaryRollover::off && !w.machine_frame) {
-      // A rotary axis that rolls over at a full turn ([axes.C] rollover): the word is a target
-      // within the turn, reached the way the controller's rule says; positions stay continuous.
-      if (d_.id == DialectId::linuxcnc && std::abs(v) >= 360.0) {
-        const int wi = w.axis_word[static_cast<std::size_t>(a)];
-        report(b, wi >= 0 ? b.words[static_cast<std::size_t>(wi)].span : Span{}, Severity::error,
-               codes::kControllerRefuses,
-               fmt::format("absolute position {:g} of wrapped rotary axis {}: LinuxCNC refuses values of a full turn or "
-                           "more on a WRAPPED_ROTARY axis; program the angle within ±360 (the sign gives the direction)",
-                           v, kAxisLetters[static_cast<std::size_t>(a)]));
-        return false;
-      }
-      // Where the controller stands is not known to us before the first absolute word: the
-      // target's position within the turn is all that the first move fixes.
-      s_.position[a] = (s_.known & bitmask) ? rollover_target(roll, v, s_.position[a]) : rollover_target(roll, v, 0.0);
-      s_.known |= bitmask;
-    } else {
-      s_.position[a] = v;
-      s_.known |= bitmask;
-    }
-  }
-  m.end = s_.position;
-  m.known = s_.known;
-  if (w.machine_frame) {
-    // Machine coordinates: the row carries them, but the work-frame position is now unknown.
-    m.known = w.axis_present & ~w.axis_unresolved;
-    s_.known &= static_cast<AxisMask>(~w.axis_present);
-  }
-  return true;
 }
 
 bool Interpreter::radii_agree(const Block& b, Span at, const Eigen::Vector2d& s, const Eigen::Vector2d& e,
