@@ -209,13 +209,14 @@ kin::Solve ProgramMap::hexapod_spin_consistent(const kin::Hexapod& nominal, cons
   // its spin rule, on its nominal model, from the written block. The real machine must put its
   // tip and axis at the goal (its own spin is free: ψ below) while the written block, read by
   // the controller's rule, gives exactly the struts q(ψ). So solve for ψ the one equation
-  // spin_of(nominal FK(q(ψ))) = 0, q(ψ) the actual model's closed-form inverse of (P, R(ψ)) —
+  // spin_of(nominal FK(q(ψ)), origin) = 0, q(ψ) the actual model's closed-form inverse of (P, R(ψ)) —
   // f(ψ) ≈ ψ + const, so the secant method converges in a few steps.
   const Eigen::Vector3d o = goal.axis();
   kin::IkOptions full;
   full.match = kin::PoseMatch::full;
   full.check_limits = false;
   kin::Pose seen = goal;
+  const Eigen::Matrix3d origin = nominal.spin_origin(start, goal);  // the controller's rule, once per block
   const auto spin_error = [&](double psi, kin::JointVector& qq, double& f) -> kin::Solve {
     kin::Pose want = goal;
     want.r = Eigen::AngleAxisd(psi, o).toRotationMatrix() * goal.r;
@@ -223,7 +224,7 @@ kin::Solve ProgramMap::hexapod_spin_consistent(const kin::Hexapod& nominal, cons
     kin::Pose p;
     if (auto s = nominal.forward(qq, p, seen); !s.ok()) return s;
     seen = p;
-    f = nominal.spin_of(p, start);
+    f = kin::Hexapod::spin_of(p, origin);
     return {};
   };
   double psi0 = 0, f0 = 0;

@@ -303,32 +303,34 @@ std::string_view to_string(HexapodSpin s) {
   return s == HexapodSpin::minimal_from_home ? "minimal-from-home" : "previous";
 }
 
-Eigen::Matrix3d Hexapod::spin_reference(const Eigen::Vector3d& axis, const JointVector& start,
-                                        const Eigen::Vector3d& near) const {
-  const Eigen::Vector3d o = axis.normalized();
-  const Eigen::Matrix3d r_home = tool_pose(home_).r;
-  const Eigen::Matrix3d from_home = Eigen::Quaterniond::FromTwoVectors(r_home.col(2), o).toRotationMatrix() * r_home;
-  if (cfg_.spin == HexapodSpin::minimal_from_home) return from_home;
-  // The previous block's orientation swung onto the new axis. FK of start is seeded with the
-  // home orientation swung the same way and `near` (start is normally the previous block, nearby).
-  Pose guess;
-  guess.p = near;
-  guess.r = from_home;
-  Pose at_start;
-  Solve fs = forward(start, at_start, guess);
-  if (!fs.ok()) fs = forward(start, at_start);
-  const Eigen::Matrix3d r0 = fs.ok() ? at_start.r : r_home;
-  return Eigen::Quaterniond::FromTwoVectors(r0.col(2), o).toRotationMatrix() * r0;
+Eigen::Matrix3d Hexapod::swing(const Eigen::Matrix3d& origin, const Eigen::Vector3d& axis) {
+  return Eigen::Quaterniond::FromTwoVectors(origin.col(2), axis.normalized()).toRotationMatrix() * origin;
 }
 
-double Hexapod::spin_of(const Pose& pose, const JointVector& start) const {
-  const Eigen::Matrix3d rel = spin_reference(pose.axis(), start, pose.p).transpose() * pose.r;  // about z
+Eigen::Matrix3d Hexapod::spin_origin(const JointVector& start, const Pose& near) const {
+  const Eigen::Matrix3d r_home = tool_pose(home_).r;
+  if (cfg_.spin == HexapodSpin::minimal_from_home) return r_home;
+  // The previous block's orientation: FK of start, seeded with `near` (start is normally the
+  // previous block, nearby); the home orientation when it fails.
+  Pose at_start;
+  Solve fs = forward(start, at_start, near);
+  if (!fs.ok()) fs = forward(start, at_start);
+  return fs.ok() ? at_start.r : r_home;
+}
+
+double Hexapod::spin_of(const Pose& pose, const Eigen::Matrix3d& origin) {
+  const Eigen::Matrix3d rel = swing(origin, pose.axis()).transpose() * pose.r;  // a rotation about z
   return std::atan2(rel(1, 0) - rel(0, 1), rel(0, 0) + rel(1, 1));
 }
 
 Solve Hexapod::inverse(const Pose& target, const JointVector& start, JointVector& q, const IkOptions& opt) const {
   Pose full = target;
-  if (opt.match == PoseMatch::point_and_axis) full.r = spin_reference(target.axis(), start, target.p);
+  if (opt.match == PoseMatch::point_and_axis) {
+    Pose near;  // seeds FK of start: the target point, the home orientation swung onto its axis
+    near.p = target.p;
+    near.r = swing(tool_pose(home_).r, target.axis());
+    full.r = swing(spin_origin(start, near), target.axis());
+  }
   const PlatformPose x = platform_pose(full);
   const StrutMatrix d = strut_vectors(x, base_, platform_);
   q.resize(kHexapodStruts);

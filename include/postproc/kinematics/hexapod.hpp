@@ -126,20 +126,19 @@ class Hexapod final : public Model {
   /// The same Jacobian at a known tool pose (no forward kinematics).
   [[nodiscard]] Jacobian jacobian_at(const Pose& pose) const;
   /// Closed-form inverse kinematics. PoseMatch::full uses target.r. PoseMatch::point_and_axis
-  /// leaves the rotation about the tool axis free and takes spin_reference(target axis, start). Status: unreachable when a joint-to-joint
+  /// leaves the rotation about the tool axis free and takes swing(spin_origin(start), target axis). Status: unreachable when a joint-to-joint
   /// distance is ≤ 1e-6 mm (strut direction undefined; joint = that strut); out_of_limits (values
   /// still returned) when a strut is outside its travel and opt.check_limits.
   [[nodiscard]] Solve inverse(const Pose& target, const JointVector& start, JointVector& q,
                               const IkOptions& opt = {}) const override;
-  /// The tool orientation (workpiece frame) the controller's spin rule (config().spin) gives a
-  /// tool axis `axis`: the home tool orientation, or under HexapodSpin::previous the tool
-  /// orientation at `start` (forward kinematics; home when it fails), turned by the smallest
-  /// rotation taking its axis onto `axis`. `near` (a tool tip near start's, e.g. the target)
-  /// seeds that forward kinematics.
-  [[nodiscard]] Eigen::Matrix3d spin_reference(const Eigen::Vector3d& axis, const JointVector& start,
-                                               const Eigen::Vector3d& near) const;
-  /// The signed rotation about the tool axis (rad) from the spin_reference of pose's axis to pose.
-  [[nodiscard]] double spin_of(const Pose& pose, const JointVector& start) const;
+  /// The orientation the controller's spin rule (config().spin) swings onto each new tool axis:
+  /// the home tool orientation, or under HexapodSpin::previous the tool orientation at `start`
+  /// (forward kinematics seeded with `near`; home when it fails). Workpiece frame.
+  [[nodiscard]] Eigen::Matrix3d spin_origin(const JointVector& start, const Pose& near) const;
+  /// `origin` turned by the smallest rotation taking its axis (column z) onto `axis`.
+  [[nodiscard]] static Eigen::Matrix3d swing(const Eigen::Matrix3d& origin, const Eigen::Vector3d& axis);
+  /// The signed rotation about the tool axis (rad) from swing(origin, pose's axis) to pose.
+  [[nodiscard]] static double spin_of(const Pose& pose, const Eigen::Matrix3d& origin);
   [[nodiscard]] std::shared_ptr<const Model> with_values(std::vector<double> values) const override;
   /// Rotation base frame → workpiece frame (constant).
   [[nodiscard]] Eigen::Matrix3d machine_to_workpiece(const JointVector& q) const override;
