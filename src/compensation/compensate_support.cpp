@@ -119,6 +119,13 @@ std::uint32_t column_of(const Word& w) { return w.span.begin + 1; }
 
 }  // namespace
 
+std::optional<double> WordWriter::absolute_word(int a, double target, double from, double like) const {
+  // The controller reads a rotary word that rolls over within the turn from where it stands (the
+  // written start); before the axis is known, the reader counts from 0° (the interpreter's
+  // convention). Every other word is the position itself (rollover_word of "off").
+  return gcode::rollover_word(d_.rollover[static_cast<std::size_t>(a)], target, from, like);
+}
+
 std::string WordWriter::rollover_refusal(int a, double target, double from) const {
   return fmt::format("the corrected rotary axis {} must move from {:.6f} to {:.6f} deg, which no absolute word reaches "
                      "under the controller's roll-over rule '{}' (docs/machine-file.md); check [axes.{}] rollover or "
@@ -167,11 +174,10 @@ WordWriter::Outcome WordWriter::rewrite(const Block& b, const Motion& m, gcode::
                                           gcode::kAxisLetters[static_cast<std::size_t>(a)]), 0, 0};
         return o;
       }
-      double v = track_.absolute ? pv : pv - held;
-      if (track_.absolute && gcode::is_rotary(a) && d_.rollover[static_cast<std::size_t>(a)] != gcode::RotaryRollover::off) {
-        const double from = have_start ? held : 0.0;
-        const auto rw = gcode::rollover_word(d_.rollover[static_cast<std::size_t>(a)], pv, from, pv);
-        if (!rw) return {false, m.column, rollover_refusal(a, pv, from), 0, 0};
+      double v = pv - held;
+      if (track_.absolute) {
+        const auto rw = absolute_word(a, pv, have_start ? held : 0.0, pv);
+        if (!rw) return {false, m.column, rollover_refusal(a, pv, have_start ? held : 0.0), 0, 0};
         v = *rw;
       }
       ed.insert_after(anchor, sep + std::string(1, gcode::kAxisLetters[static_cast<std::size_t>(a)]) +
@@ -207,14 +213,10 @@ WordWriter::Outcome WordWriter::rewrite(const Block& b, const Motion& m, gcode::
       o = {false, column_of(w), "an incremental word needs a correction but the position before it is unknown", 0, 0};
       return o;
     }
-    double v = inc ? pv - held : pv;
-    if (!inc && gcode::is_rotary(a) && d_.rollover[static_cast<std::size_t>(a)] != gcode::RotaryRollover::off) {
-      // The controller reads the word within the turn from where it stands (the written start);
-      // before the axis is known, the reader counts from 0° (the interpreter's convention: only
-      // the position within the turn is fixed then).
-      const double from = have_start ? held : 0.0;
-      const auto rw = gcode::rollover_word(d_.rollover[static_cast<std::size_t>(a)], pv, from, w.whole ? pv : w.number);
-      if (!rw) return {false, column_of(w), rollover_refusal(a, pv, from), 0, 0};
+    double v = pv - held;
+    if (!inc) {
+      const auto rw = absolute_word(a, pv, have_start ? held : 0.0, w.whole ? pv : w.number);
+      if (!rw) return {false, column_of(w), rollover_refusal(a, pv, have_start ? held : 0.0), 0, 0};
       v = *rw;
     }
     const std::int64_t want = std::llround(v * s);
@@ -297,9 +299,9 @@ std::optional<std::string> WordWriter::segment_line(const Block& b, const Motion
     const double pv = program_units(a, to.c[a], m);
     const double pf = program_units(a, from[a], m);
     if (std::abs(pv - pf) < 1e-9 || std::llround(pv * s) == std::llround(pf * s)) continue;
-    double v = track_.absolute ? pv : pv - pf;
-    if (track_.absolute && gcode::is_rotary(a) && d_.rollover[static_cast<std::size_t>(a)] != gcode::RotaryRollover::off) {
-      const auto rw = gcode::rollover_word(d_.rollover[static_cast<std::size_t>(a)], pv, pf, pv);
+    double v = pv - pf;
+    if (track_.absolute) {
+      const auto rw = absolute_word(a, pv, pf, pv);
       if (!rw) return std::nullopt;
       v = *rw;
     }

@@ -144,6 +144,10 @@ class WordWriter {
   /// The style of inserted words and new lines: plain, leading zero, trimmed trailing zeros.
   [[nodiscard]] static gcode::NumberStyle default_style() { return gcode::NumberStyle{false, true, 3, false, false}; }
   [[nodiscard]] bool vector_form(const gcode::Motion& m) const;
+  /// The value of an absolute word of axis `a` that moves it from `from` to `target` (program
+  /// units): `target`, or under a rotary roll-over rule the word nearest `like` that gets there;
+  /// nullopt when none does.
+  [[nodiscard]] std::optional<double> absolute_word(int a, double target, double from, double like) const;
   /// The refusal of a rotary word no roll-over word can express (PP-E6xx message text).
   [[nodiscard]] std::string rollover_refusal(int a, double target, double from) const;
   const gcode::Dialect& d_;
