@@ -156,8 +156,8 @@ TEST(Compensate, RandomFiveAxisProgramsWithinRounding) {
 
 TEST(Compensate, TravelExceededIsRefusedWithTheLine) {
   const mc::Machine m = load("trunnion_bc_fanuc.toml");
-  // X499.999 plus the tool-side corrections leaves the 500 mm travel.
-  const std::string program = "G21 G90 G54\nG0 X0 Y0 Z100 B0 C0\nG1 X499.999 F1000\nM30\n";
+  // X499.999 plus the corrections at B60 C45 leaves the 500 mm travel (by 0.022 mm).
+  const std::string program = "G21 G90 G54\nG0 X0 Y0 Z100 B60 C45\nG1 X499.999 F1000\nM30\n";
   Comp r;
   compensate(m, program, r);
   EXPECT_FALSE(r.committed);

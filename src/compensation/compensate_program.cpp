@@ -17,7 +17,9 @@ void merge_geometric(CompensateResult& r, const CompensateResult& g) {
   r.arcs_linearized = g.arcs_linearized;
   r.reference_moves = g.reference_moves;
   r.rapids_as_written = g.rapids_as_written;
-  r.singular_fallbacks = g.singular_fallbacks;
+  r.axis_limited_blocks = g.axis_limited_blocks;
+  r.axis_limited_max_rad = g.axis_limited_max_rad;
+  r.axis_limited = g.axis_limited;
   r.max_error_before_mm = g.max_error_before_mm;
   r.max_error_before_rad = g.max_error_before_rad;
   r.max_residual_mm = g.max_residual_mm;

@@ -110,7 +110,6 @@ class Compensator final : public gcode::BlockVisitor {
   }
   void finish() {
     flush();
-    if (map_) r_.singular_fallbacks += map_->singular_fallbacks();
     map_.reset();
   }
 
@@ -233,7 +232,6 @@ class Compensator final : public gcode::BlockVisitor {
       if (map_ && !(key.form == map_key_.form && key.frame == map_key_.frame && key.code10 == map_key_.code10 &&
                     key.p == map_key_.p && key.shift == map_key_.shift))
         written_known_ = 0;
-      if (map_) r_.singular_fallbacks += map_->singular_fallbacks();
       map_.reset();
       auto fresh = map_of(b, m, form);
       if (!fresh) return false;
@@ -439,8 +437,14 @@ class Compensator final : public gcode::BlockVisitor {
     }
     if (map.real(printed, joints_, after, qa).ok()) {
       r_.max_residual_mm = std::max(r_.max_residual_mm, (after.p - want.p).norm());
-      r_.max_residual_rad =
-          std::max(r_.max_residual_rad, std::acos(std::clamp(after.axis().dot(want.axis()), -1.0, 1.0)));
+      const double left = std::acos(std::clamp(after.axis().dot(want.axis()), -1.0, 1.0));
+      r_.max_residual_rad = std::max(r_.max_residual_rad, left);
+      // A block whose tool axis the bounded solve left with more than 5 % of its error.
+      if (map.last_bounded_residual_rad() > 0.05 * ea && map.last_bounded_residual_rad() > 1e-9) {
+        ++r_.axis_limited_blocks;
+        r_.axis_limited_max_rad = std::max(r_.axis_limited_max_rad, left);
+        if (r_.axis_limited.size() < kMaxAxisLimitedListed) r_.axis_limited.push_back({m.line, ea, left});
+      }
     }
   }
 

@@ -2,9 +2,11 @@
 #include "postproc/compensation/program_map.hpp"
 
 #include <cmath>
+#include <limits>
 
 #include <Eigen/QR>
 
+#include "postproc/kinematics/bounded_inverse.hpp"
 #include "postproc/kinematics/hexapod.hpp"
 #include "postproc/kinematics/serial.hpp"
 
@@ -54,11 +56,11 @@ Eigen::Vector2d virtual_ab_angles(const Eigen::Vector3d& o) {
 
 namespace {
 
-/// Largest rotary-joint correction accepted from the full (point and tool axis) inverse, degrees.
-/// Near a singular configuration (the tool axis along a rotary axis, e.g. B = 0 on a B/C table)
-/// matching the tool axis exactly needs large rotary motions; there the tool axis keeps its
-/// nominal rotary values and only the tool tip is corrected.
-constexpr double kMaxRotaryCorrectionDeg = 0.05;
+/// The exact inverse (tool tip and tool axis matched) is taken while no rotary joint moves more than
+/// this fraction of the allowed rotary correction c; from there to c the damping of the bounded
+/// solve is blended in (smoothstep of the exact correction), so the joints are a continuous
+/// function of the pose across the switch, and from c on it is whole (correction ≤ c).
+constexpr double kExactShare = 0.25;
 /// Convergence of the remap's iterations: far below any output decimal, above the floating-point
 /// noise of positions in the metres (1e-11 mm is not reachable at C = 2430°).
 constexpr double kToleranceMm = 1e-9;
@@ -250,6 +252,7 @@ kin::Solve ProgramMap::correct(const Command& cmd, const kin::JointVector& start
                                kin::JointVector& q_actual) const {
   kin::Pose& goal = last_goal_;
   kin::JointVector& q_nom = last_q_nom_;
+  last_bounded_residual_rad_ = 0;
   if (auto s = intended(cmd, start, goal, q_nom); !s.ok()) return s;
   kin::IkOptions opt;
   opt.check_limits = false;
@@ -261,16 +264,23 @@ kin::Solve ProgramMap::correct(const Command& cmd, const kin::JointVector& start
   }
   // Serial machines with fewer than five joints (3-axis, lathes) can only match what they have.
   kin::Solve s = actual_->inverse(goal, q_nom, q_actual, opt);
-  bool near_singular = !s.ok() && (s.status == kin::Status::singular || s.status == kin::Status::no_convergence ||
-                                   s.status == kin::Status::diverged);
-  for (int j = 0; j < actual_->joint_count() && s.ok(); ++j)
-    if (actual_->joints()[static_cast<std::size_t>(j)].type == kin::JointType::rotary &&
-        std::abs(q_actual[j] - q_nom[j]) > kMaxRotaryCorrectionDeg)
-      near_singular = true;
-  if (near_singular && m_->model_kind == "serial") {
-    q_actual = q_nom;
-    s = solve_linear(*actual_, goal.p, q_actual);
-    if (s.ok()) ++singular_fallbacks_;
+  if (m_->model_kind == "serial") {
+    const double c_deg = m_->max_rotary_correction_rad / kin::kDeg;
+    double largest = s.ok() ? 0.0 : std::numeric_limits<double>::infinity();  // rotary correction, degrees
+    for (int j = 0; j < actual_->joint_count() && s.ok(); ++j)
+      if (actual_->joints()[static_cast<std::size_t>(j)].type == kin::JointType::rotary)
+        largest = std::max(largest, std::abs(q_actual[j] - q_nom[j]));
+    if (largest > kExactShare * c_deg) {
+      // Near a singular pose (or on a machine with fewer joints than tip + axis): the tip exactly,
+      // the tool axis as far as the allowed rotary correction reaches.
+      const double t = std::min(1.0, (largest - kExactShare * c_deg) / ((1 - kExactShare) * c_deg));
+      kin::BoundedIkOptions b;
+      b.max_rotary_correction_rad = m_->max_rotary_correction_rad;
+      b.damping_share = t * t * (3 - 2 * t);
+      b.tolerance_mm = kToleranceMm;
+      s = kin::bounded_inverse(*actual_, goal, q_nom, q_actual, b);
+      if (s.ok()) last_bounded_residual_rad_ = s.residual_rad;
+    }
   }
   if (!s.ok()) return s;
   return command(q_actual, cmd, out);

@@ -22,7 +22,7 @@ nlohmann::json result_json(const CompensateResult& r, std::string_view mode, con
                  {"arcs_linearized", r.arcs_linearized},
                  {"reference_moves", r.reference_moves},
                  {"rapids_as_written", r.rapids_as_written},
-                 {"singular_points_tip_only", r.singular_fallbacks}};
+                 {"axis_limited_blocks", r.axis_limited_blocks}};
   j["figures"] = {{"max_correction_mm", r.max_correction_mm},
                   {"max_correction_deg", r.max_correction_deg},
                   {"max_axis_correction_rad", r.max_axis_correction_rad},
@@ -31,6 +31,17 @@ nlohmann::json result_json(const CompensateResult& r, std::string_view mode, con
                   {"worst_line_before", r.worst_line},
                   {"max_residual_after_mm", r.max_residual_mm},
                   {"max_residual_after_deg", r.max_residual_rad * kDeg}};
+  if (r.axis_limited_blocks > 0) {
+    // Where the tool axis was corrected only in part (near a singular pose): per block, line and
+    // the tool-axis error before and after, so a user sees where the part keeps an axis error.
+    nlohmann::json list = nlohmann::json::array();
+    for (const AxisLimitedBlock& a : r.axis_limited)
+      list.push_back({{"line", a.line}, {"before_arcsec", a.before_rad * kArcsec}, {"after_arcsec", a.after_rad * kArcsec}});
+    j["tool_axis_limited"] = {{"blocks", r.axis_limited_blocks},
+                              {"max_after_arcsec", r.axis_limited_max_rad * kArcsec},
+                              {"listed", list},
+                              {"truncated", r.axis_limited_blocks > r.axis_limited.size()}};
+  }
   if (r.resolved_lines > 0) {  // a program with parameters or control flow (gcode/resolve.hpp)
     nlohmann::json used = nlohmann::json::object();
     for (const auto& [name, value] : r.used_settings) used[name] = value;

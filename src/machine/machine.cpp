@@ -260,6 +260,8 @@ std::optional<Machine> parse_machine(std::string file, std::string text, gcode::
     const auto feed = f.text("feed", false, kFeeds).value_or(m.coordinates == ProgramCoordinates::axes ? "combined-axes" : "tool-tip");
     m.feed = feed == "tool-tip" ? FeedReference::tool_tip : FeedReference::combined_axes;
     if (auto p = f.quantity("interpolation_period", Dim::time, "s", false, {1e-6, 0.1})) m.interpolation_period = *p;
+    if (auto c = f.quantity("max_rotary_correction", Dim::angle, "deg", false, {1e-7, 0.5}))
+      m.max_rotary_correction_rad = *c;
     if (m.model_kind != "serial" && m.coordinates == ProgramCoordinates::axes)
       f.error_at("program", codes::kInconsistent,
                  fmt::format("a {} machine is programmed in tool-tip coordinates; write program = \"tool-tip\"",

@@ -65,6 +65,14 @@ struct CompensateOptions {
 bool refuse_recompensation(std::string_view line, std::uint64_t line_no, std::string_view file,
                            const CompensateOptions& opt, gcode::DiagnosticSink& sink);
 
+/// One end point whose tool axis the geometric remap could correct only in part.
+struct AxisLimitedBlock {
+  std::uint64_t line = 0;   ///< of the source program
+  double before_rad = 0;    ///< tool-axis error of the original block on the real machine
+  double after_rad = 0;     ///< … of the written block
+};
+inline constexpr std::size_t kMaxAxisLimitedListed = 10000;
+
 /// Figures of one run (the --report JSON carries them).
 struct CompensateResult {
   std::uint64_t blocks = 0;
@@ -78,9 +86,14 @@ struct CompensateResult {
   std::uint64_t arcs_linearized = 0;     ///< arcs replaced by corrected G1 chords
   std::uint64_t reference_moves = 0;     ///< G28/G30 blocks (machine reference: left as written)
   std::uint64_t rapids_as_written = 0;   ///< rapids before every axis was known (left as written, PP-W601)
-  /// Points near a singular configuration where the rotary values stayed nominal and only the
-  /// tool tip was corrected (the tool axis keeps the machine's orientation error there).
-  std::uint64_t singular_fallbacks = 0;
+  /// End points corrected by the bounded solve (kinematics/bounded_inverse.hpp): near a singular
+  /// pose, or on a machine with fewer joints than tool tip + tool axis. The tool tip is corrected;
+  /// the tool axis only as far as [machine] max_rotary_correction allows.
+  std::uint64_t axis_limited_blocks = 0;
+  /// The tool-axis angle those blocks keep on the real machine (written values), rad: the largest.
+  double axis_limited_max_rad = 0;
+  /// The first kMaxAxisLimitedListed of them, in program order (the report lists them).
+  std::vector<AxisLimitedBlock> axis_limited;
   std::uint64_t bytes_in = 0;
   double max_correction_mm = 0;          ///< largest change of a linear axis / tool-tip word, mm
   double max_correction_deg = 0;         ///< … of a rotary axis word, degrees

@@ -71,8 +71,10 @@ class ProgramMap {
   /// The intended pose and nominal joints of the last correct() call.
   [[nodiscard]] const kin::Pose& last_intended() const { return last_goal_; }
   [[nodiscard]] const kin::JointVector& last_nominal_joints() const { return last_q_nom_; }
-  /// Corrections that kept the nominal rotary values because the configuration was singular.
-  [[nodiscard]] std::uint64_t singular_fallbacks() const { return singular_fallbacks_; }
+  /// The tool-axis angle (rad) the last correct() left on the real machine because it took the
+  /// bounded solve (kinematics/bounded_inverse.hpp: near a singular pose, or a machine with fewer
+  /// joints than tool tip + tool axis); 0 when the exact inverse matched the tool axis.
+  [[nodiscard]] double last_bounded_residual_rad() const { return last_bounded_residual_rad_; }
 
  private:
   [[nodiscard]] kin::Pose target_of(const Command& cmd) const;
@@ -87,7 +89,7 @@ class ProgramMap {
   Form form_;
   gcode::AxisVector offset_;
   double length_z_ = 0;  ///< added to the Z joint
-  mutable std::uint64_t singular_fallbacks_ = 0;
+  mutable double last_bounded_residual_rad_ = 0;
   mutable kin::Pose last_goal_;
   mutable kin::JointVector last_q_nom_;
   std::array<int, kin::kMaxJoints> axis_of_joint_{};

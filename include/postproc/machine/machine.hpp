@@ -60,6 +60,10 @@ struct Machine {
   Orientation orientation = Orientation::rotary_axes;
   FeedReference feed = FeedReference::combined_axes;
   double interpolation_period = 0.001;  ///< s
+  /// The largest rotary-joint correction the geometric remap may use to correct the tool axis, rad
+  /// ([machine] max_rotary_correction): near a singular pose the tool axis is corrected only as
+  /// far as this allows (kinematics/bounded_inverse.hpp); the tool tip is always corrected.
+  double max_rotary_correction_rad = 0.017453292519943295;  // 1°
   /// Program axes the machine has (index gcode::Axis), with their settings.
   std::array<std::optional<AxisSettings>, gcode::kAxisCount> axes;
   /// Servo data of joints that are not program axes (parallel machines: "q1" …), from
