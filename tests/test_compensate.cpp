@@ -192,6 +192,64 @@ TEST(Compensate, FeedMoveWithUnknownAxisIsRefusedRapidIsKept) {
     }
 }
 
+/// Issue 17: a program whose first rapid gives only Z. The other axes stay where the controller
+/// holds them (it moves only the named axes): on a machine without errors nothing is refused
+/// (the G55 program was refused with "X would be at -620 mm"), nothing is warned, the program is
+/// kept byte for byte and every figure is ~0 (the residual was 113 mm / 110 deg, 141 mm on the
+/// hexapod: figures from an assumed 0 against a sample at the end of the travel).
+TEST(Compensate, FirstRapidWithOnlyZOnMachineWithoutErrorsKeepsProgramAndReportsZeroFigures) {
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {"trunnion_bc_fanuc.toml", "G90 G17 G21 G55\nG0 Z50.\nG0 X10. Y20.\nG1 X30. Y20. F500\nG1 X30. Y40.\nM30\n"},
+      {"trunnion_bc_fanuc.toml", "G90 G17 G21\nG0 Z50.\nG0 X10. Y20.\nG1 X30. Y20. F500\nM30\n"},
+      {"trunnion_ac_siemens.toml", "G90 G17 G71 G55\nG0 Z50.\nG1 X10. Y20. F500\nM30\n"},
+      {"hexapod_doc003.toml", "G21 G90 G54\nG0 G43.5 H5 Z40. I0. J0. K1.\nG0 X10. Y5.\nG1 X-20. Y-10. Z5. F1500.\nM30\n"},
+      {"hybrid_3prs_doc001.toml", "G21 G90 G54\nG0 Z50.\nG0 X-40. Y-25. Z20. A12. B-15.\nG1 Z2. F800.\nM30\n"},
+  };
+  for (const auto& [machine, program] : cases) {
+    SCOPED_TRACE(machine + ": " + program);
+    const mc::Machine m = without_errors(load(machine));
+    Comp r;
+    cp::CompensateOptions opt;
+    opt.header = false;
+    compensate(m, program, r, opt);
+    for (const auto& d : r.sink.stored()) ADD_FAILURE() << gc::format(d);
+    ASSERT_TRUE(r.committed);
+    EXPECT_EQ(r.out, program);
+    EXPECT_LT(r.result.max_error_before_mm, 1e-9);
+    EXPECT_LT(r.result.max_error_before_rad, 1e-7);  // acos of a unit dot product: 1.5e-8 noise
+    // The written values are the program's own: only the output rounding of the remap remains.
+    EXPECT_LT(r.result.max_residual_mm, 1e-6);
+    EXPECT_LT(r.result.max_residual_rad, 1e-7);
+  }
+}
+
+/// Issue 17: an inch program is corrected as accurately as the same program in mm, up to the
+/// output resolution (0.0001 in = 2.54 µm against 0.001 mm). [axes] decimals count in mm; inch
+/// words were written and judged at 3 decimals (25.4 µm): residual 18.6 µm against 1.4 µm.
+TEST(Compensate, InchProgramCorrectedToTheInchResolution) {
+  const mc::Machine m = load("trunnion_bc_fanuc.toml");
+  std::string mm = "G21 G90 G94 G17 G54\nG0 X0. Y0. Z100. B0. C0.\n";
+  std::string in = "G20 G90 G94 G17 G54\nG0 X0. Y0. Z3.937 B0. C0.\n";
+  for (int i = 0; i < 30; ++i) {
+    const double x = 2 + 0.1 * i, y = 1 + 0.5 * std::sin(i / 5.0), z = 1 - 0.01 * i, b = 20 + 0.5 * i, c = 30 + 2 * i;
+    mm += fmt::format("G1 X{:.3f} Y{:.3f} Z{:.3f} B{:.3f} C{:.3f} F500.\n", 25.4 * x, 25.4 * y, 25.4 * z, b, c);
+    in += fmt::format("G1 X{:.4f} Y{:.4f} Z{:.4f} B{:.3f} C{:.3f} F20.\n", x, y, z, b, c);
+  }
+  Comp rm, ri;
+  compensate(m, mm, rm);
+  compensate(m, in, ri);
+  ASSERT_TRUE(rm.committed);
+  ASSERT_TRUE(ri.committed);
+  // Half an output increment on each of three axes, plus the rotary words' rounding.
+  EXPECT_LT(rm.result.max_residual_mm, 2e-3);
+  EXPECT_LT(ri.result.max_residual_mm, 3e-3);
+  EXPECT_GT(ri.result.max_error_before_mm, 0.02);  // there is something to correct
+  const cp::VerifyResult v = check(m, in, ri);
+  EXPECT_EQ(v.compared, 31u);
+  EXPECT_LE(v.max_excess_mm, 1e-7);
+  EXPECT_LT(v.max_error_mm, 3e-3);
+}
+
 TEST(Compensate, InverseTimeFeedScaledWhenSubdivided) {
   const mc::Machine m = load("trunnion_bc_fanuc.toml");
   const std::string program = "G90 G54 G21\nG0 X0 Y0 Z100 B0 C0\nG93 G1 X150 Y80 Z20 B60 C200 F2.\nM30\n";

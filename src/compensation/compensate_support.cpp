@@ -57,6 +57,10 @@ double program_units(int a, double v, const Motion& m) {
   return v;
 }
 
+int program_decimals(const machine::Machine& mc, int a, const Motion& m) {
+  return mc.decimals(a) + (m.inch_source && !gcode::is_rotary(a) ? 1 : 0);
+}
+
 std::optional<ProgramMap> map_of(const machine::Machine& m, ToolLengthModels& models, const gcode::Motion& mo) {
   const auto offset = program_offset(m, mo);
   if (!offset) return std::nullopt;
@@ -154,7 +158,7 @@ WordWriter::Outcome WordWriter::rewrite(const Block& b, const Motion& m, gcode::
   const std::string sep = b.raw.find_first_of(" \t") == std::string_view::npos ? "" : " ";
   for (int a = 0; a < gcode::kAxisCount; ++a) {
     if (!((mask >> a) & 1u)) continue;
-    const int dm = m_.decimals(a);
+    const int dm = program_decimals(m_, a, m);
     const double pv = program_units(a, target.c[a], m);
     const int wi = m.word_index[static_cast<std::size_t>(a)];
     const bool have_start = (start_known >> a) & 1u;
@@ -294,7 +298,7 @@ std::optional<std::string> WordWriter::segment_line(const Block& b, const Motion
   };
   for (int a = 0; a < gcode::kAxisCount; ++a) {
     if (!((mask >> a) & 1u)) continue;
-    const int dm = m_.decimals(a);
+    const int dm = program_decimals(m_, a, m);
     const double s = std::pow(10.0, dm);
     const double pv = program_units(a, to.c[a], m);
     const double pf = program_units(a, from[a], m);

@@ -30,6 +30,10 @@ inline constexpr std::string_view kContourUnverified = "PP-W621";  // the writte
 [[nodiscard]] double unit_scale(int a, const gcode::Motion& m);
 /// A value in mm / degrees as the program writes it (inch, diameter).
 [[nodiscard]] double program_units(int a, double v, const gcode::Motion& m);
+/// Decimals written for axis `a` in motion `m`'s units: [axes] decimals counts in mm (3: 1 µm); an
+/// inch program's linear words carry one more (0.0001 in = 2.54 µm, the controllers' inch
+/// increment), else the corrections of inch programs would be rounded to 25.4 µm.
+[[nodiscard]] int program_decimals(const machine::Machine& mc, int a, const gcode::Motion& m);
 /// The program axes whose words a block of form `f` carries on machine `m`.
 [[nodiscard]] gcode::AxisMask written_axes(const machine::Machine& m, Form f);
 

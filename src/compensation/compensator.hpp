@@ -216,12 +216,13 @@ class Compensator final : public gcode::BlockVisitor {
     // off the output grid would otherwise round either way).
     const double f = program_units(a, from, m), t = program_units(a, to, m);
     if (std::abs(t - f) < 1e-9) return false;
-    const double s = std::pow(10.0, m_.decimals(a));
+    const double s = std::pow(10.0, program_decimals(m_, a, m));
     return std::llround(f * s) != std::llround(t * s);
   }
 
-  /// Corrects the end point of `m` into `out`; fills q_actual. False after a refusal.
-  bool endpoint(const Block& b, const Motion& m, Command& out, kin::JointVector* q_actual) {
+  /// Corrects the end point of `m` into `out`; fills q_actual. False after a refusal. With
+  /// `figures`, the error before and the residual after go into the report's figures.
+  bool endpoint(const Block& b, const Motion& m, Command& out, kin::JointVector* q_actual, bool figures = false) {
     const Form form = form_of(m);
     // The controller map depends on the modal context only: reuse it while that stays the same.
     const MapKey key{form, m.frame, m.work_offset.code10, m.work_offset.p, m.tool_length_active, m.tool_length_h,
@@ -266,10 +267,13 @@ class Compensator final : public gcode::BlockVisitor {
     if (unknown == 0) {
       const kin::Solve s = map->correct(cmd, joints_, out, q);
       if (!s.ok()) return kin_failure(b, m, s);
-    } else if (!invariant(b, m, *map, cmd, unknown, out, q)) {
+      // First: later checks run the remap on other points.
+      if (figures) measure(m, cmd, *map, out, q);
+    } else if (!invariant(b, m, *map, cmd, unknown, out, q, figures)) {
       return false;
     }
-    if (const int j = kin::joint_outside_limits(map->actual(), q); j >= 0) {
+    // The travel of what is known: an unknown axis stays where the controller holds it.
+    if (const int j = outside_known_travel(*map, q, unknown); j >= 0) {
       const kin::Joint& jt = map->actual().joints()[static_cast<std::size_t>(j)];
       refuse(b, m.column, kTravel,
              fmt::format("after correction joint {} would be at {:.6f} {}, outside its travel {} … {} {}; the block "
@@ -282,6 +286,17 @@ class Compensator final : public gcode::BlockVisitor {
     return true;
   }
 
+  /// The first joint of q outside its travel whose program axis is not in `unknown`; -1 if none.
+  static int outside_known_travel(const ProgramMap& map, const kin::JointVector& q, AxisMask unknown) {
+    kin::JointVector known = q;
+    for (int j = 0; j < map.actual().joint_count(); ++j)
+      if (const int a = map.axis_of_joint(j); a >= 0 && ((unknown >> a) & 1u)) {
+        const kin::Joint& jt = map.actual().joints()[static_cast<std::size_t>(j)];
+        known[j] = std::clamp(q[j], jt.min, jt.max);
+      }
+    return kin::joint_outside_limits(map.actual(), known);
+  }
+
   bool kin_failure(const Block& b, const Motion& m, const kin::Solve& s) {
     refuse(b, m.column, kKinematics,
            fmt::format("the kinematics failed for this position ({}, {} iterations, residual {:.3g} mm / {:.3g} rad); "
@@ -290,67 +305,19 @@ class Compensator final : public gcode::BlockVisitor {
     return false;
   }
 
-  /// Axes whose position is unknown (nothing programmed them yet): the correction is accepted
-  /// only if it does not depend on them, checked at the ends of their travel.
+  /// Axes whose position is unknown (nothing programmed them yet): the controller holds them
+  /// where they are and moves only the named axes, so the correction is accepted only if it does
+  /// not depend on where they stand, checked at sample positions the controller can hold (the ends
+  /// of their travel, compensate_unknown_axes.cpp). With `figures`, the report's figures are the
+  /// worst over those samples (none from an assumed 0).
   bool invariant(const Block& b, const Motion& m, const ProgramMap& map, const Command& cmd, AxisMask unknown,
-                 Command& out, kin::JointVector& q) {
-    std::vector<int> axes;
-    for (int a = 0; a < gcode::kAxisCount; ++a)
-      if ((unknown >> a) & 1u) axes.push_back(a);
-    std::optional<Command> first;
-    for (unsigned combo = 0; combo < (1u << axes.size()); ++combo) {
-      Command c = cmd;
-      for (std::size_t i = 0; i < axes.size(); ++i) {
-        const int a = axes[i];
-        const int j = m_.joint_of_axis[static_cast<std::size_t>(a)];
-        double lo = -100, hi = 100;
-        if (j >= 0) {
-          const kin::Joint& jt = map.nominal().joints()[static_cast<std::size_t>(j)];
-          lo = std::isfinite(jt.min) ? jt.min : 0.0;
-          hi = std::isfinite(jt.max) ? jt.max : 180.0;
-        }
-        c.c[a] = ((combo >> i) & 1u) ? hi : lo;
-      }
-      Command o;
-      kin::JointVector qq;
-      const kin::Solve s = map.correct(c, joints_, o, qq);
-      if (!s.ok()) return kin_failure(b, m, s);
-      bool depends = false;
-      for (int a = 0; a < gcode::kAxisCount && !depends; ++a) {
-        if (!((mask_ >> a) & 1u)) continue;
-        if ((unknown >> a) & 1u) depends = rounded_change(a, c.c[a], o.c[a], m);
-        else if (first) depends = rounded_change(a, first->c[a], o.c[a], m);
-      }
-      if (depends) {
-        std::string names;
-        for (int a : axes) names += gcode::kAxisLetters[static_cast<std::size_t>(a)];
-        if (m.type == MotionType::rapid) {
-          // A positioning move before every axis is known: it cuts nothing, so it stays as
-          // written; the controller then holds the uncorrected values, which the next moves
-          // (tracked through written_) take into account.
-          note(b, m.column, kRapidAsWritten,
-               fmt::format("rapid move left as written: the position of axis {} is not known here and the "
-                           "correction depends on it; the following moves are corrected",
-                           names));
-          ++r_.rapids_as_written;
-          rapid_as_written_ = true;
-          return false;
-        }
-        refuse(b, m.column, kRefused,
-               fmt::format("the position of axis {} is not known here (no earlier block sets it) and the correction "
-                           "of this move depends on it; program {} before this move",
-                           names, names));
-        return false;
-      }
-      if (!first) {
-        first = o;
-        q = qq;
-      }
-    }
-    out = *first;
-    for (int a : axes) out.c[a] = cmd.c[a];
-    return true;
-  }
+                 Command& out, kin::JointVector& q, bool figures);
+  /// Values of unknown axis `a` (mm / deg, program coordinates) the controller can hold: its joint
+  /// at the ends of its travel; for axes that are not a joint (parallel machines' tool tip) the
+  /// home pose's value ± 100 mm / ± 30 deg. Samples the machine cannot reach are dropped by the caller.
+  std::vector<double> unknown_samples(const ProgramMap& map, const Command& cmd, int a) const;
+  /// True when the controller can hold command `c` (its nominal joints give back `c` on the axes of `mask_`).
+  bool reachable(const ProgramMap& map, const Command& c) const;
 
   void motion(const Block& b, const Motion& m, gcode::BlockEditor& ed) {
     ++r_.motions;
@@ -358,13 +325,12 @@ class Compensator final : public gcode::BlockVisitor {
     Command out;
     kin::JointVector q;
     rapid_as_written_ = false;
-    if (!endpoint(b, m, out, &q)) {
+    if (!endpoint(b, m, out, &q, true)) {
       if (rapid_as_written_) note_written(m, m.end);
       else written_known_ = 0;
       return;
     }
     const ProgramMap& map = *map_;
-    measure(m, map, out, q);  // first: later checks run the remap on other points
     if (m.tilted_plane) {
       check_unchanged(b, m);
       note_written(m, m.end);
@@ -401,7 +367,10 @@ class Compensator final : public gcode::BlockVisitor {
   }
 
   /// Error of the original program on the real machine and the residual of the corrected one.
-  void measure(const Motion& m, const ProgramMap& map, const Command& out, const kin::JointVector& q_written) {
+  /// `cmd`: the block's command (program values, the unknown axes at a sample position); `held`:
+  /// axes the block does not write (unknown), which the controller keeps exactly.
+  void measure(const Motion& m, const Command& cmd, const ProgramMap& map, const Command& out,
+               const kin::JointVector& q_written, AxisMask held = 0) {
     // The intended pose and the nominal joints of the end point come from the remap itself.
     const kin::Pose& want = map.last_intended();
     kin::Pose before, after, written_nominal;
@@ -426,12 +395,12 @@ class Compensator final : public gcode::BlockVisitor {
     r_.max_error_before_rad = std::max(r_.max_error_before_rad, ea);
     Command printed = out;
     for (int a = 0; a < gcode::kAxisCount; ++a) {
-      if (!((mask_ >> a) & 1u)) continue;
-      const double s = std::pow(10.0, m_.decimals(a));
+      if (!((mask_ >> a) & 1u) || ((held >> a) & 1u)) continue;
+      const double s = std::pow(10.0, program_decimals(m_, a, m));
       // The value the controller will read: rounded in program units, back to mm / degrees.
       const double pu = program_units(a, out.c[a], m);
       printed.c[a] = out.c[a] + (static_cast<double>(std::llround(pu * s)) / s - pu) * unit_scale(a, m);
-      const double dc = std::abs(out.c[a] - m.end[a]);
+      const double dc = std::abs(out.c[a] - cmd.c[a]);
       if (gcode::is_rotary(a)) r_.max_correction_deg = std::max(r_.max_correction_deg, dc);
       else r_.max_correction_mm = std::max(r_.max_correction_mm, dc);
     }
