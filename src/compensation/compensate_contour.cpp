@@ -204,11 +204,15 @@ bool not_worse(const contour::Simulation& c, const contour::Simulation& o, std::
   return c.run_tip_max[r] <= o.run_tip_max[r] && c.run_axis_max[r] <= o.run_axis_max[r] + kAxisNoiseRad;
 }
 
+/// Tool-tip figures closer than this are equal (mm): simulation noise, far below a written digit.
+constexpr double kTipNoiseMm = 1e-7;
+
 /// Run r of candidate c is better than the input o: not worse at the maxima, and one of them or
-/// the RMS smaller.
+/// the RMS smaller by more than the noise.
 bool better(const contour::Simulation& c, const contour::Simulation& o, std::size_t r) {
-  return not_worse(c, o, r) && (c.run_tip_max[r] < o.run_tip_max[r] || c.run_axis_max[r] < o.run_axis_max[r] - kAxisNoiseRad ||
-                                c.run_tip_rms[r] < o.run_tip_rms[r] * (1 - 1e-9));
+  return not_worse(c, o, r) &&
+         (c.run_tip_max[r] < o.run_tip_max[r] - kTipNoiseMm || c.run_axis_max[r] < o.run_axis_max[r] - kAxisNoiseRad ||
+          c.run_tip_rms[r] < o.run_tip_rms[r] - kTipNoiseMm);
 }
 
 /// Nothing changed in run r (same maxima): no reason to withhold or report it.

@@ -222,7 +222,14 @@ std::vector<kin::JointVector> lag_precompensation(const Path& path) {
   std::vector<kin::JointVector> c;
   c.reserve(path.points.size());
   for (const PathPoint& p : path.points) c.push_back(p.q);
-  for (const Run& run : path.runs)
+  std::vector<double> remaining;
+  for (const Run& run : path.runs) {
+    // The joint-space path length from each point to the run's end: the advance never exceeds
+    // half of it, so the commands never run past the run's end point and back (the controller
+    // would time that reversal as a move of its own, and the tool would follow it).
+    remaining.assign(run.size(), 0.0);
+    for (std::size_t i = run.end - 1; i-- > run.begin;)
+      remaining[i - run.begin] = remaining[i + 1 - run.begin] + (path.points[i + 1].q - path.points[i].q).norm();
     for (std::size_t i = run.begin; i < run.end; ++i) {
       if (!correctable(path, run, i)) continue;
       const PathPoint &a = path.points[i - 1], &b = path.points[i], &e = path.points[i + 1];
@@ -232,9 +239,19 @@ std::vector<kin::JointVector> lag_precompensation(const Path& path) {
         const double vin = (b.q[j] - a.q[j]) / ha, vout = (e.q[j] - b.q[j]) / hb;
         const double v = (vin * hb + vout * ha) / (ha + hb);
         const double acc = 2 * (vout - vin) / (ha + hb);
-        c[i][j] += path.drives[static_cast<std::size_t>(j)].lag(v, acc);
+        // c = r + e(c): the command runs with its own following error, so the advance is the
+        // drive's lag of the advanced command; to second order e₁·ṙ + (e₂ + e₁²)·r̈ (the
+        // quasi-static inverse of the drive; for a lag-mode drive e₂ + e₁² = 0 and this is the
+        // exact inverse c = r + ṙ/Kv). Adding e(r) instead would leave −(1 − H)²·r: on a circle
+        // twice the original radial error, outward.
+        const Drive& dr = path.drives[static_cast<std::size_t>(j)];
+        const double e1 = dr.lag(1.0);
+        c[i][j] += dr.lag(v, acc) + e1 * e1 * acc;
       }
+      const double advance = (c[i] - b.q).norm(), room = 0.5 * remaining[i - run.begin];
+      if (advance > room) c[i] = b.q + (room / advance) * (c[i] - b.q);
     }
+  }
   return c;
 }
 
@@ -252,6 +269,10 @@ Precompensation precompensate(const Path& path, const kin::Model& actual, const 
   for (const Drive& d : path.drives) lag_time = std::max(lag_time, d.lag(1.0));
   const double tau = opt.smoothing * lag_time;
 
+  // The iteration of a run starts from the lag precompensation where that is predicted better
+  // than the program itself (the exact inverse of a lag-mode drive: most of the correction at
+  // once), else from the program.
+  const Prediction lag = predict(path, actual, ref, &r.lag_commands);
   std::vector<PointPrediction> cur = r.before.points, next = r.before.points;
   std::vector<kin::JointVector> trial = r.commands;
   std::vector<kin::JointVector> step(path.points.size(), kin::JointVector::Zero(n));
@@ -267,6 +288,14 @@ Precompensation precompensate(const Path& path, const kin::Model& actual, const 
     it.before_tip_mm = it.after_tip_mm = now.tip;
     it.before_axis_rad = it.after_axis_rad = now.axis;
     it.before_rms_mm = it.after_rms_mm = now.tip_rms;
+    if (const RunFigures from_lag = figures(lag.points, run, L); improves(from_lag, now)) {
+      it.from_lag = true;
+      now = from_lag;
+      for (std::size_t i = run.begin; i < run.end; ++i) {
+        r.commands[i] = r.lag_commands[i];
+        cur[i] = lag.points[i];
+      }
+    }
     idx.clear();
     times.clear();
     for (std::size_t i = run.begin; i < run.end; ++i)

@@ -12,12 +12,13 @@
 ///    for the run alone; a trial that makes the run worse (its largest error, tip + L·axis, or its
 ///    RMS grows) is not taken: the step α is halved and retried (a bounded number of times),
 ///    then the run stops with "no improvement". The best iterate of every run is kept.
-/// A run stops "converged" when an accepted step improves both its largest error and its RMS by
+/// The iteration of a run starts from the lag precompensation (below) where that is predicted
+/// better than the program, else from the program. A run stops "converged" when an accepted step improves both its largest error and its RMS by
 /// less than the tolerance, "cap" at the iteration limit.
 ///
 /// Besides the iterated commands, the classic first-order lag precompensation is computed as a
 /// baseline and a candidate: every joint command at a block end point advanced by the drive's
-/// quasi-static following error there, e₁·ṙ + e₂·r̈ (drive.hpp). The verification gate
+/// quasi-static following error there (drive.hpp; lag_precompensation below). The verification gate
 /// (compensate_contour.cpp) writes, per run, the best of {uncorrected, lag, iterated} as the
 /// time-domain simulation judges them.
 
@@ -47,7 +48,7 @@ struct PrecompensateOptions {
   /// Smoothing time τ of the correction along the run, as a fraction of the slowest drive's lag
   /// time e₁ = (1 − f)/Kv (0: no smoothing). Components of the correction faster than about
   /// 1/τ are damped.
-  double smoothing = 0.25;
+  double smoothing = 0.5;
   /// Add the drives' lag of the correction itself to the commands (δ = d + e₁·ḋ), so that the
   /// actual joints move by d: fewer iterations.
   bool invert_lag = true;
@@ -69,6 +70,7 @@ struct RunIteration {
   int iterations = 0;  ///< accepted iterations
   int trials = 0;      ///< predictions of trial commands (accepted or not)
   RunStop stop = RunStop::nothing;
+  bool from_lag = false;  ///< started from the lag precompensation (predicted better than the program)
   double before_tip_mm = 0, before_axis_rad = 0, before_rms_mm = 0;
   double after_tip_mm = 0, after_axis_rad = 0, after_rms_mm = 0;
   std::vector<double> history_mm;   ///< largest tip error after each accepted iteration
@@ -96,9 +98,10 @@ struct Precompensation {
                                             const PrecompensateOptions& opt = {});
 
 /// The first-order lag precompensation of the path's commands: at every correctable point (as
-/// above) each joint command advanced by its drive's quasi-static following error e₁·ṙ + e₂·r̈,
-/// with ṙ and r̈ the commanded velocity and acceleration there (central differences over the
-/// neighbouring points' times).
+/// above) each joint command advanced by its drive's quasi-static following error — that of the
+/// advanced command itself, c = r + e(c), which to second order is e₁·ṙ + (e₂ + e₁²)·r̈ (for a
+/// lag-mode drive exactly ṙ/Kv) — with ṙ and r̈ the commanded velocity and acceleration there
+/// (central differences over the neighbouring points' times).
 [[nodiscard]] std::vector<kin::JointVector> lag_precompensation(const Path& path);
 
 /// The point is a written block end point that the precompensation may move (not a run's first
