@@ -269,15 +269,16 @@ Precompensation precompensate(const Path& path, const kin::Model& actual, const 
   for (const Drive& d : path.drives) lag_time = std::max(lag_time, d.lag(1.0));
   const double tau = opt.smoothing * lag_time;
 
-  // The iteration of a run starts from the lag precompensation where that is predicted better
-  // than the program itself (the exact inverse of a lag-mode drive: most of the correction at
-  // once), else from the program.
+  // The lag precompensation's prediction: a second start for runs where the iteration from the
+  // program ends predicted worse than it (below).
   const Prediction lag = predict(path, actual, ref, &r.lag_commands);
   std::vector<PointPrediction> cur = r.before.points, next = r.before.points;
   std::vector<kin::JointVector> trial = r.commands;
   std::vector<kin::JointVector> step(path.points.size(), kin::JointVector::Zero(n));
   std::vector<double> max_following(static_cast<std::size_t>(n), 0.0), column, times;
   std::vector<std::size_t> idx;
+  std::vector<kin::JointVector> kept_commands;
+  std::vector<PointPrediction> kept_points;
   r.runs.resize(path.runs.size());
   for (std::size_t ri = 0; ri < path.runs.size(); ++ri) {
     if (opt.progress && ri % 64 == 0)
@@ -288,14 +289,6 @@ Precompensation precompensate(const Path& path, const kin::Model& actual, const 
     it.before_tip_mm = it.after_tip_mm = now.tip;
     it.before_axis_rad = it.after_axis_rad = now.axis;
     it.before_rms_mm = it.after_rms_mm = now.tip_rms;
-    if (const RunFigures from_lag = figures(lag.points, run, L); improves(from_lag, now)) {
-      it.from_lag = true;
-      now = from_lag;
-      for (std::size_t i = run.begin; i < run.end; ++i) {
-        r.commands[i] = r.lag_commands[i];
-        cur[i] = lag.points[i];
-      }
-    }
     idx.clear();
     times.clear();
     for (std::size_t i = run.begin; i < run.end; ++i)
@@ -309,47 +302,79 @@ Precompensation precompensate(const Path& path, const kin::Model& actual, const 
     }
     std::optional<Smoother> smoother;
     if (tau > 0 && idx.size() >= 3) smoother.emplace(times, tau);
-    double alpha = 1;
-    it.stop = RunStop::cap;
-    while (it.iterations < opt.max_iterations) {
-      for (std::size_t i : idx) {
-        const PointPrediction& pp = cur[i];
-        step[i] = pp.tip_mm == 0 && pp.axis_rad == 0 ? kin::JointVector::Zero(n)
-                                                     : shift_at(path, actual, ref, run, i, r.commands[i], pp, opt);
-      }
-      run_step(path, idx, smoother ? &*smoother : nullptr, step, opt.invert_lag, column);
-      bool taken = false;
-      RunFigures got;
-      for (int h = 0; h <= opt.max_halvings; ++h) {
-        for (std::size_t i : idx) trial[i] = r.commands[i] + alpha * step[i];
-        std::uint64_t unused = 0;
-        predict_run(path, actual, ref, trial, run, true, next, max_following, unused);
-        ++it.trials;
-        got = figures(next, run, L);
-        if (improves(got, now)) {
-          taken = true;
+    // The iteration of the run from its current commands (r.commands, predicted in cur), with
+    // its own step control; returns the kept iterate's figures.
+    const auto iterate = [&](RunIteration& log, RunFigures fig) {
+      double alpha = 1;
+      log.stop = RunStop::cap;
+      while (log.iterations < opt.max_iterations) {
+        for (std::size_t i : idx) {
+          const PointPrediction& pp = cur[i];
+          step[i] = pp.tip_mm == 0 && pp.axis_rad == 0 ? kin::JointVector::Zero(n)
+                                                       : shift_at(path, actual, ref, run, i, r.commands[i], pp, opt);
+        }
+        run_step(path, idx, smoother ? &*smoother : nullptr, step, opt.invert_lag, column);
+        bool taken = false;
+        RunFigures got;
+        for (int h = 0; h <= opt.max_halvings; ++h) {
+          for (std::size_t i : idx) trial[i] = r.commands[i] + alpha * step[i];
+          std::uint64_t unused = 0;
+          predict_run(path, actual, ref, trial, run, true, next, max_following, unused);
+          ++log.trials;
+          got = figures(next, run, L);
+          if (improves(got, fig)) {
+            taken = true;
+            break;
+          }
+          alpha *= 0.5;
+        }
+        if (!taken) {
+          for (std::size_t i : idx) trial[i] = r.commands[i];
+          log.stop = RunStop::no_improvement;
           break;
         }
-        alpha *= 0.5;
+        for (std::size_t i : idx) r.commands[i] = trial[i];
+        std::copy(next.begin() + static_cast<std::ptrdiff_t>(run.begin), next.begin() + static_cast<std::ptrdiff_t>(run.end),
+                  cur.begin() + static_cast<std::ptrdiff_t>(run.begin));
+        const double gain = fig.score - got.score, gain_rms = fig.rms - got.rms;
+        fig = got;
+        ++log.iterations;
+        log.history_mm.push_back(fig.tip);
+        log.history_rad.push_back(fig.axis);
+        alpha = std::min(1.0, 2 * alpha);
+        if ((gain < opt.tolerance_mm && gain_rms < opt.tolerance_mm) ||
+            (gain < opt.relative_tolerance * fig.score && gain_rms < opt.relative_tolerance * fig.rms)) {
+          log.stop = RunStop::converged;
+          break;
+        }
       }
-      if (!taken) {
-        for (std::size_t i : idx) trial[i] = r.commands[i];
-        it.stop = RunStop::no_improvement;
-        break;
+      return fig;
+    };
+    now = iterate(it, now);
+    // Where the lag precompensation is predicted better than that iterate, the iteration is run
+    // again from it, and the better of the two iterates is kept.
+    if (const RunFigures from_lag = figures(lag.points, run, L); improves(from_lag, now)) {
+      kept_commands.assign(r.commands.begin() + static_cast<std::ptrdiff_t>(run.begin),
+                           r.commands.begin() + static_cast<std::ptrdiff_t>(run.end));
+      kept_points.assign(cur.begin() + static_cast<std::ptrdiff_t>(run.begin),
+                         cur.begin() + static_cast<std::ptrdiff_t>(run.end));
+      for (std::size_t i = run.begin; i < run.end; ++i) {
+        r.commands[i] = r.lag_commands[i];
+        cur[i] = lag.points[i];
       }
-      for (std::size_t i : idx) r.commands[i] = trial[i];
-      std::copy(next.begin() + static_cast<std::ptrdiff_t>(run.begin), next.begin() + static_cast<std::ptrdiff_t>(run.end),
-                cur.begin() + static_cast<std::ptrdiff_t>(run.begin));
-      const double gain = now.score - got.score, gain_rms = now.rms - got.rms;
-      now = got;
-      ++it.iterations;
-      it.history_mm.push_back(now.tip);
-      it.history_rad.push_back(now.axis);
-      alpha = std::min(1.0, 2 * alpha);
-      if ((gain < opt.tolerance_mm && gain_rms < opt.tolerance_mm) ||
-          (gain < opt.relative_tolerance * now.score && gain_rms < opt.relative_tolerance * now.rms)) {
-        it.stop = RunStop::converged;
-        break;
+      RunIteration second;
+      const RunFigures again = iterate(second, from_lag);
+      if (improves(again, now)) {
+        second.before_tip_mm = it.before_tip_mm;
+        second.before_axis_rad = it.before_axis_rad;
+        second.before_rms_mm = it.before_rms_mm;
+        second.trials += it.trials;
+        second.from_lag = true;
+        it = std::move(second);
+        now = again;
+      } else {
+        std::copy(kept_commands.begin(), kept_commands.end(), r.commands.begin() + static_cast<std::ptrdiff_t>(run.begin));
+        std::copy(kept_points.begin(), kept_points.end(), cur.begin() + static_cast<std::ptrdiff_t>(run.begin));
       }
     }
     it.after_tip_mm = now.tip;

@@ -12,8 +12,9 @@
 ///    for the run alone; a trial that makes the run worse (its largest error, tip + L·axis, or its
 ///    RMS grows) is not taken: the step α is halved and retried (a bounded number of times),
 ///    then the run stops with "no improvement". The best iterate of every run is kept.
-/// The iteration of a run starts from the lag precompensation (below) where that is predicted
-/// better than the program, else from the program. A run stops "converged" when an accepted step improves both its largest error and its RMS by
+/// Where the iteration from the program ends predicted worse than the lag precompensation
+/// (below), the run is iterated again from that, and the better iterate is kept. A run stops
+/// "converged" when an accepted step improves both its largest error and its RMS by
 /// less than the tolerance, "cap" at the iteration limit.
 ///
 /// Besides the iterated commands, the classic first-order lag precompensation is computed as a
@@ -70,7 +71,7 @@ struct RunIteration {
   int iterations = 0;  ///< accepted iterations
   int trials = 0;      ///< predictions of trial commands (accepted or not)
   RunStop stop = RunStop::nothing;
-  bool from_lag = false;  ///< started from the lag precompensation (predicted better than the program)
+  bool from_lag = false;  ///< the kept iterate started from the lag precompensation
   double before_tip_mm = 0, before_axis_rad = 0, before_rms_mm = 0;
   double after_tip_mm = 0, after_axis_rad = 0, after_rms_mm = 0;
   std::vector<double> history_mm;   ///< largest tip error after each accepted iteration
