@@ -339,9 +339,10 @@ CompensateResult compensate_contour(std::string_view text, std::string_view file
       const bool lag_ok = sim_lag && better(*sim_lag, *before, run);
       if (it_ok && (!lag_ok || prefer(*sim_iterated, *sim_lag, run, L))) choice[run] = Choice::iterated;
       else if (lag_ok) choice[run] = Choice::lag;
-      else if ((!sim_iterated || same(*sim_iterated, *before, run)) && (!sim_lag || same(*sim_lag, *before, run)))
-        // Nothing changed (a run without a point to correct): nothing to report; written with
-        // the candidate that keeps the passes whole.
+      else if (d.result.runs[run].stop == contour::RunStop::nothing ||
+               ((!sim_iterated || same(*sim_iterated, *before, run)) && (!sim_lag || same(*sim_lag, *before, run))))
+        // Nothing changed (a run without a point to correct; its simulation may still differ by
+        // clock noise): nothing to report; written with the candidate that keeps the passes whole.
         choice[run] = sim_iterated ? Choice::iterated : Choice::lag;
       else {
         const contour::Run& rr = d.path.runs[run];
@@ -377,7 +378,10 @@ CompensateResult compensate_contour(std::string_view text, std::string_view file
         if (!after) break;
         bool changed = false;
         for (std::size_t run = 0; run < runs; ++run) {
-          if (choice[run] == Choice::uncorrected || not_worse(*after, *before, run)) continue;
+          // Runs without a point to correct are written as received whatever their candidate.
+          if (choice[run] == Choice::uncorrected || d.result.runs[run].stop == contour::RunStop::nothing ||
+              not_worse(*after, *before, run))
+            continue;
           choice[run] = Choice::uncorrected;
           withheld[run] = {kContourWithheld,
                            fmt::format("contour correction of the run starting here ({} moves) not written: the "
