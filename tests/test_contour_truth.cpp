@@ -248,7 +248,7 @@ void property(const mc::Machine& m, bool five_axis, bool corners, unsigned seed,
 
 TEST(ContourTruthProperty, SmoothRandomProgramsOnAThreeAxisMill) { property(pptest::mill(), false, false, 17, 0.8, true); }
 
-// Sharp corners: never worse at the maximum, the RMS at least halved (measured: −75 … −90 %).
+// Sharp corners: never worse at the maximum, the RMS at least halved (measured: −82 % or more).
 // Not asserted here: the lag precompensation is better on this truth at corners (RMS about 5 µm
 // against 10 … 30 µm), but the verification's simulator, which chooses per run, loses its foot
 // point at these corners (its "before" is 1.7 … 7.5 mm where the truth has 0.45 … 1 mm) and so
