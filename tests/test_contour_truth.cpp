@@ -250,7 +250,7 @@ TEST(ContourTruthProperty, SmoothRandomProgramsOnAThreeAxisMill) { property(ppte
 
 // Sharp corners: never worse at the maximum, the RMS at least halved (measured: −82 % or more).
 // Not asserted here: the lag precompensation is better on this truth at corners (RMS about 5 µm
-// against 10 … 30 µm), but the verification's simulator, which chooses per run, loses its foot
+// against 16 … 41 µm), but the verification's simulator, which chooses per run, loses its foot
 // point at these corners (its "before" is 1.7 … 7.5 mm where the truth has 0.45 … 1 mm) and so
 // does not see it; that tracking is issue 17 item 5, another change.
 TEST(ContourTruthProperty, RandomPolylinesWithCornersOnAThreeAxisMill) {
