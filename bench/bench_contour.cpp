@@ -17,7 +17,7 @@
 
 #include "postproc/compensation/compensate.hpp"
 #include "postproc/contour/path.hpp"
-#include "postproc/contour/predict.hpp"
+#include "postproc/contour/precompensate.hpp"
 #include "postproc/contour/reference.hpp"
 #include "postproc/machine/machine.hpp"
 

@@ -229,7 +229,9 @@ void setup_compensate(CLI::App& app, int& rc) {
     if (servo)
       std::fputs(fmt::format("postproc: contour: {} tool-tip contour error {:.3f} → {:.3f} µm (worst before: line {}), "
                              "tool-axis {:.2f} → {:.2f} arcsec{}; the iteration predicted {:.3f} µm / {:.2f} arcsec after "
-                             "{} iterations{}; NURBS fit residual {:.4f} µm\n",
+                             "at most {} iterations per run{}; runs: {} ({} iterated, {} lag precompensation, {} uncorrected; "
+                             "stopped: {} converged, {} no improvement, {} iteration limit, {} nothing to correct); "
+                             "NURBS fit residual {:.4f} µm\n",
                              r.contour_verified ? "simulated (the program as written)" : "NOT simulated, predicted",
                              r.contour_before_mm * 1000, r.contour_after_mm * 1000, r.contour_worst_line,
                              r.contour_before_rad * 206264.80624709636, r.contour_after_rad * 206264.80624709636,
@@ -238,7 +240,11 @@ void setup_compensate(CLI::App& app, int& rc) {
                                                r.contour_runs_withheld, r.contour_runs)
                                  : std::string(),
                              r.contour_predicted_after_mm * 1000, r.contour_predicted_after_rad * 206264.80624709636,
-                             r.contour_iterations, r.contour_converged ? "" : " (not converged)", r.fit_residual_mm * 1000)
+                             r.contour_iterations, r.contour_converged ? "" : " (not converged)", r.contour_runs,
+                             r.contour_runs_iterated, r.contour_runs_lag,
+                             r.contour_runs - std::min(r.contour_runs, r.contour_runs_iterated + r.contour_runs_lag),
+                             r.contour_runs_stopped[1], r.contour_runs_stopped[2], r.contour_runs_stopped[3],
+                             r.contour_runs_stopped[0], r.fit_residual_mm * 1000)
                      .c_str(),
                  stderr);
     rc = 0;

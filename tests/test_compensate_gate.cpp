@@ -388,7 +388,10 @@ TEST(CompensateGate, RandomProgramsAreNeverWorseOnTheSimulator) {
     const ct::Simulation s0 = ct::simulate(original, ref, *m.actual);
     const ct::Simulation s1 = ct::simulate(written, ref, *m.actual);
     ASSERT_EQ(s0.run_tip_max.size(), s1.run_tip_max.size());
-    for (std::size_t i = 0; i < s0.run_tip_max.size(); ++i) EXPECT_LE(s1.run_tip_max[i], s0.run_tip_max[i]) << "run " << i;
+    // A run written as received may differ from the original's simulation by rounding noise
+    // (1e-13 mm): the runs before it, corrected, change the simulation clock it starts at.
+    for (std::size_t i = 0; i < s0.run_tip_max.size(); ++i)
+      EXPECT_LE(s1.run_tip_max[i], s0.run_tip_max[i] + 1e-9) << "run " << i;
     EXPECT_NEAR(c.r.contour_after_mm, s1.tip.max, 1e-9);
     EXPECT_NEAR(c.r.contour_before_mm, s0.tip.max, 1e-9);
   }

@@ -11,7 +11,7 @@
 #include "contour_support.hpp"
 #include "postproc/compensation/compensate.hpp"
 #include "postproc/contour/path.hpp"
-#include "postproc/contour/predict.hpp"
+#include "postproc/contour/precompensate.hpp"
 #include "postproc/contour/reference.hpp"
 #include "postproc/contour/simulate.hpp"
 #include "postproc/machine/machine.hpp"

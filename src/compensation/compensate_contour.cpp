@@ -1,5 +1,6 @@
 // compensate --mode contour: the program's commanded path, its predicted servo contour errors,
 // the precompensated commands, and the program written with the corrected end points.
+#include <algorithm>
 #include <future>
 #include <limits>
 #include <memory>
@@ -198,16 +199,39 @@ std::optional<contour::Simulation> simulate_written(const std::string& written, 
 /// 1.7e-6 rad), rad.
 constexpr double kAxisNoiseRad = 1e-9;
 
-/// Run r of the corrected program is better than the input's: neither maximum grows and one shrinks.
-bool better(const contour::Simulation& w, const contour::Simulation& o, std::size_t r) {
-  const double tw = w.run_tip_max[r], to = o.run_tip_max[r], aw = w.run_axis_max[r], ao = o.run_axis_max[r];
-  return tw <= to && aw <= ao + kAxisNoiseRad && (tw < to || aw < ao - kAxisNoiseRad);
+/// Run r of candidate c is not worse than the input o at its maxima (the gate's first rule).
+bool not_worse(const contour::Simulation& c, const contour::Simulation& o, std::size_t r) {
+  return c.run_tip_max[r] <= o.run_tip_max[r] && c.run_axis_max[r] <= o.run_axis_max[r] + kAxisNoiseRad;
+}
+
+/// Tool-tip figures closer than this are equal (mm): simulation noise, far below a written digit.
+constexpr double kTipNoiseMm = 1e-7;
+
+/// Run r of candidate c is better than the input o: not worse at the maxima, and one of them or
+/// the RMS smaller by more than the noise.
+bool better(const contour::Simulation& c, const contour::Simulation& o, std::size_t r) {
+  return not_worse(c, o, r) &&
+         (c.run_tip_max[r] < o.run_tip_max[r] - kTipNoiseMm || c.run_axis_max[r] < o.run_axis_max[r] - kAxisNoiseRad ||
+          c.run_tip_rms[r] < o.run_tip_rms[r] - kTipNoiseMm);
 }
 
 /// Nothing changed in run r (same maxima): no reason to withhold or report it.
 bool same(const contour::Simulation& w, const contour::Simulation& o, std::size_t r) {
   return w.run_tip_max[r] == o.run_tip_max[r] && w.run_axis_max[r] == o.run_axis_max[r];
 }
+
+/// Two candidates' largest errors closer than this (relative, and at least 1 nm) tie: the RMS decides.
+constexpr double kMaxTie = 0.02;
+
+/// Of two candidates better than the input in run r, the first is preferred: the smaller largest
+/// error (tip + L × axis), and on a tie the smaller RMS.
+bool prefer(const contour::Simulation& a, const contour::Simulation& b, std::size_t r, double length) {
+  const double ka = a.run_tip_max[r] + length * a.run_axis_max[r], kb = b.run_tip_max[r] + length * b.run_axis_max[r];
+  if (std::abs(ka - kb) > std::max(1e-6, kMaxTie * std::min(ka, kb))) return ka < kb;
+  return a.run_tip_rms[r] + length * a.run_axis_rms[r] <= b.run_tip_rms[r] + length * b.run_axis_rms[r];
+}
+
+enum class Choice : std::uint8_t { uncorrected, lag, iterated };
 
 }  // namespace
 
@@ -242,8 +266,8 @@ CompensateResult compensate_contour(std::string_view text, std::string_view file
   r.fit_residual_mm = d.reference->max_fit_residual_mm();
   if (!d.path.points.empty()) r.contour_worst_line = d.path.points[d.result.before.tip.worst].line;
 
-  // One writing pass with the runs in `withheld` left as read, into memory; its figures,
-  // diagnostics and line map are kept only for the pass that is written.
+  // One writing pass of `commands` with the runs in `withheld` left as read, into memory; its
+  // figures, diagnostics and line map are kept only for the pass that is written.
   using Withheld = std::vector<std::pair<std::string_view, std::string>>;
   struct Pass {
     std::string text;
@@ -251,13 +275,13 @@ CompensateResult compensate_contour(std::string_view text, std::string_view file
     gcode::DiagnosticSink sink{std::numeric_limits<std::size_t>::max()};
     std::vector<std::uint64_t> lines;
   };
-  const auto write_pass = [&](const Withheld& withheld) {
+  const auto write_pass = [&](const std::vector<kin::JointVector>& commands, const Withheld& withheld) {
     auto p = std::make_unique<Pass>();
     p->r = r;
     CompensateOptions o = opt;
     o.line_map = opt.line_map != nullptr ? &p->lines : nullptr;
     auto mem = io::OutputFile::memory();
-    ContourWriter w(file, dialect, m, o, d.path, d.result.commands, withheld, mem, p->sink, p->r);
+    ContourWriter w(file, dialect, m, o, d.path, commands, withheld, mem, p->sink, p->r);
     gcode::DiagnosticSink quiet(0);  // the first pass reported the program's diagnostics already
     gcode::LineReader in{text};
     gcode::run_program(in, dialect, file, quiet, w);
@@ -266,96 +290,185 @@ CompensateResult compensate_contour(std::string_view text, std::string_view file
     return p;
   };
 
-  // The verification gate (docs/compensation-verification.md): the input and the written program
-  // are simulated in the time domain (contour/simulate.hpp) against the same intended contour;
-  // a run whose written form is not better than the input's is written without the correction.
+  // The verification gate (docs/compensation-verification.md): the input and two candidates, the
+  // iterated correction and the first-order lag precompensation, are written, read back and
+  // simulated in the time domain (contour/simulate.hpp) against the same intended contour; each
+  // run is written with the best of {uncorrected, lag, iterated}: never worse than the input at
+  // its maxima, then the smaller largest error, then the smaller RMS.
   stage("contour: writing and verifying by simulation", 0);
-  Withheld withheld(d.path.runs.size());
-  // The input's simulation runs on a second thread while the corrected text is written, read
-  // back and simulated (models, reference and path are immutable and shared read-only).
+  const std::size_t runs = d.path.runs.size();
+  const Withheld none(runs);
+  // The simulations run on other threads while the candidates are written on this one (the
+  // written texts are read back into paths of their own; models and reference are immutable).
   std::future<contour::Simulation> input_sim =
       std::async(std::launch::async, [&d, &m] { return contour::simulate(d.path, *d.reference, *m.actual); });
-  std::unique_ptr<Pass> pass = write_pass(withheld);
-  std::string why, why_written;
-  std::optional<contour::Simulation> first = simulate_written(pass->text, file, dialect, m, d, why_written);
+  std::unique_ptr<Pass> iterated = write_pass(d.result.commands, none);
+  std::string why_iterated, why_lag;
+  std::future<std::optional<contour::Simulation>> iterated_sim = std::async(std::launch::async, [&] {
+    return simulate_written(iterated->text, file, dialect, m, d, why_iterated);
+  });
+  std::unique_ptr<Pass> lag = write_pass(d.result.lag_commands, none);
+  std::optional<contour::Simulation> sim_lag = simulate_written(lag->text, file, dialect, m, d, why_lag);
+  std::optional<contour::Simulation> sim_iterated = iterated_sim.get();
+  std::string why;
   std::optional<contour::Simulation> before, after;
   try {
     before = input_sim.get();
   } catch (const Error& e) {
     why = fmt::format("the contour stage's input cannot be simulated ({})", e.what());
   }
+  const double L = po.orientation_length_mm;
+  std::vector<Choice> choice(runs, Choice::uncorrected);
+  Withheld withheld(runs);
   const auto withhold_all = [&](std::string_view because) {
     for (auto& w : withheld)
       w = {kContourUnverified,
            fmt::format("contour correction not written: {}; the program is written as the contour stage received it "
                        "(without the servo correction)",
                        because)};
+    std::fill(choice.begin(), choice.end(), Choice::uncorrected);
   };
-  if (before) {
-    for (int round = 0; round < 4; ++round) {
-      if (round == 0) {
-        after = std::move(first);
-        why = why_written;
-      } else {
-        after = simulate_written(pass->text, file, dialect, m, d, why);
-      }
-      if (!after) break;
-      bool changed = false;
-      for (std::size_t run = 0; run < withheld.size(); ++run) {
-        if (!withheld[run].second.empty() || better(*after, *before, run) || same(*after, *before, run)) continue;
+  const auto fig = [](const std::optional<contour::Simulation>& s, std::size_t run) {
+    return s ? fmt::format("{:.3f} µm / {:.2f} arcsec", s->run_tip_max[run] * 1000, s->run_axis_max[run] * kArcsecPerRad)
+             : std::string("not simulated");
+  };
+  std::unique_ptr<Pass> pass;
+  if (before && (sim_iterated || sim_lag)) {
+    for (std::size_t run = 0; run < runs; ++run) {
+      const bool it_ok = sim_iterated && better(*sim_iterated, *before, run);
+      const bool lag_ok = sim_lag && better(*sim_lag, *before, run);
+      if (it_ok && (!lag_ok || prefer(*sim_iterated, *sim_lag, run, L))) choice[run] = Choice::iterated;
+      else if (lag_ok) choice[run] = Choice::lag;
+      else if (d.result.runs[run].stop == contour::RunStop::nothing ||
+               ((!sim_iterated || same(*sim_iterated, *before, run)) && (!sim_lag || same(*sim_lag, *before, run))))
+        // Nothing changed (a run without a point to correct; its simulation may still differ by
+        // clock noise): nothing to report; written with the candidate that keeps the passes whole.
+        choice[run] = sim_iterated ? Choice::iterated : Choice::lag;
+      else {
         const contour::Run& rr = d.path.runs[run];
+        const contour::RunIteration& ri = d.result.runs[run];
         withheld[run] = {
             kContourWithheld,
-            fmt::format("contour correction of the run starting here ({} moves) not written: the time-domain simulation of the "
-                        "corrected program gives a largest contour error of {:.3f} µm / {:.2f} arcsec against "
-                        "{:.3f} µm / {:.2f} arcsec without it (the iteration predicted {:.3f} µm{}); the run is written "
-                        "as the contour stage received it",
-                        rr.size() - 1, after->run_tip_max[run] * 1000,
-                        after->run_axis_max[run] * kArcsecPerRad, before->run_tip_max[run] * 1000,
-                        before->run_axis_max[run] * kArcsecPerRad, d.result.after.tip.max * 1000,
-                        d.result.converged ? "" : ", not converged")};
-        changed = true;
+            fmt::format("contour correction of the run starting here ({} moves) not written: the time-domain simulation "
+                        "gives a largest contour error of {} with the iterated correction ({} iterations, {}; predicted "
+                        "{:.3f} µm) and {} with the first-order lag precompensation, against {} without; the run is "
+                        "written as the contour stage received it",
+                        rr.size() - 1, fig(sim_iterated, run), ri.iterations, contour::to_string(ri.stop),
+                        ri.after_tip_mm * 1000, fig(sim_lag, run), fig(before, run))};
       }
-      if (!changed) break;
-      pass = write_pass(withheld);
-      after.reset();
+    }
+    // The written program: one of the candidates as it is, or the runs' choices merged and
+    // verified once more (runs are independent, so this confirms the candidates' figures).
+    const bool all_iterated = std::all_of(choice.begin(), choice.end(), [](Choice c) { return c == Choice::iterated; });
+    const bool all_lag = std::all_of(choice.begin(), choice.end(), [](Choice c) { return c == Choice::lag; });
+    if (all_iterated) {
+      pass = std::move(iterated);
+      after = sim_iterated;
+    } else if (all_lag) {
+      pass = std::move(lag);
+      after = sim_lag;
+    } else {
+      std::vector<kin::JointVector> merged = d.result.commands;
+      for (std::size_t run = 0; run < runs; ++run)
+        if (choice[run] == Choice::lag)
+          for (std::size_t i = d.path.runs[run].begin; i < d.path.runs[run].end; ++i) merged[i] = d.result.lag_commands[i];
+      for (int round = 0; round < 4; ++round) {
+        pass = write_pass(merged, withheld);
+        after = simulate_written(pass->text, file, dialect, m, d, why);
+        if (!after) break;
+        bool changed = false;
+        for (std::size_t run = 0; run < runs; ++run) {
+          // Runs without a point to correct are written as received whatever their candidate.
+          if (choice[run] == Choice::uncorrected || d.result.runs[run].stop == contour::RunStop::nothing ||
+              not_worse(*after, *before, run))
+            continue;
+          choice[run] = Choice::uncorrected;
+          withheld[run] = {kContourWithheld,
+                           fmt::format("contour correction of the run starting here ({} moves) not written: the "
+                                       "simulation of the program as written gives {} against {} without it; the run "
+                                       "is written as the contour stage received it",
+                                       d.path.runs[run].size() - 1, fig(after, run), fig(before, run))};
+          changed = true;
+        }
+        if (!changed) break;
+        after.reset();
+      }
     }
     if (!after) {
       if (why.empty()) why = "the runs kept changing from one verification to the next";
       withhold_all(fmt::format("the written program could not be verified by simulation ({})", why));
-      pass = write_pass(withheld);
+      pass = write_pass(d.result.commands, withheld);
       after = simulate_written(pass->text, file, dialect, m, d, why);
     }
   } else {
-    withhold_all(why);
-    pass = write_pass(withheld);
+    if (before) why = why_iterated.empty() ? why_lag : why_iterated;
+    withhold_all(before ? fmt::format("the written program could not be verified by simulation ({})", why) : why);
+    pass = write_pass(d.result.commands, withheld);
+    if (before) after = simulate_written(pass->text, file, dialect, m, d, why);
   }
+  CompensateResult& out_r = pass->r;
   for (const auto& w : withheld)
-    if (!w.second.empty()) ++pass->r.contour_runs_withheld;
-  d.run_withheld.assign(withheld.size(), 0);
-  for (std::size_t i = 0; i < withheld.size(); ++i) d.run_withheld[i] = withheld[i].second.empty() ? 0 : 1;
-  if (pass->r.contour_runs_withheld > 0) {
+    if (!w.second.empty()) ++out_r.contour_runs_withheld;
+  d.run_withheld.assign(runs, 0);
+  for (std::size_t i = 0; i < runs; ++i) d.run_withheld[i] = withheld[i].second.empty() ? 0 : 1;
+  // Per run: the iteration, the candidates simulated, and what was written.
+  out_r.contour_run_reports.resize(runs);
+  for (std::size_t run = 0; run < runs; ++run) {
+    ContourRunReport& rep = out_r.contour_run_reports[run];
+    const contour::Run& rr = d.path.runs[run];
+    const contour::RunIteration& ri = d.result.runs[run];
+    rep.line = rr.begin < d.path.points.size() ? d.path.points[rr.begin].line : 0;
+    rep.moves = rr.size() > 0 ? rr.size() - 1 : 0;
+    rep.iterations = ri.iterations;
+    rep.stop = std::string(contour::to_string(ri.stop));
+    rep.written = choice[run] == Choice::uncorrected || ri.stop == contour::RunStop::nothing ? "uncorrected"
+                  : choice[run] == Choice::lag                                               ? "lag"
+                                                                                             : "iterated";
+    rep.predicted_before_mm = ri.before_tip_mm;
+    rep.predicted_after_mm = ri.after_tip_mm;
+    if (before) {
+      rep.before_mm = before->run_tip_max[run];
+      rep.before_rad = before->run_axis_max[run];
+      rep.before_rms_mm = before->run_tip_rms[run];
+    }
+    if (sim_iterated || (choice[run] == Choice::iterated && after)) {
+      const contour::Simulation& s = sim_iterated ? *sim_iterated : *after;
+      rep.iterated_mm = s.run_tip_max[run];
+      rep.iterated_rad = s.run_axis_max[run];
+      rep.iterated_rms_mm = s.run_tip_rms[run];
+    }
+    if (sim_lag || (choice[run] == Choice::lag && after)) {
+      const contour::Simulation& s = sim_lag ? *sim_lag : *after;
+      rep.lag_mm = s.run_tip_max[run];
+      rep.lag_rad = s.run_axis_max[run];
+      rep.lag_rms_mm = s.run_tip_rms[run];
+    }
+    if (rep.written == "iterated") ++out_r.contour_runs_iterated;
+    if (rep.written == "lag") ++out_r.contour_runs_lag;
+    ++out_r.contour_runs_stopped[static_cast<std::size_t>(ri.stop)];
+  }
+  if (std::any_of(choice.begin(), choice.end(), [](Choice c) { return c != Choice::iterated; })) {
     // The prediction shown next to the simulation (--html) is that of the commands as written.
     std::vector<kin::JointVector> written = d.result.commands;
-    for (std::size_t run = 0; run < withheld.size(); ++run)
-      if (!withheld[run].second.empty())
+    for (std::size_t run = 0; run < runs; ++run)
+      if (choice[run] != Choice::iterated)
         for (std::size_t i = d.path.runs[run].begin; i < d.path.runs[run].end && i < written.size(); ++i)
-          written[i] = d.path.points[i].q;
+          written[i] = choice[run] == Choice::lag ? d.result.lag_commands[i] : d.path.points[i].q;
     d.result.after = contour::predict(d.path, *m.actual, *d.reference, &written);
   }
   d.simulated_before = before;
   d.simulated_after = after;
   if (before && after) {
-    pass->r.contour_verified = true;
-    pass->r.contour_before_mm = before->tip.max;
-    pass->r.contour_before_rad = before->axis.max;
-    pass->r.contour_after_mm = after->tip.max;
-    pass->r.contour_after_rad = after->axis.max;
-    pass->r.contour_worst_line = before->worst_tip_line;
+    out_r.contour_verified = true;
+    out_r.contour_before_mm = before->tip.max;
+    out_r.contour_before_rad = before->axis.max;
+    out_r.contour_after_mm = after->tip.max;
+    out_r.contour_after_rad = after->axis.max;
+    out_r.contour_worst_line = before->worst_tip_line;
   } else {
     // Not simulated: everything is written as received; the figures are the prediction of that.
-    pass->r.contour_before_mm = pass->r.contour_after_mm = d.result.before.tip.max;
-    pass->r.contour_before_rad = pass->r.contour_after_rad = d.result.before.axis.max;
+    out_r.contour_before_mm = out_r.contour_after_mm = d.result.before.tip.max;
+    out_r.contour_before_rad = out_r.contour_after_rad = d.result.before.axis.max;
   }
   for (const gcode::Diagnostic& diag : pass->sink.stored()) sink.report(diag);
   if (opt.line_map != nullptr) opt.line_map->insert(opt.line_map->end(), pass->lines.begin(), pass->lines.end());

@@ -93,6 +93,8 @@ CompensateResult compensate_program(std::string_view text, std::string_view file
     // The worst lines are lines of the program as written.
     for (std::uint64_t* l : {&r.worst_line, &r.contour_worst_line})
       if (*l >= 1 && *l <= resolved.source_line.size()) *l = resolved.source_line[*l - 1];
+    for (ContourRunReport& c : r.contour_run_reports)
+      if (c.line >= 1 && c.line <= resolved.source_line.size()) c.line = resolved.source_line[c.line - 1];
     return r;
   }
   opt.flatten = false;  // nothing to flatten: the header says nothing about it
@@ -144,6 +146,8 @@ CompensateResult compensate_flat(std::string_view text, std::string_view file, c
   merge_geometric(r, geo);
   if (r.contour_worst_line >= 1 && r.contour_worst_line <= geo_lines.size())
     r.contour_worst_line = geo_lines[r.contour_worst_line - 1];
+  for (ContourRunReport& c : r.contour_run_reports)
+    if (c.line >= 1 && c.line <= geo_lines.size()) c.line = geo_lines[c.line - 1];
   return r;
 }
 

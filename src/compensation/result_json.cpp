@@ -64,6 +64,32 @@ nlohmann::json result_json(const CompensateResult& r, std::string_view mode, con
                     {"iterations", r.contour_iterations},
                     {"converged", r.contour_converged},
                     {"fit_residual_um", r.fit_residual_mm * 1000}};
+    j["contour"]["runs_iterated"] = r.contour_runs_iterated;
+    j["contour"]["runs_lag"] = r.contour_runs_lag;
+    j["contour"]["runs_uncorrected"] = r.contour_runs - std::min(r.contour_runs, r.contour_runs_iterated + r.contour_runs_lag);
+    j["contour"]["stops"] = {{"converged", r.contour_runs_stopped[1]},
+                             {"no_improvement", r.contour_runs_stopped[2]},
+                             {"iteration_limit", r.contour_runs_stopped[3]},
+                             {"nothing_to_correct", r.contour_runs_stopped[0]}};
+    nlohmann::json per_run = nlohmann::json::array();
+    for (const ContourRunReport& c : r.contour_run_reports)
+      per_run.push_back({{"line", c.line},
+                         {"moves", c.moves},
+                         {"iterations", c.iterations},
+                         {"stop", c.stop},
+                         {"written", c.written},
+                         {"predicted_before_tip_um", c.predicted_before_mm * 1000},
+                         {"predicted_after_tip_um", c.predicted_after_mm * 1000},
+                         {"before_tip_um", c.before_mm * 1000},
+                         {"before_axis_arcsec", c.before_rad * kArcsec},
+                         {"before_tip_rms_um", c.before_rms_mm * 1000},
+                         {"iterated_tip_um", c.iterated_mm * 1000},
+                         {"iterated_axis_arcsec", c.iterated_rad * kArcsec},
+                         {"iterated_tip_rms_um", c.iterated_rms_mm * 1000},
+                         {"lag_tip_um", c.lag_mm * 1000},
+                         {"lag_axis_arcsec", c.lag_rad * kArcsec},
+                         {"lag_tip_rms_um", c.lag_rms_mm * 1000}});
+    j["contour"]["run_details"] = per_run;
     if (contour != nullptr) {
       nlohmann::json hu = nlohmann::json::array(), ha = nlohmann::json::array();
       for (double v : contour->result.history_mm) hu.push_back(v * 1000);

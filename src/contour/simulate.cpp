@@ -30,6 +30,8 @@ Simulation simulate(const Path& commanded, const Reference& ref, const kin::Mode
   sim.max_following.assign(uj, 0.0);
   sim.run_tip_max.assign(commanded.runs.size(), 0.0);
   sim.run_axis_max.assign(commanded.runs.size(), 0.0);
+  sim.run_tip_rms.assign(commanded.runs.size(), 0.0);  // sums of squares until the run ends
+  sim.run_axis_rms.assign(commanded.runs.size(), 0.0);
   std::vector<double> tip_mm, axis_rad;  // per sample, for the summaries
   double worst_tip = -1, worst_axis = -1;
   // s: start of the current run in simulation time. Runs follow each other on the interpolation
@@ -52,6 +54,7 @@ Simulation simulate(const Path& commanded, const Reference& ref, const kin::Mode
     const double t0 = commanded.points[run.begin].t;  // s, the path's time at the run start
     std::size_t hint = ref.run(r).begin;
     bool sampled = false;  // a run without a move has no samples and takes no time
+    std::uint64_t run_samples = 0;
     double t_last = 0;     // s, run time of the run's last sample
 
     interpolate(commanded, run, opt.settle_s, [&](const Sample& s) {
@@ -97,6 +100,9 @@ Simulation simulate(const Path& commanded, const Reference& ref, const kin::Mode
       }
       sim.run_tip_max[r] = std::max(sim.run_tip_max[r], ce.distance);
       sim.run_axis_max[r] = std::max(sim.run_axis_max[r], ce.angle);
+      sim.run_tip_rms[r] += ce.distance * ce.distance;
+      sim.run_axis_rms[r] += ce.angle * ce.angle;
+      ++run_samples;
       tip_mm.push_back(ce.distance);
       axis_rad.push_back(ce.angle);
       if (opt.keep_every > 0 && sim.samples % opt.keep_every == 0) {
@@ -114,6 +120,10 @@ Simulation simulate(const Path& commanded, const Reference& ref, const kin::Mode
       ++sim.samples;
     });
     if (sampled) offset += t_last + dt;
+    if (run_samples > 0) {
+      sim.run_tip_rms[r] = std::sqrt(sim.run_tip_rms[r] / static_cast<double>(run_samples));
+      sim.run_axis_rms[r] = std::sqrt(sim.run_axis_rms[r] / static_cast<double>(run_samples));
+    }
   }
   sim.tip = summarise(tip_mm);
   sim.axis = summarise(axis_rad);

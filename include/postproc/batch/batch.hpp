@@ -33,7 +33,7 @@
 #include <nlohmann/json.hpp>
 
 #include "postproc/compensation/compensate.hpp"
-#include "postproc/contour/predict.hpp"
+#include "postproc/contour/precompensate.hpp"
 
 namespace postproc::batch {
 

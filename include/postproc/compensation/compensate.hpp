@@ -11,7 +11,7 @@
 #include <vector>
 
 #include "postproc/contour/path.hpp"
-#include "postproc/contour/predict.hpp"
+#include "postproc/contour/precompensate.hpp"
 #include "postproc/contour/reference.hpp"
 #include "postproc/contour/simulate.hpp"
 #include "postproc/gcode/diagnostic.hpp"
@@ -73,6 +73,21 @@ struct AxisLimitedBlock {
 };
 inline constexpr std::size_t kMaxAxisLimitedListed = 10000;
 
+/// --mode contour / all: what one run of the contour stage got. Figures in mm and rad; the
+/// "simulated" ones from the time-domain simulation of the written candidates (contour/simulate.hpp).
+struct ContourRunReport {
+  std::uint64_t line = 0;       ///< line of the run's first move
+  std::uint64_t moves = 0;
+  int iterations = 0;           ///< accepted iterations of the run
+  std::string stop;             ///< why its iteration stopped (contour::to_string(RunStop))
+  std::string written;          ///< "iterated", "lag" (first-order lag precompensation) or "uncorrected"
+  double predicted_before_mm = 0, predicted_after_mm = 0;  ///< the iteration's prediction (largest tip error)
+  double before_mm = 0, before_rad = 0, before_rms_mm = 0;  ///< simulated, as received
+  double iterated_mm = 0, iterated_rad = 0, iterated_rms_mm = 0;  ///< simulated, iterated correction
+  double lag_mm = 0, lag_rad = 0, lag_rms_mm = 0;            ///< simulated, lag precompensation
+};
+
+
 /// Figures of one run (the --report JSON carries them).
 struct CompensateResult {
   std::uint64_t blocks = 0;
@@ -117,8 +132,12 @@ struct CompensateResult {
   std::uint64_t contour_runs = 0;        ///< runs (stretches of feed moves) of the path
   std::uint64_t contour_runs_withheld = 0;  ///< runs written without the contour correction (PP-W620/W621)
   std::uint64_t contour_worst_line = 0;  ///< line of contour_before_mm
-  int contour_iterations = 0;
-  bool contour_converged = false;
+  int contour_iterations = 0;             ///< the most accepted iterations of a run
+  bool contour_converged = false;         ///< no run stopped at the iteration limit
+  std::uint64_t contour_runs_iterated = 0;  ///< runs written with the iterated correction
+  std::uint64_t contour_runs_lag = 0;       ///< runs written with the first-order lag precompensation
+  std::uint64_t contour_runs_stopped[4] = {0, 0, 0, 0};  ///< runs per contour::RunStop
+  std::vector<ContourRunReport> contour_run_reports;   ///< per run of the contour stage
   double fit_residual_mm = 0;            ///< largest NURBS fit residual of the intended contour, mm
   std::uint64_t resolved_lines = 0;      ///< lines of the resolved program (0: not resolved)
   std::uint64_t source_lines_rewritten = 0;  ///< resolved without --flatten: program lines rewritten

@@ -10,7 +10,7 @@
 #include <vector>
 
 #include "postproc/contour/path.hpp"
-#include "postproc/contour/predict.hpp"
+#include "postproc/contour/precompensate.hpp"
 #include "postproc/contour/simulate.hpp"
 
 namespace postproc::contour {

@@ -40,6 +40,8 @@ struct Simulation {
   std::uint64_t worst_axis_line = 0;
   std::vector<double> run_tip_max;   ///< per run of the commanded path: largest tool-tip error, mm
   std::vector<double> run_axis_max;  ///< per run: largest tool-axis error, rad
+  std::vector<double> run_tip_rms;   ///< per run: RMS of the tool-tip error over its samples, mm
+  std::vector<double> run_axis_rms;  ///< per run: RMS of the tool-axis error, rad
   std::vector<SimSample> kept;
 };
 

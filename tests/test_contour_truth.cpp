@@ -1,0 +1,321 @@
+// Issue 17 item 1: contour precompensation judged on an independent time-domain truth simulator
+// (contour_truth.hpp): the samples of every machine kind, and random programs (fixed seed). The
+// corrected program is never worse at its largest contour error than the original, its RMS is at
+// least as good as the first-order lag precompensation's, and on smooth programs the RMS falls
+// by 80 % or more.
+#include <cstdio>
+#include <random>
+#include <string>
+
+#include <fmt/format.h>
+#include <gtest/gtest.h>
+
+#include "contour_support.hpp"
+#include "contour_truth.hpp"
+#include "postproc/compensation/compensate.hpp"
+#include "postproc/contour/precompensate.hpp"
+#include "postproc/io/input_file.hpp"
+#include "postproc/io/output_file.hpp"
+#include "postproc/machine/machine.hpp"
+
+namespace {
+
+namespace ct = postproc::contour;
+namespace mc = postproc::machine;
+namespace gc = postproc::gcode;
+namespace comp = postproc::comp;
+namespace kin = postproc::kin;
+
+const std::string kSamples = std::string(POSTPROC_SOURCE_DIR) + "/samples/";
+
+mc::Machine machine(const std::string& name) {
+  gc::DiagnosticSink sink;
+  auto m = mc::load_machine(kSamples + "machines/" + name, sink);
+  EXPECT_TRUE(m.has_value()) << name;
+  return *m;
+}
+
+ct::Path path_of(const std::string& text, const mc::Machine& m) {
+  const gc::Dialect d = *gc::make_dialect(m.dialect_name, m.dialect_options);
+  gc::DiagnosticSink sink;
+  gc::LineReader in{std::string_view(text)};
+  ct::Path p = ct::build_path(in, "t.nc", d, m, ct::PathOptions{}, sink);
+  EXPECT_FALSE(sink.has_errors());
+  return p;
+}
+
+struct Compensated {
+  std::string text;
+  comp::CompensateResult r;
+};
+
+Compensated compensate(const std::string& program, const mc::Machine& m, const std::string& mode) {
+  const gc::Dialect d = *gc::make_dialect(m.dialect_name, m.dialect_options);
+  comp::CompensateOptions opt;
+  opt.mode = mode;
+  opt.tool_version = "test";
+  gc::DiagnosticSink sink;
+  auto out = postproc::io::OutputFile::memory();
+  Compensated c;
+  c.r = comp::compensate_program(program, "t.nc", d, m, opt, ct::PrecompensateOptions{}, out, sink);
+  EXPECT_FALSE(sink.has_errors());
+  c.text = out.take();
+  return c;
+}
+
+/// The truth figures of one program: the original, the corrected program as written, and the
+/// first-order lag precompensation of the original's commands (contour::lag_precompensation).
+struct Figures {
+  pptruth::Truth original, corrected, lag;
+  comp::CompensateResult r;
+};
+
+Figures judge(const std::string& program, const mc::Machine& m, const std::string& mode = "contour") {
+  Figures f;
+  const Compensated c = compensate(program, m, mode);
+  f.r = c.r;
+  const ct::Path original = path_of(program, m);
+  const ct::Path written = path_of(c.text, m);
+  pptruth::TruthOptions opt;
+  opt.nominal = mode == "all";
+  f.original = pptruth::simulate_truth(original, original, *m.actual, opt);
+  f.corrected = pptruth::simulate_truth(written, original, *m.actual, opt);
+  if (mode == "contour") {
+    ct::Path lag = original;
+    const std::vector<kin::JointVector> q = ct::lag_precompensation(original);
+    for (std::size_t i = 0; i < q.size(); ++i) lag.points[i].q = q[i];
+    f.lag = pptruth::simulate_truth(lag, original, *m.actual, opt);
+  }
+  return f;
+}
+
+// The harness itself, against the closed form: a circle of radius R at speed v on a lag-mode
+// drive (Kv) is followed on a circle of radius R/√(1 + (v/(R·Kv))²) once the start transient has
+// died away; a straight line has no contour error at all.
+TEST(ContourTruth, HarnessMatchesTheFirstOrderLagOnACircle) {
+  const mc::Machine& m = pptest::mill();
+  const double R = 10, v = 3000.0 / 60.0, kv = 30;
+  std::string prog = "G90 G54\nG0 X10. Y0. Z0.\n";
+  // Three turns; the error is read on the last one.
+  const int n = 720;
+  for (int i = 1; i <= 3 * n / 2; ++i) {
+    const double a = 2 * kin::kPi * i / (n / 2.0);
+    prog += fmt::format("G1 X{:.4f} Y{:.4f}{}\n", R * std::cos(a), R * std::sin(a), i == 1 ? " F3000." : "");
+  }
+  prog += "M30\n";
+  const ct::Path p = path_of(prog, m);
+  ASSERT_EQ(p.runs.size(), 1u);
+  // Measured over the whole run the largest error is the steady one (the transient at the start
+  // cuts inside less) or the stop's; the RMS is dominated by the steady circle.
+  const pptruth::Truth t = pptruth::simulate_truth(p, p, *m.actual);
+  const double w = v / R;
+  const double steady = R - R / std::sqrt(1 + (w / kv) * (w / kv));
+  EXPECT_NEAR(t.rms_mm, steady, 0.05 * steady) << "steady " << steady;
+  const ct::Path line = path_of("G90 G54\nG0 X0 Y0 Z0\nG1 X50. Y20. F3000.\nX100. Y40.\nM30\n", m);
+  EXPECT_LT(pptruth::simulate_truth(line, line, *m.actual).max_mm, 1e-6);
+}
+
+struct SampleCase {
+  const char* program;
+  const char* machine;
+  const char* mode;
+  double resolution_mm;  ///< the program's last written digit
+};
+
+class ContourTruthSample : public ::testing::TestWithParam<SampleCase> {};
+
+TEST_P(ContourTruthSample, NeverWorseAtMaxAndAtLeastAsGoodAsLagPrecompensation) {
+  const SampleCase c = GetParam();
+  const mc::Machine m = machine(c.machine);
+  const std::string prog = postproc::io::read_file(kSamples + "programs/" + c.program, "NC program");
+  const Figures f = judge(prog, m, c.mode);
+  std::printf("%s on %s --mode %s (truth): max %.3f -> %.3f um (lag %.3f), RMS %.3f -> %.3f um (lag %.3f)\n", c.program,
+              c.machine, c.mode, f.original.max_mm * 1000, f.corrected.max_mm * 1000, f.lag.max_mm * 1000,
+              f.original.rms_mm * 1000, f.corrected.rms_mm * 1000, f.lag.rms_mm * 1000);
+  for (const comp::ContourRunReport& rr : f.r.contour_run_reports)
+    if (rr.moves > 1)
+      std::printf("    run at line %llu: %d iterations (%s), written %s; simulated max %.3f, iterated %.3f, lag %.3f um; "
+                  "RMS %.3f, iterated %.3f, lag %.3f um\n",
+                  static_cast<unsigned long long>(rr.line), rr.iterations, rr.stop.c_str(), rr.written.c_str(),
+                  rr.before_mm * 1000, rr.iterated_mm * 1000, rr.lag_mm * 1000, rr.before_rms_mm * 1000,
+                  rr.iterated_rms_mm * 1000, rr.lag_rms_mm * 1000);
+  ASSERT_EQ(f.corrected.run_max_mm.size(), f.original.run_max_mm.size());
+  EXPECT_LE(f.corrected.max_mm, f.original.max_mm);
+  for (std::size_t r = 0; r < f.original.run_max_mm.size(); ++r)
+    EXPECT_LE(f.corrected.run_max_mm[r], f.original.run_max_mm[r] * 1.0001 + 1e-6) << "run " << r;
+  EXPECT_LT(f.corrected.rms_mm, f.original.rms_mm);
+  // The lag baseline is the commands themselves (not rounded to the program's digits, not
+  // re-timed by the controller); the written program is compared with it within half a digit.
+  if (std::string(c.mode) == "contour") {
+    EXPECT_LE(f.corrected.rms_mm, f.lag.rms_mm + 0.5 * c.resolution_mm);
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Samples, ContourTruthSample,
+                         ::testing::Values(SampleCase{"cone_frustum_nas979.nc", "trunnion_ac_fanuc.toml", "contour", 1e-4},
+                                           SampleCase{"cone_frustum_nas979.nc", "trunnion_ac_fanuc.toml", "all", 1e-4},
+                                           SampleCase{"tilted_pocket_3prs_contour.nc", "hybrid_3prs_doc001.toml", "contour",
+                                                      1e-3},
+                                           SampleCase{"freeform_lathe_contour.ngc", "lathe_xzbc_doc004.toml", "contour", 1e-4},
+                                           SampleCase{"blade_5axis_g43_4.nc", "trunnion_bc_fanuc.toml", "contour", 1e-3}));
+
+/// A random program that does not cross itself: a star-shaped curve (radius 30 mm plus three
+/// random harmonics, 0.9 of a turn; on the trunnion A and C move too), or with `corners` a random
+/// polyline heading forward in X (a new direction within ±60° every 25 blocks of 0.3 mm). The feed
+/// ramps up over the first and down over the last 20 blocks (the stop at full speed on a curve
+/// cannot be corrected: docs/contour.md, limits). Paths that cross themselves are left out: the
+/// verification's own simulator loses its foot point on them (issue 17 item 5, another change).
+std::string random_program(std::mt19937& rng, bool five_axis, bool corners) {
+  std::uniform_real_distribution<double> u(0, 1);
+  const double feed = 2000 + 3000 * u(rng);
+  double amp[3], phase[3];
+  for (int k = 0; k < 3; ++k) {
+    amp[k] = 6 * u(rng) / (k + 1);
+    phase[k] = 2 * kin::kPi * u(rng);
+  }
+  const double pz = 2 * kin::kPi * u(rng), pa = 2 * kin::kPi * u(rng);
+  const int n = 500;
+  std::vector<std::array<double, 5>> pts;
+  if (corners) {
+    double x = 0, y = 0, dx = 1, dy = 0;
+    for (int i = 0; i <= n; ++i) {
+      if (i % 25 == 0 && i > 0) {
+        const double a = kin::kPi / 3 * (2 * u(rng) - 1);
+        dx = std::cos(a);
+        dy = std::sin(a);
+      }
+      pts.push_back({x, y, 0, 0, 0});
+      x += 0.3 * dx;
+      y += 0.3 * dy;
+    }
+  } else {
+    for (int i = 0; i <= n; ++i) {
+      const double s = 1.8 * kin::kPi * i / n;
+      double rho = 30;
+      for (int k = 0; k < 3; ++k) rho += amp[k] * std::cos((k + 2) * s + phase[k]);
+      pts.push_back({rho * std::cos(s), rho * std::sin(s), 2 * std::sin(s + pz), five_axis ? 10 * std::sin(s + pa) : 0.0,
+                     five_axis ? 20 * s / kin::kPi : 0.0});
+    }
+  }
+  const auto words = [&](const std::array<double, 5>& p) {
+    return five_axis ? fmt::format("X{:.4f} Y{:.4f} Z{:.4f} A{:.4f} C{:.4f}", p[0], p[1], p[2] - 20, p[3], p[4])
+                     : fmt::format("X{:.4f} Y{:.4f} Z{:.4f}", p[0], p[1], p[2]);
+  };
+  std::string s = "G90 G54\n";
+  if (five_axis) s += "G43 H1\n";
+  s += "G0 " + words(pts[0]) + "\n";
+  int last_f = -1;
+  for (int i = 1; i <= n; ++i) {
+    const double ramp = std::min({1.0, i / 20.0, (n - i + 1) / 20.0});
+    const int f = static_cast<int>(std::max(200.0, feed * ramp));
+    s += "G1 " + words(pts[static_cast<std::size_t>(i)]) + (f != last_f ? fmt::format(" F{}.", f) : std::string()) + "\n";
+    last_f = f;
+  }
+  s += "G0 Z50.\nM30\n";
+  return s;
+}
+
+/// `rms_cut`: the RMS must fall by at least this fraction; `beat_lag`: and be at most the lag
+/// precompensation's (within half a written digit, 0.1 µm: the baseline is not rounded).
+void property(const mc::Machine& m, bool five_axis, bool corners, unsigned seed, double rms_cut, bool beat_lag) {
+  std::mt19937 rng(seed);
+  double worst_cut = 0;
+  for (int k = 0; k < 6; ++k) {
+    const std::string prog = random_program(rng, five_axis, corners);
+    const Figures f = judge(prog, m);
+    const double cut = f.corrected.rms_mm / f.original.rms_mm;
+    worst_cut = std::max(worst_cut, cut);
+    std::printf("  program %d: max %.3f -> %.3f um (lag %.3f), RMS %.3f -> %.3f um (lag %.3f), RMS -%.1f %%\n", k,
+                f.original.max_mm * 1000, f.corrected.max_mm * 1000, f.lag.max_mm * 1000, f.original.rms_mm * 1000,
+                f.corrected.rms_mm * 1000, f.lag.rms_mm * 1000, 100 * (1 - cut));
+    for (const comp::ContourRunReport& rr : f.r.contour_run_reports)
+      if (rr.moves > 1)
+        std::printf("    run at line %llu: %d iterations (%s), written %s; simulated max %.3f, iterated %.3f, lag %.3f um; "
+                    "RMS %.3f, iterated %.3f, lag %.3f um\n",
+                    static_cast<unsigned long long>(rr.line), rr.iterations, rr.stop.c_str(), rr.written.c_str(),
+                    rr.before_mm * 1000, rr.iterated_mm * 1000, rr.lag_mm * 1000, rr.before_rms_mm * 1000,
+                    rr.iterated_rms_mm * 1000, rr.lag_rms_mm * 1000);
+    EXPECT_LE(f.corrected.max_mm, f.original.max_mm) << "program " << k;
+    if (beat_lag) {
+      EXPECT_LE(f.corrected.rms_mm, f.lag.rms_mm + 5e-5) << "program " << k;
+    }
+    if (rms_cut > 0) {
+      EXPECT_LE(cut, 1 - rms_cut) << "program " << k;
+    }
+  }
+  std::printf("  smallest RMS cut: -%.1f %%\n", 100 * (1 - worst_cut));
+}
+
+TEST(ContourTruthProperty, SmoothRandomProgramsOnAThreeAxisMill) { property(pptest::mill(), false, false, 17, 0.8, true); }
+
+// Sharp corners: never worse at the maximum, the RMS at least halved (measured: −82 % or more).
+// Not asserted here: the lag precompensation is better on this truth at corners (RMS about 5 µm
+// against 16 … 41 µm), but the verification's simulator, which chooses per run, loses its foot
+// point at these corners (its "before" is 1.7 … 7.5 mm where the truth has 0.45 … 1 mm) and so
+// does not see it; that tracking is issue 17 item 5, another change.
+TEST(ContourTruthProperty, RandomPolylinesWithCornersOnAThreeAxisMill) {
+  property(pptest::mill(), false, true, 18, 0.5, false);
+}
+
+TEST(ContourTruthProperty, SmoothRandomProgramsOnTheAcTrunnion) {
+  property(machine("trunnion_ac_fanuc.toml"), true, false, 19, 0.8, true);
+}
+
+}  // namespace
+namespace {
+
+/// Zigzags of the correction δ = command − program along the runs: points where joint j's
+/// correction (larger than `floor`) changes sign both from the previous and to the next correctable point.
+std::size_t zigzags(const ct::Path& p, const std::vector<kin::JointVector>& c, double floor) {
+  std::size_t n = 0;
+  for (const ct::Run& run : p.runs) {
+    std::vector<std::size_t> idx;
+    for (std::size_t i = run.begin; i < run.end; ++i)
+      if (ct::correctable(p, run, i)) idx.push_back(i);
+    for (int j = 0; j < p.joints; ++j)
+      for (std::size_t k = 1; k + 1 < idx.size(); ++k) {
+        const double a = c[idx[k - 1]][j] - p.points[idx[k - 1]].q[j], b = c[idx[k]][j] - p.points[idx[k]].q[j],
+                     d = c[idx[k + 1]][j] - p.points[idx[k + 1]].q[j];
+        if (std::abs(b) > floor && a * b < 0 && b * d < 0) ++n;
+      }
+  }
+  return n;
+}
+
+// Issue 17: "the corrections alternate in sign from block to block at corners". With the
+// correction smoothed along the run (PrecompensateOptions::smoothing) the iterated commands of the
+// random polylines with corners and of the 3-PRS pocket hardly zigzag (measured 0 … 92 of 2,000 …
+// 10,000 point-joints); without it they do 10 … 20 times as often.
+TEST(ContourSmoothness, TheCorrectionDoesNotAlternateInSign) {
+  std::mt19937 rng(18);
+  struct Case {
+    std::string program;
+    mc::Machine machine;
+  };
+  std::vector<Case> cases;
+  for (int k = 0; k < 3; ++k) cases.push_back({random_program(rng, false, true), pptest::mill()});
+  cases.push_back({postproc::io::read_file(kSamples + "programs/tilted_pocket_3prs_contour.nc", "NC program"),
+                   machine("hybrid_3prs_doc001.toml")});
+  std::size_t smooth_total = 0, raw_total = 0;
+  for (const Case& c : cases) {
+    const ct::Path p = path_of(c.program, c.machine);
+    const ct::Reference ref(p, *c.machine.actual);
+    ct::PrecompensateOptions raw;
+    raw.smoothing = 0;
+    const ct::Precompensation with = ct::precompensate(p, *c.machine.actual, ref);
+    const ct::Precompensation without = ct::precompensate(p, *c.machine.actual, ref, raw);
+    const std::size_t zs = zigzags(p, with.commands, 1e-4), zr = zigzags(p, without.commands, 1e-4);
+    std::size_t checks = 0;
+    for (const ct::Run& run : p.runs)
+      for (std::size_t i = run.begin; i < run.end; ++i) checks += ct::correctable(p, run, i) ? static_cast<std::size_t>(p.joints) : 0;
+    std::printf("  zigzags of the correction (> 0.1 um): %zu smoothed, %zu without smoothing, of %zu point-joints\n", zs, zr,
+                checks);
+    smooth_total += zs;
+    raw_total += zr;
+    EXPECT_LE(zs * 100, checks) << "more than 1 % of the point-joints zigzag";
+    EXPECT_LE(zs * 10, zr);
+  }
+  EXPECT_LE(smooth_total * 20, raw_total);
+}
+
+}  // namespace
