@@ -95,6 +95,10 @@ gcode::AxisMask written_axes(const machine::Machine& m, Form f) {
     for (int a = 0; a < gcode::kAxisCount; ++a)
       if (m.joint_of_axis[static_cast<std::size_t>(a)] >= 0 && (f == Form::axes || a < 3 || gcode::is_rotary(a)))
         mask |= static_cast<gcode::AxisMask>(1u << a);
+  } else if (f == Form::turning) {
+    // Turning: the linear axes set the tip's radius and Z; rotary values stay as programmed.
+    for (int a = 0; a < 3; ++a)
+      if (m.joint_of_axis[static_cast<std::size_t>(a)] >= 0) mask |= static_cast<gcode::AxisMask>(1u << a);
   } else {
     mask = 0b111;
     if (f == Form::tcp_virtual) mask |= 0b11000;

@@ -114,6 +114,7 @@ bool Compensator::invariant(const Block& b, const Motion& m, const ProgramMap& m
     return false;
   }
   if (figures) {
+    measured_block_ = &b;
     // The worst over the checked positions: each one's error before and residual after.
     for (const Command& c : checked) {
       Command o;

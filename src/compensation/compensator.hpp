@@ -34,6 +34,8 @@ inline constexpr std::string_view kMachine = "PP-E602";         // the program n
 inline constexpr std::string_view kTravel = "PP-E603";          // the corrected block leaves the axis travel
 inline constexpr std::string_view kKinematics = "PP-E604";      // the kinematics failed (singular, no convergence)
 inline constexpr std::string_view kRapidAsWritten = "PP-W601";  // a rapid left uncorrected (positions unknown)
+inline constexpr std::string_view kTurningLimit = "PP-W602";    // a turning radius below what the machine reaches
+inline constexpr std::string_view kSpindlePosition = "PP-E605"; // the turning spindle's axis programmed while it turns
 inline constexpr int kMaxSegments = 4096;
 
 class Compensator final : public gcode::BlockVisitor {
@@ -241,7 +243,19 @@ class Compensator final : public gcode::BlockVisitor {
     }
     ProgramMap* map = &*map_;
     mask_ = written_axes(form);
-    const AxisMask foreign = static_cast<AxisMask>(m.programmed & ~mask_ & ~((form != Form::axes) ? 0b111000 : 0));
+    if (form == Form::turning && ((m.programmed >> m_.turning_spindle_axis) & 1u)) {
+      const char letter = gcode::kAxisLetters[static_cast<std::size_t>(m_.turning_spindle_axis)];
+      refuse(b, m.column, kSpindlePosition,
+             fmt::format("{0} is the turning spindle of machine '{1}' ([machine] turning_spindle) and turns here "
+                         "(M3/M4): a {0} position cannot be compensated while it spins; stop the spindle (M5) before "
+                         "positioning {0}",
+                         letter, m_.name));
+      return false;
+    }
+    // Rotary axes are not written by turning moves (a B head keeps its value), nor by TCP forms'
+    // tool vectors; programming them is not foreign.
+    const AxisMask kept = form == Form::axes ? 0 : static_cast<AxisMask>(0b111000);
+    const AxisMask foreign = static_cast<AxisMask>(m.programmed & ~mask_ & ~kept);
     if (foreign != 0) {
       for (int a = 0; a < gcode::kAxisCount; ++a)
         if ((foreign >> a) & 1u) {
@@ -262,12 +276,20 @@ class Compensator final : public gcode::BlockVisitor {
       refuse(b, m.column, kRefused, "the tool orientation of this move is not known (no tool vector programmed yet)");
       return false;
     }
-    const AxisMask unknown = static_cast<AxisMask>(mask_ & ~m.known);
+    // Axes whose position the correction depends on: those it writes, and for turning moves the
+    // rotary axes too (a B head tilts the tool) except the spinning spindle itself.
+    AxisMask needed = mask_;
+    if (form == Form::turning)
+      for (int a = 3; a < 6; ++a)
+        if (m_.joint_of_axis[static_cast<std::size_t>(a)] >= 0 && a != m_.turning_spindle_axis)
+          needed = static_cast<AxisMask>(needed | (1u << a));
+    const AxisMask unknown = static_cast<AxisMask>(needed & ~m.known);
     kin::JointVector q;
     if (unknown == 0) {
       const kin::Solve s = map->correct(cmd, joints_, out, q);
       if (!s.ok()) return kin_failure(b, m, s);
       // First: later checks run the remap on other points.
+      measured_block_ = &b;
       if (figures) measure(m, cmd, *map, out, q);
     } else if (!invariant(b, m, *map, cmd, unknown, out, q, figures)) {
       return false;
@@ -372,17 +394,19 @@ class Compensator final : public gcode::BlockVisitor {
   void measure(const Motion& m, const Command& cmd, const ProgramMap& map, const Command& out,
                const kin::JointVector& q_written, AxisMask held = 0) {
     // The intended pose and the nominal joints of the end point come from the remap itself.
-    const kin::Pose& want = map.last_intended();
+    // Poses are compared as the part sees them (a turning move: radius and Z; ProgramMap::as_cut).
+    const kin::Pose want = map.as_cut(map.nominal(), map.last_nominal_joints(), map.last_intended());
     kin::Pose before, after, written_nominal;
     kin::JointVector qa;
     if (!map.actual().forward(map.last_nominal_joints(), before).ok()) return;
+    before = map.as_cut(map.actual(), map.last_nominal_joints(), before);
     // The tool-axis correction on every machine kind: the tool axis the nominal machine would
     // have for the written block against the intended one (rotary words, tool vectors or struts).
     // A tool vector is that axis as written; otherwise forward kinematics of the written joints.
     std::optional<Eigen::Vector3d> written_axis;
     if (map.form() == Form::tcp_vector) written_axis = out.vector.normalized();
     else if (q_written.size() == map.last_nominal_joints().size() && map.nominal().forward(q_written, written_nominal).ok())
-      written_axis = written_nominal.axis();
+      written_axis = map.as_cut(map.nominal(), q_written, written_nominal).axis();
     if (written_axis)
       r_.max_axis_correction_rad = std::max(r_.max_axis_correction_rad,
                                             std::acos(std::clamp(written_axis->dot(want.axis()), -1.0, 1.0)));
@@ -405,7 +429,18 @@ class Compensator final : public gcode::BlockVisitor {
       else r_.max_correction_mm = std::max(r_.max_correction_mm, dc);
     }
     if (map.real(printed, joints_, after, qa).ok()) {
+      after = map.as_cut(map.actual(), qa, after);
       r_.max_residual_mm = std::max(r_.max_residual_mm, (after.p - want.p).norm());
+      if (map.form() == Form::turning && (after.p - want.p).norm() > opt_.max_deviation_mm && !turning_limit_warned_) {
+        // Facing to the centre with a centre-height error: the tool passes the spindle axis at a
+        // distance; the block is written at the closest approach and says so (once per program).
+        turning_limit_warned_ = true;
+        if (measured_block_ != nullptr) note(*measured_block_, m.column, kTurningLimit,
+                  fmt::format("turning: this radius is not reachable on the real machine (the tool tip passes the "
+                              "spindle axis at a distance, e.g. a centre-height error); written at the closest "
+                              "approach, {:.4f} mm from the intended point — the part keeps a pip there",
+                              (after.p - want.p).norm()));
+      }
       const double left = std::acos(std::clamp(after.axis().dot(want.axis()), -1.0, 1.0));
       r_.max_residual_rad = std::max(r_.max_residual_rad, left);
       // A block whose tool axis the bounded solve left with more than 5 % of its error.
@@ -425,6 +460,8 @@ class Compensator final : public gcode::BlockVisitor {
     kin::Pose want, got;
     kin::JointVector q1, q2;
     if (!map.intended(c, joints_, want, q1).ok() || !map.real(k, joints_, got, q2).ok()) return false;
+    want = map.as_cut(map.nominal(), q1, want);
+    got = map.as_cut(map.actual(), q2, got);
     mm = (got.p - want.p).norm();
     rad = std::acos(std::clamp(got.axis().dot(want.axis()), -1.0, 1.0));
     return true;
@@ -547,6 +584,8 @@ class Compensator final : public gcode::BlockVisitor {
   bool recompensation_checked_ = false;  ///< PP-E620 reported
   bool header_done_ = false;
   bool rapid_as_written_ = false;
+  bool turning_limit_warned_ = false;      ///< PP-W602 is said once per program
+  const Block* measured_block_ = nullptr;  ///< the block measure() reports on
   bool arc_mode_broken_ = false;  ///< an arc was linearised; a following modal arc needs its G word
   std::string arc_word_ = "G2";
   AxisMask mask_ = 0;

@@ -1,6 +1,7 @@
 // The controller's command → joints map per program form, and the geometric remap through it.
 #include "postproc/compensation/program_map.hpp"
 
+#include <array>
 #include <cmath>
 #include <limits>
 
@@ -18,6 +19,7 @@ std::string_view to_string(Form f) {
     case Form::tcp_rotary: return "tool tip + rotary axes";
     case Form::tcp_vector: return "tool tip + tool vector";
     case Form::tcp_virtual: return "tool tip + virtual A B";
+    case Form::turning: return "axis positions, turning (spindle running)";
   }
   return "?";
 }
@@ -25,6 +27,7 @@ std::string_view to_string(Form f) {
 Form form_of(const machine::Machine& m, const gcode::Motion& mo) {
   if (m.coordinates == machine::ProgramCoordinates::tool_tip)
     return m.orientation == machine::Orientation::virtual_ab ? Form::tcp_virtual : Form::tcp_vector;
+  if (m.turning_spindle_axis >= 0 && mo.spindle_turning && mo.tcp == gcode::TcpMode::off) return Form::turning;
   if (mo.frame == gcode::Frame::machine) return Form::axes;
   switch (mo.tcp) {
     case gcode::TcpMode::off: return Form::axes;
@@ -100,12 +103,109 @@ ProgramMap::ProgramMap(const machine::Machine& m, kin::ModelPtr nominal, kin::Mo
     const int a = n.size() == 1 ? gcode::axis_index(n[0]) : -1;
     // Parallel machines: their joints are not program axes even where named X/Y (the program
     // carries the tool tip), so only serial axis programs map letters to joints directly.
-    if (a >= 0 && (form == Form::axes || form == Form::tcp_rotary) && m.model_kind == "serial") {
+    if (a >= 0 && (form == Form::axes || form == Form::tcp_rotary || form == Form::turning) && m.model_kind == "serial") {
       axis_of_joint_[static_cast<std::size_t>(j)] = a;
       joint_of_axis_[static_cast<std::size_t>(a)] = j;
     }
   }
   if (length_on_z) length_z_ = tool_length;
+  if (form == Form::turning) spindle_joint_ = joint_of_axis_[static_cast<std::size_t>(m.turning_spindle_axis)];
+}
+
+kin::Pose ProgramMap::as_cut(const kin::Model& model, const kin::JointVector& q, const kin::Pose& p) const {
+  if (form_ != Form::turning) return p;
+  // The part spins about the machine's real spindle axis: the tip traces a circle as the spindle
+  // turns (three angles give it), whose radius and axial place are what the part sees. In the
+  // cylindrical frame (radial, tangential, axial) the tool orientation is what it cuts with.
+  std::array<Eigen::Vector3d, 3> t;
+  for (int k = 0; k < 3; ++k) {
+    kin::JointVector qk = q;
+    qk[spindle_joint_] += 120.0 * k;
+    kin::Pose pk;
+    if (!model.forward(qk, pk).ok()) return p;
+    t[static_cast<std::size_t>(k)] = pk.p;
+  }
+  const Eigen::Vector3d u = t[1] - t[0], v = t[2] - t[0];
+  Eigen::Vector3d n = u.cross(v);
+  Eigen::Vector3d centre;
+  if (n.norm() < 1e-18) {  // the tip on the axis: the axis is the workpiece Z through the tip
+    n = Eigen::Vector3d::UnitZ();
+    centre = p.p;
+  } else {
+    n.normalize();
+    if (n.z() < 0) n = -n;
+    // Circumcentre of the three points.
+    const Eigen::Vector3d w = u.cross(v);
+    centre = t[0] + (u.squaredNorm() * v.cross(w) + v.squaredNorm() * w.cross(u)) / (2 * w.squaredNorm());
+  }
+  const Eigen::Vector3d d = p.p - centre;
+  Eigen::Vector3d er = d - d.dot(n) * n;
+  const double radius = er.norm();
+  if (radius > 1e-12) er /= radius;
+  else er = (p.axis() - p.axis().dot(n) * n).norm() > 1e-12 ? (p.axis() - p.axis().dot(n) * n).normalized()
+                                                           : n.unitOrthogonal();
+  Eigen::Matrix3d frame;  // rows: radial, tangential, axial
+  frame.row(0) = er.transpose();
+  frame.row(1) = n.cross(er).transpose();
+  frame.row(2) = n.transpose();
+  kin::Pose out;
+  out.p = Eigen::Vector3d(radius, 0, centre.dot(n) + d.dot(n));
+  out.r = frame * p.r;
+  return out;
+}
+
+kin::Solve ProgramMap::solve_turning(const kin::Pose& goal, const kin::JointVector& q_nom, kin::JointVector& q) const {
+  const int n = actual_->joint_count();
+  const kin::Pose want = as_cut(*nominal_, q_nom, goal);
+  // The tip's (radius, Z) residual at joints x, about the real spindle axis.
+  const auto residual = [&](const kin::JointVector& x, Eigen::Vector2d& f) -> kin::Solve {
+    kin::Pose at;
+    if (kin::Solve s = actual_->forward(x, at); !s.ok()) return s;
+    const kin::Pose cut = as_cut(*actual_, x, at);
+    f = Eigen::Vector2d(want.p.x() - cut.p.x(), want.p.z() - cut.p.z());
+    return {};
+  };
+  Eigen::Vector2d f;
+  if (kin::Solve s = residual(q, f); !s.ok()) return s;
+  kin::Solve s;
+  for (int it = 0; it < 60; ++it) {
+    s.iterations = it;
+    s.residual_mm = f.norm();
+    if (s.residual_mm < kToleranceMm) return s;
+    // Jacobian of (radius, Z) over the linear joints by central differences (1 µm).
+    Eigen::Matrix<double, 2, Eigen::Dynamic, Eigen::ColMajor, 2, kin::kMaxJoints> a(2, n);
+    a.setZero();
+    for (int j = 0; j < n; ++j) {
+      if (actual_->joints()[static_cast<std::size_t>(j)].type != kin::JointType::linear) continue;
+      kin::JointVector qp = q, qm = q;
+      qp[j] += 1e-3;
+      qm[j] -= 1e-3;
+      Eigen::Vector2d fp, fm;
+      if (!residual(qp, fp).ok() || !residual(qm, fm).ok()) return {kin::Status::diverged};
+      a.col(j) = -(fp - fm) / 2e-3;
+    }
+    const kin::JointVector dq = a.completeOrthogonalDecomposition().solve(f);
+    // Step halving on |residual|: below the smallest radius the machine reaches (a centre-height
+    // error: the tool passes the axis at a distance) the radius is not smooth in X and full
+    // Newton steps jump across the closest approach; the least-squares point is that approach.
+    bool taken = false;
+    for (double alpha = 1; alpha > 1e-6; alpha *= 0.5) {
+      kin::JointVector qt = q + alpha * dq;
+      Eigen::Vector2d ft;
+      if (!residual(qt, ft).ok() || !(ft.norm() < f.norm())) continue;
+      q = qt;
+      f = ft;
+      taken = true;
+      break;
+    }
+    if (!taken) {  // the closest the machine comes: written there (the caller reports the distance)
+      s.residual_mm = f.norm();
+      return s;
+    }
+  }
+  s.residual_mm = f.norm();
+  if (!(s.residual_mm < 1e-6)) s.status = kin::Status::no_convergence;
+  return s;
 }
 
 kin::Pose ProgramMap::target_of(const Command& cmd) const {
@@ -124,11 +224,11 @@ kin::Pose ProgramMap::target_of(const Command& cmd) const {
 kin::Solve ProgramMap::joints(const Command& cmd, const kin::JointVector& start, kin::JointVector& q) const {
   const int n = nominal_->joint_count();
   q = start;
-  if (form_ == Form::axes) {
+  if (form_ == Form::axes || form_ == Form::turning) {
     for (int j = 0; j < n; ++j) {
       const int a = axis_of_joint_[static_cast<std::size_t>(j)];
       if (a < 0) continue;
-      q[j] = cmd.c[a] + offset_[a] + (a == 2 ? length_z_ : 0.0);
+      q[j] = j == spindle_joint_ ? 0.0 : cmd.c[a] + offset_[a] + (a == 2 ? length_z_ : 0.0);
     }
     return {};
   }
@@ -168,10 +268,10 @@ kin::Solve ProgramMap::joints(const Command& cmd, const kin::JointVector& start,
 
 kin::Solve ProgramMap::command(const kin::JointVector& q, const Command& like, Command& out) const {
   out = like;
-  if (form_ == Form::axes) {
+  if (form_ == Form::axes || form_ == Form::turning) {
     for (int j = 0; j < nominal_->joint_count(); ++j) {
       const int a = axis_of_joint_[static_cast<std::size_t>(j)];
-      if (a >= 0) out.c[a] = q[j] - offset_[a] - (a == 2 ? length_z_ : 0.0);
+      if (a >= 0 && j != spindle_joint_) out.c[a] = q[j] - offset_[a] - (a == 2 ? length_z_ : 0.0);
     }
     return {};
   }
@@ -260,6 +360,13 @@ kin::Solve ProgramMap::correct(const Command& cmd, const kin::JointVector& start
   opt.tolerance_rad = kToleranceRad;
   if (const auto* hex = dynamic_cast<const kin::Hexapod*>(nominal_.get()); hex != nullptr && form_ == Form::tcp_vector) {
     if (auto s = hexapod_spin_consistent(*hex, goal, start, q_nom, q_actual); !s.ok()) return s;
+    return command(q_actual, cmd, out);
+  }
+  if (form_ == Form::turning) {
+    // The spinning part sees the radius and Z of the tip: the linear axes set them, the rotary
+    // ones keep their values (the spindle's is no position, a B head's stays as programmed).
+    q_actual = q_nom;
+    if (auto s = solve_turning(goal, q_nom, q_actual); !s.ok()) return s;
     return command(q_actual, cmd, out);
   }
   // Serial machines with fewer than five joints (3-axis, lathes) can only match what they have.

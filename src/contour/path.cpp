@@ -28,6 +28,7 @@ constexpr std::string_view kMachineData = "PP-E602";
 constexpr std::string_view kKinematics = "PP-E604";
 constexpr std::string_view kNoFeed = "PP-E612";
 constexpr std::string_view kUnknownStart = "PP-E613";
+constexpr std::string_view kUnmodelled = "PP-E614";  // a move the contour prediction does not model
 /// Path acceleration used where no joint has an acceleration limit, mm/s² (a jump in one period).
 constexpr double kUnlimited = 1e12;
 
@@ -172,6 +173,13 @@ class Builder final : public gcode::BlockVisitor {
   /// The controller map of the motion's context (index into p_.maps); -1 after an error.
   int map_for(const gcode::Block& b, const Motion& m) {
     const comp::Form form = comp::form_of(m_, m);
+    if (form == comp::Form::turning) {
+      // The spinning part (radius and Z) is corrected geometrically; its servo contour is not modelled.
+      error(b, m, kUnmodelled,
+            "a turning move (the workpiece spindle turns: [machine] turning_spindle, M3/M4) is not modelled by the "
+            "contour prediction; compensate it with --mode geometric");
+      return -1;
+    }
     const auto offset = comp::program_offset(m_, m);
     if (!offset) {
       error(b, m, kMachineData,

@@ -583,6 +583,10 @@ void Interpreter::apply_modes(const Block& b, BlockWords& w) {
   for (int i = 0; i < w.m_count; ++i) {
     const double m = w.m[static_cast<std::size_t>(i)];
     const Span at = b.words[static_cast<std::size_t>(w.m_word[static_cast<std::size_t>(i)])].span;
+    // The spindle (M3 / M4 start it, M5 and the program ends stop it) acts before the block's
+    // motion (LinuxCNC order of execution; Fanuc and Sinumerik start it with the motion).
+    if (m == 3 || m == 4) s_.spindle_turning = true;
+    if (m == 5 || m == 2 || m == 30) s_.spindle_turning = false;
     if (d_.id == DialectId::heidenhain_iso && m == 128) s_.tcp = TcpMode::heidenhain_m128;
     if (d_.id == DialectId::heidenhain_iso && m == 129) s_.tcp = TcpMode::off;
     if ((m == 98 || m == 99) && d_.id != DialectId::siemens) {

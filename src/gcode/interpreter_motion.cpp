@@ -26,6 +26,7 @@ void Interpreter::fill_state(Motion& m) const {
   m.local_offset = s_.local_offset;
   m.position_offset = s_.position_offset;
   m.tool_length_active = s_.tool_length_active;
+  m.spindle_turning = s_.spindle_turning;
   m.tool_length_h = s_.tool_length_h;
   m.tool_length = s_.tool_length;
   m.tool_length_known = s_.tool_length_known;

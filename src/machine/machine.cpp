@@ -220,9 +220,26 @@ std::string work_offset_name(const gcode::WorkOffset& w) {
   return fmt::format("G{}.{}", w.code10 / 10, w.code10 % 10);
 }
 
+namespace {
+// Whether turning joint j keeps the tool tip's Z and its distance from the workpiece Z axis (the
+// nominal machine, at a pose with the tip off that axis): j spins the part about that line.
+bool turns_about_workpiece_z(const kin::Model& nominal, int j) {
+  kin::JointVector q = kin::JointVector::Zero(nominal.joint_count());
+  for (int k = 0; k < nominal.joint_count(); ++k)
+    if (nominal.joints()[static_cast<std::size_t>(k)].type == kin::JointType::linear) q[k] = 37.0 + 11.0 * k;
+  kin::Pose p0, p1;
+  if (!nominal.forward(q, p0).ok()) return false;
+  q[j] += 90;
+  if (!nominal.forward(q, p1).ok()) return false;
+  const double r0 = std::hypot(p0.p.x(), p0.p.y());
+  return r0 > 1e-3 && std::abs(std::hypot(p1.p.x(), p1.p.y()) - r0) < 1e-6 && std::abs(p1.p.z() - p0.p.z()) < 1e-6;
+}
+}  // namespace
+
 std::optional<Machine> parse_machine(std::string file, std::string text, gcode::DiagnosticSink& sink) {
   const std::size_t errors_before = sink.count(gcode::Severity::error);
   Machine m;
+  char turning_spindle = 0;  // [machine] turning_spindle, checked against the chain below
   m.file = file;
   m.sha256 = sha256_hex(text);
   m.joint_of_axis.fill(-1);
@@ -262,6 +279,8 @@ std::optional<Machine> parse_machine(std::string file, std::string text, gcode::
     if (auto p = f.quantity("interpolation_period", Dim::time, "s", false, {1e-6, 0.1})) m.interpolation_period = *p;
     if (auto c = f.quantity("max_rotary_correction", Dim::angle, "deg", false, {1e-7, 0.5}))
       m.max_rotary_correction_rad = *c;
+    static constexpr std::string_view kSpindleAxes[] = {"A", "B", "C"};
+    if (auto ts = f.text("turning_spindle", false, kSpindleAxes)) turning_spindle = (*ts)[0];
     if (m.model_kind != "serial" && m.coordinates == ProgramCoordinates::axes)
       f.error_at("program", codes::kInconsistent,
                  fmt::format("a {} machine is programmed in tool-tip coordinates; write program = \"tool-tip\"",
@@ -377,6 +396,23 @@ std::optional<Machine> parse_machine(std::string file, std::string text, gcode::
                                    n, n));
       }
     }
+  }
+  if (turning_spindle != 0) {
+    const int ax = gcode::axis_index(turning_spindle);
+    const int j = m.model_kind == "serial" ? m.joint_of_axis[static_cast<std::size_t>(ax)] : -1;
+    if (j < 0 || !m.actual || m.actual->joints()[static_cast<std::size_t>(j)].type != kin::JointType::rotary)
+      top.error_at("machine", codes::kInconsistent,
+                   fmt::format("[machine] turning_spindle = \"{}\" names no rotary axis of this serial machine; name "
+                               "the workpiece spindle's rotary axis or remove the key",
+                               turning_spindle));
+    else if (!turns_about_workpiece_z(*m.nominal, j))
+      top.error_at("machine", codes::kInconsistent,
+                   fmt::format("[machine] turning_spindle = \"{}\": that axis does not turn the workpiece about the "
+                               "workpiece Z axis through its origin; a turning move's radius and Z are measured about "
+                               "that line — put the workpiece frame on the spindle axis",
+                               turning_spindle));
+    else
+      m.turning_spindle_axis = ax;
   }
   top.finish();
   if (sink.count(gcode::Severity::error) > errors_before) return std::nullopt;

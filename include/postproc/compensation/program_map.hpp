@@ -33,6 +33,8 @@ enum class Form : std::uint8_t {
   tcp_rotary,  ///< tool tip + the machine's rotary axis values (G43.4, TRAORI with A/B/C, M128)
   tcp_vector,  ///< tool tip + tool vector (G43.5 I J K, TRAORI A3 B3 C3, parallel machines "vector")
   tcp_virtual, ///< tool tip + virtual angles A B (parallel machines "virtual-ab")
+  turning,     ///< axis positions while the workpiece spindle turns ([machine] turning_spindle, M3 / M4):
+               ///< the tool tip's radius and Z are what the program means, the spindle axis is no position
 };
 [[nodiscard]] std::string_view to_string(Form f);
 
@@ -75,9 +77,18 @@ class ProgramMap {
   /// bounded solve (kinematics/bounded_inverse.hpp: near a singular pose, or a machine with fewer
   /// joints than tool tip + tool axis); 0 when the exact inverse matched the tool axis.
   [[nodiscard]] double last_bounded_residual_rad() const { return last_bounded_residual_rad_; }
+  /// A pose as the part sees it: for turning moves the tip as (radius, 0, axial place) about the
+  /// real spindle axis of `model` at joints q (the circle the tip traces as the spindle turns) and
+  /// the orientation in that cylindrical frame (radial, tangential, axial) — the spinning part
+  /// cannot tell apart poses that differ by a turn about its axis; other forms: p itself.
+  /// `p` is model's forward kinematics at q. Compare poses through it.
+  [[nodiscard]] kin::Pose as_cut(const kin::Model& model, const kin::JointVector& q, const kin::Pose& p) const;
 
  private:
   [[nodiscard]] kin::Pose target_of(const Command& cmd) const;
+  /// Turning: the linear joints of q (the rest held) so that the real tool tip has the radius and
+  /// Z of `goal` (Gauss–Newton; least squares where the radius is below what the machine reaches).
+  [[nodiscard]] kin::Solve solve_turning(const kin::Pose& goal, const kin::JointVector& q_nom, kin::JointVector& q) const;
   /// The hexapod's correction of a tool-vector block: struts q that put the real tool tip and
   /// axis at `goal` and that the controller's own spin rule (from `start`, its previous struts)
   /// reproduces from the written block.
@@ -89,6 +100,7 @@ class ProgramMap {
   Form form_;
   gcode::AxisVector offset_;
   double length_z_ = 0;  ///< added to the Z joint
+  int spindle_joint_ = -1;  ///< turning: the joint of the workpiece spindle (held at 0)
   mutable double last_bounded_residual_rad_ = 0;
   mutable kin::Pose last_goal_;
   mutable kin::JointVector last_q_nom_;

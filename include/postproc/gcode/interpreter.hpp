@@ -56,6 +56,7 @@ struct ModalState {
   AxisVector position_offset = AxisVector::Zero();
   AxisVector saved_position_offset = AxisVector::Zero();
   bool tool_length_active = false;
+  bool spindle_turning = false;  ///< M3/M4 given, not stopped by M5 / M2 / M30 (every dialect)
   std::uint16_t tool_length_h = 0;
   double tool_length = 0;           ///< mm, the applied tool length offset (0 at power-on, G49)
   bool tool_length_known = true;

@@ -92,6 +92,9 @@ struct Motion {
   AxisVector local_offset = AxisVector::Zero();     ///< G52 / TRANS shift, mm / degrees
   AxisVector position_offset = AxisVector::Zero();  ///< G92 shift, mm / degrees
   bool tool_length_active = false;
+  /// The spindle turns (M3 / M4 active): on a machine whose C axis is the turning spindle
+  /// ([machine] turning_spindle) the block is a turning move, C is not a position.
+  bool spindle_turning = false;
   std::uint16_t tool_length_h = 0;  ///< H number (Fanuc), tool number (LinuxCNC G43 / G43 H)
   /// The tool length offset the controller applies, mm, when the program states it exactly (G43.1
   /// Z, H0, G49, or a tool table that knows the number); else compensation looks tool_length_h up.

@@ -64,6 +64,10 @@ struct Machine {
   /// ([machine] max_rotary_correction): near a singular pose the tool axis is corrected only as
   /// far as this allows (kinematics/bounded_inverse.hpp); the tool tip is always corrected.
   double max_rotary_correction_rad = 0.017453292519943295;  // 1°
+  /// The program axis that is the workpiece spindle of a mill-turn ([machine] turning_spindle,
+  /// e.g. C), -1 for none: while the spindle turns (M3 / M4) it is not a position, a block is a
+  /// turning move whose tool-tip radius and Z are what the program means.
+  int turning_spindle_axis = -1;
   /// Program axes the machine has (index gcode::Axis), with their settings.
   std::array<std::optional<AxisSettings>, gcode::kAxisCount> axes;
   /// Servo data of joints that are not program axes (parallel machines: "q1" …), from
