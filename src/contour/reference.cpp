@@ -54,6 +54,10 @@ Reference::Reference(const Path& path, const kin::Model& model, const ReferenceO
                                          " model failed at path point " + std::to_string(i) + " (line " +
                                          std::to_string(path.points[i].line) + "): " + std::string(kin::to_string(s.status)));
   }
+  arc_.assign(n, 0.0);
+  for (const Run& run : path.runs)
+    for (std::size_t i = run.begin + 1; i < run.end && run.end <= n; ++i)
+      arc_[i] = arc_[i - 1] + pose_distance(poses_[i - 1], poses_[i]);
   run_index_.assign(n, kNoRun);
   runs_.reserve(path.runs.size());
   const double dup = opt_.fit.duplicate_mm;
@@ -142,6 +146,118 @@ ContourError Reference::error(const kin::Pose& actual, std::size_t hint) const {
     const ContourError f = error_in(runs_[si - 1], actual, span->begin);
     if (f.distance < e.distance) e = f;
   }
+  return e;
+}
+
+double Reference::pose_distance(const kin::Pose& a, const kin::Pose& b) const {
+  const double l = opt_.marker_length_mm;
+  return std::max((a.p - b.p).norm(), (a.p + l * a.axis() - b.p - l * b.axis()).norm());
+}
+
+const Run& Reference::path_run_of(std::size_t i) const {
+  const auto it = std::upper_bound(path_runs_.begin(), path_runs_.end(), i,
+                                   [](std::size_t v, const Run& r) { return v < r.begin; });
+  if (it == path_runs_.begin() || i >= (it - 1)->end)
+    throw Error(ExitCode::usage, "contour reference: path point " + std::to_string(i) + " is not on a run");
+  return *(it - 1);
+}
+
+void Reference::chord_distance(const kin::Pose& pose, std::size_t k, double& fraction, double& tip,
+                               double& marker) const {
+  const double l = opt_.marker_length_mm;
+  const kin::Pose &a = poses_[k], &b = poses_[k + 1];
+  const Eigen::Vector3d ma = a.p + l * a.axis(), mb = b.p + l * b.axis(), m = pose.p + l * pose.axis();
+  const Eigen::Vector3d dt = b.p - a.p, dm = mb - ma;
+  // The tip decides where the tip moves; on an orientation-only chord (the tip moving much less
+  // than the marker point) the marker point does.
+  const double lt = dt.squaredNorm(), lm = dm.squaredNorm();
+  if (lt > 1e-6 * lm && lt > 0) fraction = std::clamp((pose.p - a.p).dot(dt) / lt, 0.0, 1.0);
+  else if (lm > 0) fraction = std::clamp((m - ma).dot(dm) / lm, 0.0, 1.0);
+  else fraction = 0;
+  tip = (a.p + fraction * dt - pose.p).norm();
+  marker = (ma + fraction * dm - m).norm();
+}
+
+Place Reference::place_on(const kin::Pose& pose, std::size_t k) const {
+  const Run& run = path_run_of(k);
+  Place p;
+  p.point = k;
+  if (k + 1 >= run.end) {
+    p.arc = arc_[k];
+    p.distance = pose_distance(pose, poses_[k]);
+    return p;
+  }
+  double tip = 0, marker = 0;
+  chord_distance(pose, k, p.fraction, tip, marker);
+  p.arc = arc_[k] + p.fraction * (arc_[k + 1] - arc_[k]);
+  p.distance = std::max(tip, marker);
+  return p;
+}
+
+Place Reference::follow(const kin::Pose& pose, const Place& from, double reach) const {
+  const Run& run = path_run_of(from.point);
+  if (from.point + 1 >= run.end) return place_on(pose, from.point);
+  const double l = opt_.marker_length_mm;
+  const Eigen::Vector3d m = pose.p + l * pose.axis();
+  Place best = from;
+  best.distance = std::numeric_limits<double>::infinity();
+  for (std::size_t k = from.point; k + 1 < run.end && (k == from.point || arc_[k] <= from.arc + reach); ++k) {
+    double f = 0, tip = 0, marker = 0;
+    chord_distance(pose, k, f, tip, marker);
+    if (k == from.point && f < from.fraction) {  // never backward: the distances at the place it had
+      f = from.fraction;
+      const kin::Pose &a = poses_[k], &b = poses_[k + 1];
+      tip = (a.p + f * (b.p - a.p) - pose.p).norm();
+      marker = ((1 - f) * (a.p + l * a.axis()) + f * (b.p + l * b.axis()) - m).norm();
+    }
+    const double d = std::max(tip, marker);
+    if (d < best.distance) {
+      best.distance = d;
+      best.point = k;
+      best.fraction = f;
+    }
+  }
+  best.arc = arc_[best.point] + best.fraction * (arc_[best.point + 1] - arc_[best.point]);
+  return best;
+}
+
+ContourError Reference::error_within(const kin::Pose& actual, const Place& around, double lo, double hi) const {
+  const Run& run = path_run_of(around.point);
+  if (run.size() == 1) return error(actual, run.begin);
+  // The stretch [a, b]: from the last point at or before lo to the first at or after hi.
+  std::size_t a = around.point, b = std::min(around.point + 1, run.end - 1);
+  while (a > run.begin && arc_[a] > lo) --a;
+  while (b + 1 < run.end && arc_[b] < hi) ++b;
+  // Its nearest chord: by the tool tip, and among chords as near (an orientation-only stretch,
+  // coincident tips) by the marker point.
+  std::size_t k = a;
+  double t = 0, best_tip = std::numeric_limits<double>::infinity(), best_marker = best_tip;
+  for (std::size_t i = a; i < b; ++i) {
+    double f = 0, tip = 0, marker = 0;
+    chord_distance(actual, i, f, tip, marker);
+    const bool tie = std::abs(tip - best_tip) <= 1e-9;
+    if ((tip < best_tip && !tie) || (tie && marker < best_marker)) {
+      best_tip = tip;
+      best_marker = marker;
+      k = i;
+      t = f;
+    }
+  }
+  // The fitted curve from there (its foot is continuous; the chords are the controller's moves
+  // between the points, the curve the contour meant).
+  ContourError e = error(actual, t <= 0.5 ? k : k + 1);
+  // The curve's local foot must stay at that chord (its points or their neighbours) and in the
+  // stretch; if it slid elsewhere (a farther local minimum, a neighbouring pass nearer in space
+  // but not where the tool is), the chord's foot stands.
+  if (e.point >= std::max(a, k > 0 ? k - 1 : 0) && e.point <= std::min(b, k + 2)) return e;
+  const kin::Pose &p0 = poses_[k], &p1 = poses_[k + 1];
+  e = ContourError{};
+  e.foot = p0.p + t * (p1.p - p0.p);
+  e.vector = e.foot - actual.p;
+  e.distance = e.vector.norm();
+  e.point = t <= 0.5 ? k : k + 1;
+  const Eigen::Vector3d o = (1 - t) * p0.axis() + t * p1.axis();
+  set_axis(e, actual.axis(), o.norm() > 0 ? Eigen::Vector3d(o.normalized()) : p0.axis());
   return e;
 }
 
