@@ -54,10 +54,12 @@ Reference::Reference(const Path& path, const kin::Model& model, const ReferenceO
                                          " model failed at path point " + std::to_string(i) + " (line " +
                                          std::to_string(path.points[i].line) + "): " + std::string(kin::to_string(s.status)));
   }
+  markers_.resize(n);
+  for (std::size_t i = 0; i < n; ++i) markers_[i] = poses_[i].p + opt_.marker_length_mm * poses_[i].axis();
   arc_.assign(n, 0.0);
   for (const Run& run : path.runs)
     for (std::size_t i = run.begin + 1; i < run.end && run.end <= n; ++i)
-      arc_[i] = arc_[i - 1] + pose_distance(poses_[i - 1], poses_[i]);
+      arc_[i] = arc_[i - 1] + std::max((poses_[i].p - poses_[i - 1].p).norm(), (markers_[i] - markers_[i - 1]).norm());
   run_index_.assign(n, kNoRun);
   runs_.reserve(path.runs.size());
   const double dup = opt_.fit.duplicate_mm;
@@ -150,8 +152,8 @@ ContourError Reference::error(const kin::Pose& actual, std::size_t hint) const {
 }
 
 double Reference::pose_distance(const kin::Pose& a, const kin::Pose& b) const {
-  const double l = opt_.marker_length_mm;
-  return std::max((a.p - b.p).norm(), (a.p + l * a.axis() - b.p - l * b.axis()).norm());
+  const Eigen::Vector3d d = a.p - b.p;
+  return std::max(d.norm(), (d + opt_.marker_length_mm * (a.axis() - b.axis())).norm());
 }
 
 const Run& Reference::path_run_of(std::size_t i) const {
@@ -162,62 +164,60 @@ const Run& Reference::path_run_of(std::size_t i) const {
   return *(it - 1);
 }
 
-void Reference::chord_distance(const kin::Pose& pose, std::size_t k, double& fraction, double& tip,
-                               double& marker) const {
-  const double l = opt_.marker_length_mm;
-  const kin::Pose &a = poses_[k], &b = poses_[k + 1];
-  const Eigen::Vector3d ma = a.p + l * a.axis(), mb = b.p + l * b.axis(), m = pose.p + l * pose.axis();
-  const Eigen::Vector3d dt = b.p - a.p, dm = mb - ma;
+void Reference::chord_distance(const Eigen::Vector3d& p, const Eigen::Vector3d& m, std::size_t k, double& fraction,
+                               double& tip2, double& marker2) const {
+  const Eigen::Vector3d& a = poses_[k].p;
+  const Eigen::Vector3d& ma = markers_[k];
+  const Eigen::Vector3d dt = poses_[k + 1].p - a, dm = markers_[k + 1] - ma;
   // The tip decides where the tip moves; on an orientation-only chord (the tip moving much less
   // than the marker point) the marker point does.
   const double lt = dt.squaredNorm(), lm = dm.squaredNorm();
-  if (lt > 1e-6 * lm && lt > 0) fraction = std::clamp((pose.p - a.p).dot(dt) / lt, 0.0, 1.0);
+  if (lt > 1e-6 * lm && lt > 0) fraction = std::clamp((p - a).dot(dt) / lt, 0.0, 1.0);
   else if (lm > 0) fraction = std::clamp((m - ma).dot(dm) / lm, 0.0, 1.0);
   else fraction = 0;
-  tip = (a.p + fraction * dt - pose.p).norm();
-  marker = (ma + fraction * dm - m).norm();
+  tip2 = (a + fraction * dt - p).squaredNorm();
+  marker2 = (ma + fraction * dm - m).squaredNorm();
 }
 
 Place Reference::place_on(const kin::Pose& pose, std::size_t k) const {
   const Run& run = path_run_of(k);
-  Place p;
-  p.point = k;
+  Place place;
+  place.point = k;
   if (k + 1 >= run.end) {
-    p.arc = arc_[k];
-    p.distance = pose_distance(pose, poses_[k]);
-    return p;
+    place.arc = arc_[k];
+    place.distance = pose_distance(pose, poses_[k]);
+    return place;
   }
-  double tip = 0, marker = 0;
-  chord_distance(pose, k, p.fraction, tip, marker);
-  p.arc = arc_[k] + p.fraction * (arc_[k + 1] - arc_[k]);
-  p.distance = std::max(tip, marker);
-  return p;
+  double tip2 = 0, marker2 = 0;
+  chord_distance(pose.p, pose.p + opt_.marker_length_mm * pose.axis(), k, place.fraction, tip2, marker2);
+  place.arc = arc_[k] + place.fraction * (arc_[k + 1] - arc_[k]);
+  place.distance = std::sqrt(std::max(tip2, marker2));
+  return place;
 }
 
 Place Reference::follow(const kin::Pose& pose, const Place& from, double reach) const {
   const Run& run = path_run_of(from.point);
   if (from.point + 1 >= run.end) return place_on(pose, from.point);
-  const double l = opt_.marker_length_mm;
-  const Eigen::Vector3d m = pose.p + l * pose.axis();
+  const Eigen::Vector3d m = pose.p + opt_.marker_length_mm * pose.axis();
   Place best = from;
-  best.distance = std::numeric_limits<double>::infinity();
+  double best2 = std::numeric_limits<double>::infinity();
   for (std::size_t k = from.point; k + 1 < run.end && (k == from.point || arc_[k] <= from.arc + reach); ++k) {
-    double f = 0, tip = 0, marker = 0;
-    chord_distance(pose, k, f, tip, marker);
+    double f = 0, tip2 = 0, marker2 = 0;
+    chord_distance(pose.p, m, k, f, tip2, marker2);
     if (k == from.point && f < from.fraction) {  // never backward: the distances at the place it had
       f = from.fraction;
-      const kin::Pose &a = poses_[k], &b = poses_[k + 1];
-      tip = (a.p + f * (b.p - a.p) - pose.p).norm();
-      marker = ((1 - f) * (a.p + l * a.axis()) + f * (b.p + l * b.axis()) - m).norm();
+      tip2 = (poses_[k].p + f * (poses_[k + 1].p - poses_[k].p) - pose.p).squaredNorm();
+      marker2 = (markers_[k] + f * (markers_[k + 1] - markers_[k]) - m).squaredNorm();
     }
-    const double d = std::max(tip, marker);
-    if (d < best.distance) {
-      best.distance = d;
+    const double d2 = std::max(tip2, marker2);
+    if (d2 < best2) {
+      best2 = d2;
       best.point = k;
       best.fraction = f;
     }
   }
   best.arc = arc_[best.point] + best.fraction * (arc_[best.point + 1] - arc_[best.point]);
+  best.distance = std::sqrt(best2);
   return best;
 }
 
@@ -230,15 +230,16 @@ ContourError Reference::error_within(const kin::Pose& actual, const Place& aroun
   while (b + 1 < run.end && arc_[b] < hi) ++b;
   // Its nearest chord: by the tool tip, and among chords as near (an orientation-only stretch,
   // coincident tips) by the marker point.
+  const Eigen::Vector3d m = actual.p + opt_.marker_length_mm * actual.axis();
   std::size_t k = a;
-  double t = 0, best_tip = std::numeric_limits<double>::infinity(), best_marker = best_tip;
+  double t = 0, best_tip2 = std::numeric_limits<double>::infinity(), best_marker2 = best_tip2;
   for (std::size_t i = a; i < b; ++i) {
-    double f = 0, tip = 0, marker = 0;
-    chord_distance(actual, i, f, tip, marker);
-    const bool tie = std::abs(tip - best_tip) <= 1e-9;
-    if ((tip < best_tip && !tie) || (tie && marker < best_marker)) {
-      best_tip = tip;
-      best_marker = marker;
+    double f = 0, tip2 = 0, marker2 = 0;
+    chord_distance(actual.p, m, i, f, tip2, marker2);
+    const bool tie = std::abs(tip2 - best_tip2) <= 1e-12 * (1 + best_tip2);
+    if (tie ? marker2 < best_marker2 : tip2 < best_tip2) {
+      best_tip2 = tip2;
+      best_marker2 = marker2;
       k = i;
       t = f;
     }

@@ -125,9 +125,12 @@ class Reference {
   std::vector<RunFit> runs_;
   std::vector<std::uint32_t> run_index_;  ///< per path point: its run (index into runs_)
   std::vector<double> arc_;               ///< per path point: arc measure along its path run, mm
-  /// Distance of `pose` to the chord k → k + 1 (k + 1 < end) at its projection: tool tip and
-  /// marker point; sets the fraction.
-  void chord_distance(const kin::Pose& pose, std::size_t k, double& fraction, double& tip, double& marker) const;
+  std::vector<Eigen::Vector3d> markers_;  ///< per path point: the intended marker point P + L·O, mm
+  /// Squared distances of tool tip p and marker point m to the chord k → k + 1 (k + 1 < its run's
+  /// end) at their projection (the tip's; the marker point's on an orientation-only chord); sets
+  /// the fraction.
+  void chord_distance(const Eigen::Vector3d& p, const Eigen::Vector3d& m, std::size_t k, double& fraction, double& tip2,
+                      double& marker2) const;
   /// The path run containing point i. Throws postproc::Error (usage) when i is on none.
   [[nodiscard]] const Run& path_run_of(std::size_t i) const;
   double max_residual_ = 0;
