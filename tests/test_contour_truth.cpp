@@ -252,10 +252,13 @@ void property(const mc::Machine& m, bool five_axis, bool corners, unsigned seed,
 TEST(ContourTruthProperty, SmoothRandomProgramsOnAThreeAxisMill) { property(pptest::mill(), false, false, 17, 0.8, true); }
 
 // Sharp corners: never worse at the maximum, the RMS at least halved (measured: −82 % or more).
-// Not asserted here: the lag precompensation is better on this truth at corners (RMS about 5 µm
-// against 16 … 41 µm), but the verification's simulator, which chooses per run, loses its foot
-// point at these corners (its "before" is 1.7 … 7.5 mm where the truth has 0.45 … 1 mm) and so
-// does not see it; that tracking is issue 17 item 5, another change.
+// Not asserted here: the lag precompensation's commands are better on this truth at corners (RMS
+// about 5 µm against 16 … 41 µm). The verification's simulator now measures the input as the
+// truth does (its "before" 446.8 … 980.8 µm where the truth has 446.8 … 980.7 µm; it lost its
+// foot point here before issue 17 item 5 and reported 1.7 … 7.5 mm), but it simulates the lag
+// candidate as written and read back (rounded, re-timed by the controller) at 273 … 838 µm
+// against the truth's 63 … 70 µm for the unrounded commands on the original's timing, so the
+// gate writes the iterated correction; that gap is not tracking (measured, seed 18).
 TEST(ContourTruthProperty, RandomPolylinesWithCornersOnAThreeAxisMill) {
   property(pptest::mill(), false, true, 18, 0.5, false);
 }
