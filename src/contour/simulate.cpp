@@ -59,8 +59,8 @@ Simulation simulate(const Path& commanded, const Reference& ref, const kin::Mode
     const double t0 = commanded.points[run.begin].t;  // s, the path's time at the run start
     // Tracking along the reference (issue 17 item 5). The commanded point progresses along its
     // program, so its place on the reference is found monotonically: when the reference run has
-    // the same points (the same program, or a corrected one: same block structure), on the chord
-    // of the segment the interpolator is on; otherwise tracked forward from its last place. The
+    // the same points (the same program, or a corrected one: same block structure), starting from
+    // the chord of the segment the interpolator is on, and tracked forward from there. The
     // actual point lags its command by about |actual − command| along the path, so its foot is
     // searched only within twice that arc length (plus the command's own distance to the
     // reference) around the command's place: a neighbouring pass nearer in space lies outside.
@@ -110,14 +110,14 @@ Simulation simulate(const Path& commanded, const Reference& ref, const kin::Mode
       forward(s.q, commanded_pose, ", the command");
       if (first) previous_command = commanded_pose;
       first = false;
-      if (same_points) {
-        const std::size_t k = ref_run.begin + (s.segment - 1 - run.begin);
-        const Place p = ref.place_on(commanded_pose, k);
-        if (p.arc >= place.arc) place = p;  // never backward
-      } else {
-        place = ref.follow(commanded_pose, place, ref.pose_distance(commanded_pose, previous_command) + 2 * place.distance +
-                                                      kWindowMarginMm);
+      if (same_points) {  // start from the interpolator's segment (never backward)
+        const Place p = ref.place_on(commanded_pose, ref_run.begin + (s.segment - 1 - run.begin));
+        if (p.arc >= place.arc) place = p;
       }
+      // Forward from there over the chords the command can have reached: a corrected program's
+      // command may lie ahead of its own segment (the lag precompensation leads by v/Kv).
+      place = ref.follow(commanded_pose, place,
+                         ref.pose_distance(commanded_pose, previous_command) + 2 * place.distance + kWindowMarginMm);
       previous_command = commanded_pose;
       const double w = 2 * (ref.pose_distance(pose, commanded_pose) + place.distance) + kWindowMarginMm;
       const ContourError ce = ref.error_within(pose, place, place.arc - w, place.arc + w);
