@@ -10,7 +10,7 @@
 //
 // What it shares with postproc: the commanded points and their times (contour::build_path: the
 // controller's reading of the program and its feed timing), the drives' Kv and f from the machine
-// file, and kin::Model. What it does not: the speed profile inside a move (here constant), the
+// file, and kin::Model (and, with TruthOptions::tip_interpolation, the controller map's inverse). What it does not: the speed profile inside a move (here constant), the
 // acceleration feed-forward and the velocity loop (not modelled here), the exact discretisation,
 // the NURBS reference and its foot search.
 #include <algorithm>
@@ -44,6 +44,12 @@ struct TruthOptions {
   bool curve = true;         ///< a smooth curve through the tool points (false: their polyline)
   double corner_deg = 15;    ///< a turn of more than this at a point is a corner (straight lines there)
   bool nominal = false;      ///< the intended points through the nominal model (--mode all)
+  /// Tool-tip programs (G43.4, TRAORI: a controller map of tool-tip form) interpolated as the
+  /// controller does, the tool tip and the tool axis linear between the points and the joints
+  /// from the controller map's inverse (comp::ProgramMap::joints, the program's reading, not the
+  /// code under test). Without it every program's joints move linearly between the points, and the
+  /// commanded tip of a tool-tip program leaves its chords where rotary axes move.
+  bool tip_interpolation = false;
 };
 
 /// Distance from p to segment [a, b].
@@ -110,6 +116,7 @@ inline Truth simulate_truth(const ct::Path& commanded, const ct::Path& original,
       kv[static_cast<std::size_t>(j)] = commanded.drives[static_cast<std::size_t>(j)].kv;
       ff[static_cast<std::size_t>(j)] = commanded.drives[static_cast<std::size_t>(j)].feed_forward;
     }
+    const bool feed_forward = std::any_of(ff.begin(), ff.end(), [](double f) { return f != 0; });
     const double t0 = commanded.points[run.begin].t;
     const double t_end = commanded.points[run.end - 1].t - t0;
     // r(t), ṙ(t): linear between the run's points.
@@ -129,6 +136,24 @@ inline Truth simulate_truth(const ct::Path& commanded, const ct::Path& original,
       rq = a.q + s * (b.q - a.q);
       rv = h > 0 ? kin::JointVector((b.q - a.q) / h) : kin::JointVector::Zero(nj);
       at = seg;
+      if (opt.tip_interpolation && !commanded.maps.empty() && commanded.maps[b.map].form() != postproc::comp::Form::axes &&
+          s > 0 && s < 1) {
+        const postproc::comp::ProgramMap& map = commanded.maps[b.map];
+        const auto joints_at = [&](double f, kin::JointVector& q) {
+          postproc::comp::Command c;
+          c.c = a.command.c + f * (b.command.c - a.command.c);
+          c.vector = (a.command.vector + f * (b.command.vector - a.command.vector)).normalized();
+          const kin::JointVector guess = a.q + f * (b.q - a.q);  // picks the branch
+          if (!map.joints(c, guess, q).ok()) q = guess;
+        };
+        joints_at(s, rq);
+        if (feed_forward && h > 0) {  // the rate by a forward difference over 1 µs
+          const double ds = std::min(1e-6 / h, 1 - s);
+          kin::JointVector q2(nj);
+          joints_at(s + ds, q2);
+          rv = (q2 - rq) / (ds * h);
+        }
+      }
     };
     kin::JointVector y = commanded.points[run.begin].q, rq(nj), rv(nj);
     std::size_t at = run.begin;

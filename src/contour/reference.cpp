@@ -54,6 +54,12 @@ Reference::Reference(const Path& path, const kin::Model& model, const ReferenceO
                                          " model failed at path point " + std::to_string(i) + " (line " +
                                          std::to_string(path.points[i].line) + "): " + std::string(kin::to_string(s.status)));
   }
+  markers_.resize(n);
+  for (std::size_t i = 0; i < n; ++i) markers_[i] = poses_[i].p + opt_.marker_length_mm * poses_[i].axis();
+  arc_.assign(n, 0.0);
+  for (const Run& run : path.runs)
+    for (std::size_t i = run.begin + 1; i < run.end && run.end <= n; ++i)
+      arc_[i] = arc_[i - 1] + std::max((poses_[i].p - poses_[i - 1].p).norm(), (markers_[i] - markers_[i - 1]).norm());
   run_index_.assign(n, kNoRun);
   runs_.reserve(path.runs.size());
   const double dup = opt_.fit.duplicate_mm;
@@ -142,6 +148,117 @@ ContourError Reference::error(const kin::Pose& actual, std::size_t hint) const {
     const ContourError f = error_in(runs_[si - 1], actual, span->begin);
     if (f.distance < e.distance) e = f;
   }
+  return e;
+}
+
+double Reference::pose_distance(const kin::Pose& a, const kin::Pose& b) const {
+  const Eigen::Vector3d d = a.p - b.p;
+  return std::max(d.norm(), (d + opt_.marker_length_mm * (a.axis() - b.axis())).norm());
+}
+
+const Run& Reference::path_run_of(std::size_t i) const {
+  const auto it = std::upper_bound(path_runs_.begin(), path_runs_.end(), i,
+                                   [](std::size_t v, const Run& r) { return v < r.begin; });
+  if (it == path_runs_.begin() || i >= (it - 1)->end)
+    throw Error(ExitCode::usage, "contour reference: path point " + std::to_string(i) + " is not on a run");
+  return *(it - 1);
+}
+
+void Reference::chord_distance(const Eigen::Vector3d& p, const Eigen::Vector3d& m, std::size_t k, double& fraction,
+                               double& tip2, double& marker2) const {
+  const Eigen::Vector3d& a = poses_[k].p;
+  const Eigen::Vector3d& ma = markers_[k];
+  const Eigen::Vector3d dt = poses_[k + 1].p - a, dm = markers_[k + 1] - ma;
+  // The tip decides where the tip moves; on an orientation-only chord (the tip moving much less
+  // than the marker point) the marker point does.
+  const double lt = dt.squaredNorm(), lm = dm.squaredNorm();
+  if (lt > 1e-6 * lm && lt > 0) fraction = std::clamp((p - a).dot(dt) / lt, 0.0, 1.0);
+  else if (lm > 0) fraction = std::clamp((m - ma).dot(dm) / lm, 0.0, 1.0);
+  else fraction = 0;
+  tip2 = (a + fraction * dt - p).squaredNorm();
+  marker2 = (ma + fraction * dm - m).squaredNorm();
+}
+
+Place Reference::place_on(const kin::Pose& pose, std::size_t k) const {
+  const Run& run = path_run_of(k);
+  Place place;
+  place.point = k;
+  if (k + 1 >= run.end) {
+    place.arc = arc_[k];
+    place.distance = pose_distance(pose, poses_[k]);
+    return place;
+  }
+  double tip2 = 0, marker2 = 0;
+  chord_distance(pose.p, pose.p + opt_.marker_length_mm * pose.axis(), k, place.fraction, tip2, marker2);
+  place.arc = arc_[k] + place.fraction * (arc_[k + 1] - arc_[k]);
+  place.distance = std::sqrt(std::max(tip2, marker2));
+  return place;
+}
+
+Place Reference::follow(const kin::Pose& pose, const Place& from, double reach) const {
+  const Run& run = path_run_of(from.point);
+  if (from.point + 1 >= run.end) return place_on(pose, from.point);
+  const Eigen::Vector3d m = pose.p + opt_.marker_length_mm * pose.axis();
+  Place best = from;
+  double best2 = std::numeric_limits<double>::infinity();
+  for (std::size_t k = from.point; k + 1 < run.end && (k == from.point || arc_[k] <= from.arc + reach); ++k) {
+    double f = 0, tip2 = 0, marker2 = 0;
+    chord_distance(pose.p, m, k, f, tip2, marker2);
+    if (k == from.point && f < from.fraction) {  // never backward: the distances at the place it had
+      f = from.fraction;
+      tip2 = (poses_[k].p + f * (poses_[k + 1].p - poses_[k].p) - pose.p).squaredNorm();
+      marker2 = (markers_[k] + f * (markers_[k + 1] - markers_[k]) - m).squaredNorm();
+    }
+    const double d2 = std::max(tip2, marker2);
+    if (d2 < best2) {
+      best2 = d2;
+      best.point = k;
+      best.fraction = f;
+    }
+  }
+  best.arc = arc_[best.point] + best.fraction * (arc_[best.point + 1] - arc_[best.point]);
+  best.distance = std::sqrt(best2);
+  return best;
+}
+
+ContourError Reference::error_within(const kin::Pose& actual, const Place& around, double lo, double hi) const {
+  const Run& run = path_run_of(around.point);
+  if (run.size() == 1) return error(actual, run.begin);
+  // The stretch [a, b]: from the last point at or before lo to the first at or after hi.
+  std::size_t a = around.point, b = std::min(around.point + 1, run.end - 1);
+  while (a > run.begin && arc_[a] > lo) --a;
+  while (b + 1 < run.end && arc_[b] < hi) ++b;
+  // Its nearest chord: by the tool tip, and among chords as near (an orientation-only stretch,
+  // coincident tips) by the marker point.
+  const Eigen::Vector3d m = actual.p + opt_.marker_length_mm * actual.axis();
+  std::size_t k = a;
+  double t = 0, best_tip2 = std::numeric_limits<double>::infinity(), best_marker2 = best_tip2;
+  for (std::size_t i = a; i < b; ++i) {
+    double f = 0, tip2 = 0, marker2 = 0;
+    chord_distance(actual.p, m, i, f, tip2, marker2);
+    const bool tie = std::abs(tip2 - best_tip2) <= 1e-12 * (1 + best_tip2);
+    if (tie ? marker2 < best_marker2 : tip2 < best_tip2) {
+      best_tip2 = tip2;
+      best_marker2 = marker2;
+      k = i;
+      t = f;
+    }
+  }
+  // The fitted curve from there (its foot is continuous; the chords are the controller's moves
+  // between the points, the curve the contour meant).
+  ContourError e = error(actual, t <= 0.5 ? k : k + 1);
+  // The curve's local foot must stay at that chord (its points or their neighbours) and in the
+  // stretch; if it slid elsewhere (a farther local minimum, a neighbouring pass nearer in space
+  // but not where the tool is), the chord's foot stands.
+  if (e.point >= std::max(a, k > 0 ? k - 1 : 0) && e.point <= std::min(b, k + 2)) return e;
+  const kin::Pose &p0 = poses_[k], &p1 = poses_[k + 1];
+  e = ContourError{};
+  e.foot = p0.p + t * (p1.p - p0.p);
+  e.vector = e.foot - actual.p;
+  e.distance = e.vector.norm();
+  e.point = t <= 0.5 ? k : k + 1;
+  const Eigen::Vector3d o = (1 - t) * p0.axis() + t * p1.axis();
+  set_axis(e, actual.axis(), o.norm() > 0 ? Eigen::Vector3d(o.normalized()) : p0.axis());
   return e;
 }
 

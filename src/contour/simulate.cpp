@@ -9,6 +9,11 @@
 #include "postproc/error.hpp"
 
 namespace postproc::contour {
+namespace {
+/// Added to the search window along the reference (mm): covers the rounding of the arc measure
+/// and the chords' departure from the fitted curve.
+constexpr double kWindowMarginMm = 0.005;
+}  // namespace
 
 Simulation simulate(const Path& commanded, const Reference& ref, const kin::Model& actual, const SimulateOptions& opt) {
   if (commanded.runs.size() != ref.runs())
@@ -52,7 +57,19 @@ Simulation simulate(const Path& commanded, const Reference& ref, const kin::Mode
     int history = 0;       // command samples behind prev that are known (for the acceleration)
     double t_prev = 0;     // s, run time of the last sample
     const double t0 = commanded.points[run.begin].t;  // s, the path's time at the run start
-    std::size_t hint = ref.run(r).begin;
+    // Tracking along the reference (issue 17 item 5). The commanded point progresses along its
+    // program, so its place on the reference is found monotonically: when the reference run has
+    // the same points (the same program, or a corrected one: same block structure), starting from
+    // the chord of the segment the interpolator is on, and tracked forward from there. The
+    // actual point lags its command by about |actual − command| along the path, so its foot is
+    // searched only within twice that arc length (plus the command's own distance to the
+    // reference) around the command's place: a neighbouring pass nearer in space lies outside.
+    const Run ref_run = ref.run(r);
+    const bool same_points = ref_run.size() == run.size();
+    Place place;
+    place.point = ref_run.begin;
+    kin::Pose commanded_pose, previous_command;
+    bool first = true;
     bool sampled = false;  // a run without a move has no samples and takes no time
     std::uint64_t run_samples = 0;
     double t_last = 0;     // s, run time of the run's last sample
@@ -81,14 +98,29 @@ Simulation simulate(const Path& commanded, const Reference& ref, const kin::Mode
         sim.max_following[j] = std::max(sim.max_following[j], std::abs(s.q[ej] - y[ej]));
       }
       const kin::Model& model = model_at(commanded, s.segment, actual);
-      const kin::Solve fk = model.forward(y, pose);
-      if (!fk.ok())
-        throw Error(ExitCode::refused, "simulate: the forward kinematics of the " + model.kind() + " model failed at t = " +
-                                           std::to_string(offset + t) + " s (line " +
-                                           std::to_string(commanded.points[s.segment].line) + "): " +
-                                           std::string(kin::to_string(fk.status)));
-      const ContourError ce = ref.error(pose, hint);
-      hint = ce.point;
+      const auto forward = [&](const kin::JointVector& q, kin::Pose& out, const char* what) {
+        const kin::Solve fk = model.forward(q, out);
+        if (!fk.ok())
+          throw Error(ExitCode::refused, "simulate: the forward kinematics of the " + model.kind() + " model failed at t = " +
+                                             std::to_string(offset + t) + " s (line " +
+                                             std::to_string(commanded.points[s.segment].line) + what + "): " +
+                                             std::string(kin::to_string(fk.status)));
+      };
+      forward(y, pose, "");
+      forward(s.q, commanded_pose, ", the command");
+      if (first) previous_command = commanded_pose;
+      first = false;
+      if (same_points) {  // start from the interpolator's segment (never backward)
+        const Place p = ref.place_on(commanded_pose, ref_run.begin + (s.segment - 1 - run.begin));
+        if (p.arc >= place.arc) place = p;
+      }
+      // Forward from there over the chords the command can have reached: a corrected program's
+      // command may lie ahead of its own segment (the lag precompensation leads by v/Kv).
+      place = ref.follow(commanded_pose, place,
+                         ref.pose_distance(commanded_pose, previous_command) + 2 * place.distance + kWindowMarginMm);
+      previous_command = commanded_pose;
+      const double w = 2 * (ref.pose_distance(pose, commanded_pose) + place.distance) + kWindowMarginMm;
+      const ContourError ce = ref.error_within(pose, place, place.arc - w, place.arc + w);
       const std::uint64_t line = commanded.points[s.segment].line;
       if (ce.distance > worst_tip) {
         worst_tip = ce.distance;

@@ -50,6 +50,16 @@ struct ContourError {
   bool converged = true;
 };
 
+/// A place on a reference run, for tracking along the path (Reference::place_on, follow,
+/// error_within): the chord from path point `point` to the next one at `fraction` (0 … 1; the
+/// run's last point with fraction 0), and its arc measure (Reference::arc), mm.
+struct Place {
+  std::size_t point = 0;
+  double fraction = 0;
+  double arc = 0;
+  double distance = 0;  ///< of the pose placed to its chord point: tool tip, or marker point if larger, mm
+};
+
 class Reference {
  public:
   /// Fits every run of `path` (intended poses through `model`, usually the calibrated machine).
@@ -69,6 +79,25 @@ class Reference {
   /// P′ + L·O′ is projected on the marker curve instead of mapping the tip parameter. No
   /// allocation; thread-safe. Throws postproc::Error (usage) when `hint` is not on a run.
   [[nodiscard]] ContourError error(const kin::Pose& actual, std::size_t hint) const;
+  /// The contour error with the foot searched along the path, not by the nearest point in space:
+  /// only the stretch of `around`'s run whose arc measure lies in [lo, hi] (extended to the points
+  /// just outside) is searched — its chords for the nearest (tool tip; on orientation-only chords
+  /// the marker point decides), then the fitted curve from there (error()); if the curve's local
+  /// foot leaves the stretch or is a farther local minimum, the chord's foot stands. O(points in
+  /// the stretch); no allocation. Throws postproc::Error (usage) when `around.point` is not on a run.
+  [[nodiscard]] ContourError error_within(const kin::Pose& actual, const Place& around, double lo, double hi) const;
+  /// The place of `pose` on the chord from path point k to k + 1 (k the run's last point: that
+  /// point), by projecting the tool tip (the marker point on an orientation-only chord).
+  [[nodiscard]] Place place_on(const kin::Pose& pose, std::size_t k) const;
+  /// The place of `pose` tracked forward from `from` (never before it): the nearest chord among
+  /// those starting at from.point whose arc measure begins before from.arc + reach, mm.
+  [[nodiscard]] Place follow(const kin::Pose& pose, const Place& from, double reach) const;
+  /// Arc measure of path point i along its run: the sum over the run's moves up to i of the larger
+  /// of the tool tip's and the tool-axis marker point's displacement, mm (grows on orientation-only
+  /// moves too; 0 at a run's first point).
+  [[nodiscard]] double arc(std::size_t i) const { return arc_[i]; }
+  /// The larger of the tool-tip and marker-point distances between two poses (the measure of arc()), mm.
+  [[nodiscard]] double pose_distance(const kin::Pose& a, const kin::Pose& b) const;
   /// Largest fit residual over all pieces of both curves, mm.
   [[nodiscard]] double max_fit_residual_mm() const { return max_residual_; }
   [[nodiscard]] bool within_tolerance() const { return within_; }
@@ -95,6 +124,15 @@ class Reference {
   std::vector<kin::Pose> poses_;
   std::vector<RunFit> runs_;
   std::vector<std::uint32_t> run_index_;  ///< per path point: its run (index into runs_)
+  std::vector<double> arc_;               ///< per path point: arc measure along its path run, mm
+  std::vector<Eigen::Vector3d> markers_;  ///< per path point: the intended marker point P + L·O, mm
+  /// Squared distances of tool tip p and marker point m to the chord k → k + 1 (k + 1 < its run's
+  /// end) at their projection (the tip's; the marker point's on an orientation-only chord); sets
+  /// the fraction.
+  void chord_distance(const Eigen::Vector3d& p, const Eigen::Vector3d& m, std::size_t k, double& fraction, double& tip2,
+                      double& marker2) const;
+  /// The path run containing point i. Throws postproc::Error (usage) when i is on none.
+  [[nodiscard]] const Run& path_run_of(std::size_t i) const;
   double max_residual_ = 0;
   bool within_ = true;
 };

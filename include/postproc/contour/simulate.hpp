@@ -47,8 +47,12 @@ struct Simulation {
 
 /// Simulates `commanded` (the program that runs) and measures against `ref` (the intended contour,
 /// usually built from the original program's path; `commanded` may be that same path). The runs of
-/// the two paths correspond one to one (same number of runs); within a run the foot point is
-/// tracked from sample to sample, so the point counts may differ (e.g. subdivided moves). Each run
+/// the two paths correspond one to one (same number of runs). Within a run the foot is searched
+/// along the path (docs/contour.md, time-domain simulation): the commanded pose's place on the
+/// reference advances monotonically (from the interpolator's segment when the runs have as many
+/// points, then tracked forward, so the point counts may differ, e.g. subdivided moves), and the actual pose's foot is
+/// searched within 2·(|actual − command| + the command's distance to the reference) + 5 µm of arc
+/// around it (Reference::error_within), so a neighbouring pass nearer in space is not taken. Each run
 /// starts with every drive at rest on the run's first command; the acceleration handed to the
 /// drives' feed-forward is the second difference of the last three command samples. Throws
 /// postproc::Error: usage when the numbers of runs differ (or the joints / drives do not match
