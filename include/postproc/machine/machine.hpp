@@ -49,6 +49,22 @@ struct AxisSettings {
   std::optional<double> max_jerk;            ///< mm/s³ (deg/s³)
 };
 
+/// How the interpolator treats a junction of two moves in continuous-path mode ([interpolator]
+/// corner, docs/contour.md "Corners").
+enum class CornerRule : std::uint8_t {
+  time,       ///< every joint's velocity jump at the junction ≤ max_acceleration · corner_time (Fanuc 1783)
+  tolerance,  ///< a blend arc deviating at most corner_tolerance from the corner (G64 P, G642, CYCLE 32 T)
+  distance,   ///< a blend arc starting corner_distance before the corner (Siemens G641 ADIS=, program only)
+};
+
+/// The controller's interpolator ([interpolator] table): corner behaviour in continuous-path mode.
+/// The program's own blending words (LinuxCNC G64 P, Siemens G641 ADIS= / G642) override it per run.
+struct InterpolatorSettings {
+  CornerRule corner = CornerRule::time;
+  double corner_time = 0.005;        ///< s (corner = time)
+  double corner_tolerance = 0.01;    ///< mm (corner = tolerance, and Siemens G642 without CTOL=)
+};
+
 struct Machine {
   std::string file;        ///< path as given
   std::string sha256;      ///< of the file's bytes, lowercase hex
@@ -64,6 +80,8 @@ struct Machine {
   /// ([machine] max_rotary_correction): near a singular pose the tool axis is corrected only as
   /// far as this allows (kinematics/bounded_inverse.hpp); the tool tip is always corrected.
   double max_rotary_correction_rad = 0.017453292519943295;  // 1°
+  /// [interpolator]: the corner behaviour of the controller's interpolator.
+  InterpolatorSettings interpolator;
   /// Program axes the machine has (index gcode::Axis), with their settings.
   std::array<std::optional<AxisSettings>, gcode::kAxisCount> axes;
   /// Servo data of joints that are not program axes (parallel machines: "q1" …), from
