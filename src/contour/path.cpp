@@ -7,6 +7,7 @@
 #include <cmath>
 #include <fstream>
 #include <limits>
+#include <numbers>
 
 #include <fmt/format.h>
 
@@ -15,6 +16,8 @@
 #include "postproc/gcode/program.hpp"
 #include "src/compensation/compensate_support.hpp"
 #include "src/gcode/block_words.hpp"
+#include "src/gcode/number_text.hpp"
+#include "src/gcode/text.hpp"
 #include "src/gcode/linearize.hpp"
 
 namespace postproc::contour {
@@ -35,7 +38,34 @@ constexpr double kUnlimited = 1e12;
 struct JointLimits {
   double v = std::numeric_limits<double>::infinity();  ///< unit/s
   double a = std::numeric_limits<double>::infinity();  ///< unit/s²
+  double j = std::numeric_limits<double>::infinity();  ///< unit/s³
 };
+
+/// The corner rule in force at a junction: the rule and its value (corner time s, tolerance mm or
+/// blend distance mm).
+struct Blend {
+  machine::CornerRule rule = machine::CornerRule::time;
+  double value = 0.005;
+};
+
+/// Feed-metric length of a segment and its direction in the metric's space: the tool tip's chord
+/// (tip = true, first three entries) or the program axes' increments, as a unit vector.
+struct Metric {
+  double length = 0;
+  gcode::AxisVector dir = gcode::AxisVector::Zero();
+  bool tip = false;
+};
+
+/// max |A·sin α + B·cos α| over α ∈ [0, θ].
+double sinusoid_peak(double A, double B, double theta) {
+  double m = std::max(std::abs(B), std::abs(A * std::sin(theta) + B * std::cos(theta)));
+  const double a0 = std::atan2(A, B);  // stationary points a0 + kπ
+  for (int k = -2; k <= 2; ++k) {
+    const double a = a0 + k * std::numbers::pi;
+    if (a > 0 && a < theta) m = std::max(m, std::abs(A * std::sin(a) + B * std::cos(a)));
+  }
+  return m;
+}
 
 const machine::AxisSettings* settings_of(const machine::Machine& m, const std::string& joint) {
   if (const auto it = m.drives.find(joint); it != m.drives.end()) return &it->second;
@@ -121,7 +151,8 @@ class Builder final : public gcode::BlockVisitor {
  public:
   Builder(std::string_view file, const gcode::Dialect& d, const machine::Machine& m, const PathOptions& opt,
           gcode::DiagnosticSink& sink, Path& path, std::vector<JointLimits> limits)
-      : file_(file), m_(m), opt_(opt), sink_(sink), p_(path), track_(d), models_(m), limits_(std::move(limits)) {
+      : file_(file), m_(m), opt_(opt), sink_(sink), p_(path), track_(d), models_(m), limits_(std::move(limits)), d_(d),
+        blend_(machine_blend()) {
     collect_.on_report = [this](const gcode::Diagnostic& diag) { sink_.report(diag); };
   }
   gcode::DiagnosticSink& collector() { return collect_; }
@@ -129,6 +160,7 @@ class Builder final : public gcode::BlockVisitor {
   void block(const gcode::Block& b, std::span<const Motion> motions, bool lexed_ok) override {
     ++p_.blocks;
     track_.update(b);
+    update_blend(b);
     // Motions are counted as the writer of --mode contour counts them (every motion of every
     // block that lexed).
     if (lexed_ok) p_.motions += motions.size();
@@ -214,33 +246,44 @@ class Builder final : public gcode::BlockVisitor {
     return map_index_;
   }
 
-  /// Feed-metric length of the segment between two commands.
-  double metric(const comp::ProgramMap& map, const comp::Command& a, const comp::Command& b, AxisMask mask) const {
+  /// Feed-metric length of the segment between two commands, with its direction.
+  Metric metric(const comp::ProgramMap& map, const comp::Command& a, const comp::Command& b, AxisMask mask) const {
+    Metric out;
     if (m_.feed == machine::FeedReference::tool_tip) {
       double len = 0;
+      Eigen::Vector3d chord = Eigen::Vector3d::Zero();
       if (map.form() != comp::Form::axes) {
-        len = (b.c.head<3>() - a.c.head<3>()).norm();
+        chord = b.c.head<3>() - a.c.head<3>();
+        len = chord.norm();
       } else {
         // Tool-tip length of an axis move: the nominal machine's tip along the joint line.
         constexpr int kSteps = 8;
         kin::JointVector qa, qb;
         kin::Pose pa, pb;
         if (map.joints(a, q_, qa).ok() && map.joints(b, q_, qb).ok() && map.nominal().forward(qa, pa).ok()) {
+          const Eigen::Vector3d p0 = pa.p;
           for (int k = 1; k <= kSteps; ++k) {
             const kin::JointVector qk = qa + (qb - qa) * (static_cast<double>(k) / kSteps);
             if (!map.nominal().forward(qk, pb).ok()) break;
             len += (pb.p - pa.p).norm();
             pa = pb;
           }
+          chord = pa.p - p0;
         }
       }
-      if (len > 1e-9) return len;
+      if (len > 1e-9) {
+        out.length = len;
+        out.tip = true;
+        if (chord.norm() > 1e-12) out.dir.head<3>() = chord.normalized();
+        return out;
+      }
       // A move of the orientation only: the rotary axes' combined rate (deg/min as mm/min).
     }
-    double sum = 0;
     for (int a_ = 0; a_ < gcode::kAxisCount; ++a_)
-      if ((mask >> a_) & 1u) sum += (b.c[a_] - a.c[a_]) * (b.c[a_] - a.c[a_]);
-    return std::sqrt(sum);
+      if ((mask >> a_) & 1u) out.dir[a_] = b.c[a_] - a.c[a_];
+    out.length = out.dir.norm();
+    if (out.length > 0) out.dir /= out.length;
+    return out;
   }
 
   void feed_move(const gcode::Block& b, const Motion& mo) {
@@ -321,13 +364,15 @@ class Builder final : public gcode::BlockVisitor {
     const comp::ProgramMap& map = p_.maps[static_cast<std::size_t>(mi)];
     const AxisMask need = comp::written_axes(m_, map.form());
     SegmentProfile s;
-    s.length = metric(map, prev_cmd_, c, need);
+    const Metric mt = metric(map, prev_cmd_, c, need);
+    s.length = mt.length;
     const kin::JointVector dq = q - q_;
     // Cruise speed: the programmed feed (inverse time: this chord's share of the block's time),
     // then every joint's velocity limit; the path acceleration from the joints' limits.
     double v = 0;
     if (mo.feed_mode == gcode::FeedMode::inverse_time) {
-      double total = metric(map, comp::Command{mo.start, prev_cmd_.vector}, comp::Command{mo.end, mo.tool_vector}, need);
+      double total =
+          metric(map, comp::Command{mo.start, prev_cmd_.vector}, comp::Command{mo.end, mo.tool_vector}, need).length;
       if (mo.type != MotionType::linear && mo.arc.radius > 0)
         total = std::max(total, std::abs(mo.arc.sweep) * mo.arc.radius);
       const double block_time = 60.0 / mo.feed;
@@ -347,6 +392,7 @@ class Builder final : public gcode::BlockVisitor {
     s.v_cruise = v;
     s.accel = accel;
     push_point(b, mo, mi, c, q, block_end && !arc, false, s);
+    metric_.back() = mt;
     q_ = q;
     prev_cmd_ = c;
   }
@@ -366,6 +412,8 @@ class Builder final : public gcode::BlockVisitor {
     p.run_start = run_start;
     p_.points.push_back(p);
     p_.segments.push_back(s);
+    metric_.emplace_back();
+    blend_at_.push_back(blend_);
   }
 
   /// Look-ahead over the finished run: junction speeds (corner slow-down), backward and forward
@@ -377,6 +425,8 @@ class Builder final : public gcode::BlockVisitor {
     if (e - b < 2) {  // a run without a move
       p_.points.resize(b);
       p_.segments.resize(b);
+      metric_.resize(b);
+      blend_at_.resize(b);
       return;
     }
     const std::size_t n = e - b;
@@ -388,13 +438,8 @@ class Builder final : public gcode::BlockVisitor {
     };
     for (std::size_t k = 1; k + 1 < n; ++k) {
       const std::size_t i = b + k;
-      double v = std::min(p_.segments[i].v_cruise, p_.segments[i + 1].v_cruise);
-      const kin::JointVector jump = dir(i + 1) - dir(i);
-      for (int j = 0; j < jump.size(); ++j) {
-        const double a = limits_[static_cast<std::size_t>(j)].a;
-        if (std::isfinite(a) && std::abs(jump[j]) > 1e-12) v = std::min(v, a * opt_.corner_time / std::abs(jump[j]));
-      }
-      vj[k] = v;
+      const double v = std::min(p_.segments[i].v_cruise, p_.segments[i + 1].v_cruise);
+      vj[k] = std::min(v, corner_speed(i, dir(i), dir(i + 1)));
     }
     for (std::size_t k = n - 1; k-- > 1;) {  // backward: able to slow down in time
       const SegmentProfile& s = p_.segments[b + k + 1];
@@ -422,6 +467,117 @@ class Builder final : public gcode::BlockVisitor {
     p_.runs.push_back(Run{b, e});
   }
 
+  /// The highest speed through the junction at point i (between segments i and i+1, joint
+  /// directions d1, d2 = dq/ds) that the corner rule in force there allows (docs/contour.md "Corners").
+  double corner_speed(std::size_t i, const kin::JointVector& d1, const kin::JointVector& d2) const {
+    const Blend& bl = blend_at_[i];
+    const Metric& m1 = metric_[i];
+    const Metric& m2 = metric_[i + 1];
+    double v = std::numeric_limits<double>::infinity();
+    if (bl.rule != machine::CornerRule::time && m1.tip == m2.tip && m1.length > 0 && m2.length > 0) {
+      // A circular blend in the feed metric's space, tangent to both moves: radius R from the
+      // tolerance (deviation at the corner) or the blend distance, at most half of either move.
+      const double cos_t = std::clamp(m1.dir.dot(m2.dir), -1.0, 1.0);
+      const double theta = std::acos(cos_t);  // turn angle
+      if (theta < 1e-9) return v;
+      const double half = theta / 2;
+      if (std::cos(half) < 1e-12) return 0.0;  // reversal
+      double R = bl.rule == machine::CornerRule::tolerance ? bl.value * std::cos(half) / (1 - std::cos(half))
+                                                           : bl.value / std::tan(half);
+      R = std::min(R, 0.5 * std::min(m1.length, m2.length) / std::tan(half));
+      // Joint j along the blend: q̈_j = v²/R·(−sin α·d1_j + cos α·e2_j), d⃛q_j = v³/R²·(−cos α·d1_j − sin α·e2_j),
+      // α ∈ [0, θ], e2 the joints' image of the blend plane's unit normal to the first move.
+      const kin::JointVector e2 = (d2 - d1 * cos_t) / std::sin(theta);
+      for (int j = 0; j < d1.size(); ++j) {
+        const JointLimits& lim = limits_[static_cast<std::size_t>(j)];
+        if (std::isfinite(lim.a)) {
+          const double peak = sinusoid_peak(-d1[j], e2[j], theta);
+          if (peak > 1e-12) v = std::min(v, std::sqrt(lim.a * R / peak));
+        }
+        if (std::isfinite(lim.j)) {
+          const double peak = sinusoid_peak(-e2[j], -d1[j], theta);
+          if (peak > 1e-12) v = std::min(v, std::cbrt(lim.j * R * R / peak));
+        }
+      }
+      return v;
+    }
+    // Corner time: every joint's velocity jump at most max_acceleration · corner_time.
+    const double t = bl.rule == machine::CornerRule::time ? bl.value : m_.interpolator.corner_time;
+    const kin::JointVector jump = d2 - d1;
+    for (int j = 0; j < jump.size(); ++j) {
+      const double a = limits_[static_cast<std::size_t>(j)].a;
+      if (std::isfinite(a) && std::abs(jump[j]) > 1e-12) v = std::min(v, a * t / std::abs(jump[j]));
+    }
+    return v;
+  }
+
+  /// The machine file's corner rule.
+  [[nodiscard]] Blend machine_blend() const {
+    const machine::InterpolatorSettings& s = m_.interpolator;
+    return s.corner == machine::CornerRule::tolerance ? Blend{s.corner, s.corner_tolerance}
+                                                      : Blend{machine::CornerRule::time, s.corner_time};
+  }
+
+  /// The program's blending words: LinuxCNC G64 [P<tol>], Siemens G64 / G641 ADIS= / G642 G643
+  /// G645 [CTOL=]; other path-control codes (Fanuc G64, …) return to the machine file's rule.
+  void update_blend(const gcode::Block& b) {
+    const bool siemens = d_.id == gcode::DialectId::siemens;
+    const double unit = track_.inch ? 25.4 : 1.0;
+    if (siemens)
+      for (const gcode::Token& t : b.tokens) {
+        if (t.kind != gcode::TokenKind::assignment) continue;
+        const std::string_view span = b.text(t.span);
+        const auto eq = span.find('=');
+        if (eq == std::string_view::npos) continue;
+        std::string_view value = span.substr(eq + 1);
+        while (!value.empty() && (value.front() == ' ' || value.front() == '\t')) value.remove_prefix(1);
+        while (!value.empty() && (value.back() == ' ' || value.back() == '\t')) value.remove_suffix(1);
+        double v = 0;
+        if (!gcode::parse_number(value, v)) continue;
+        const std::string name = gcode::text::upper(b.text(t.name));
+        if (name == "ADIS") adis_ = v * unit;
+        if (name == "CTOL") ctol_ = v * unit;  // negative: back to the machine data
+      }
+    if (const auto* g = track_.find(gcode::GMeaning::path_control)) {
+      if (siemens) siemens_code_ = g->def->code10;
+      blend_from_g(b, *g);
+    } else if (siemens && siemens_code_ != 0) {
+      blend_from_siemens();  // ADIS= / CTOL= alone
+    }
+  }
+
+  void blend_from_g(const gcode::Block& b, const gcode::ModalTrack::G& g) {
+    const std::uint16_t code = g.def->code10;
+    if (d_.id == gcode::DialectId::linuxcnc && code == 640) {
+      // G64 P<tol>: blend within tol; G64 (or P0): best possible speed, the corner-time rule.
+      double p = 0;
+      for (const gcode::Word& w : b.words)
+        if (w.letter == 'P' && gcode::plain_letter(w) && w.kind == gcode::ValueKind::number) p = w.number;
+      blend_ = p > 0 ? Blend{machine::CornerRule::tolerance, p * (track_.inch ? 25.4 : 1.0)}
+                     : Blend{machine::CornerRule::time, m_.interpolator.corner_time};
+      return;
+    }
+    if (d_.id == gcode::DialectId::siemens) {
+      blend_from_siemens();
+      return;
+    }
+    blend_ = machine_blend();
+  }
+
+  void blend_from_siemens() {
+    switch (siemens_code_) {
+      case 640: blend_ = Blend{machine::CornerRule::time, m_.interpolator.corner_time}; break;
+      case 6410:  // rounding over ADIS before and after the corner; ADIS=0 rounds nothing (as G64)
+        blend_ = adis_ > 0 ? Blend{machine::CornerRule::distance, adis_}
+                           : Blend{machine::CornerRule::time, m_.interpolator.corner_time};
+        break;
+      case 6420: case 6430: case 6450:
+        blend_ = Blend{machine::CornerRule::tolerance, ctol_ > 0 ? ctol_ : m_.interpolator.corner_tolerance};
+        break;
+      default: blend_ = machine_blend(); break;
+    }
+  }
+
   std::string_view file_;
   const machine::Machine& m_;
   const PathOptions& opt_;
@@ -433,6 +589,13 @@ class Builder final : public gcode::BlockVisitor {
   gcode::DiagnosticSink collect_{0};
   bool in_run_ = false;
   bool exact_mode_ = false;  ///< G61 / G60 active
+  const gcode::Dialect& d_;
+  Blend blend_;                    ///< the corner rule in force
+  std::vector<Blend> blend_at_;    ///< per point: the rule for the junction at its end
+  std::vector<Metric> metric_;     ///< per point: the feed metric of the segment ending there
+  double adis_ = 0;                ///< Siemens ADIS=, mm
+  double ctol_ = -1;               ///< Siemens CTOL=, mm (< 0: the machine file's tolerance)
+  std::uint16_t siemens_code_ = 0; ///< the Siemens path-control code in force (code10: 640, 6410, …), 0 before any
   std::size_t run_begin_ = 0;
   kin::JointVector q_;
   comp::Command prev_cmd_;
@@ -493,8 +656,10 @@ Path build_path_with(std::string_view file, const gcode::Dialect& d, const machi
     if (const machine::AxisSettings* s = settings_of(m, j.name)) {
       if (s->max_velocity) l.v = *s->max_velocity / 60.0;
       if (s->max_acceleration) l.a = *s->max_acceleration;
+      if (s->max_jerk) l.j = *s->max_jerk;
     }
     limits.push_back(l);
+    path.jerk_window.push_back(std::isfinite(l.a) && std::isfinite(l.j) ? l.a / l.j : 0.0);
   }
   Builder b(file, d, m, opt, sink, path, std::move(limits));
   run(b.collector(), b);
@@ -526,8 +691,21 @@ void interpolate(const Path& path, const Run& run, double settle, const std::fun
   std::size_t seg = run.begin + 1;
   Sample s;
   kin::JointVector q_prev = path.points[run.begin].q;
-  // The last period of the move lands on the end point; then `settle` seconds at rest.
-  const auto total = static_cast<std::uint64_t>(std::ceil((t_end - t0) / dt - 1e-9) + std::floor(settle / dt + 1e-9));
+  // Jerk: a moving average over window[j] samples per joint (1: none), seeded with the start point.
+  const auto nj = static_cast<std::size_t>(q_prev.size());
+  std::vector<std::size_t> window(nj, 1);
+  std::size_t longest = 1;
+  for (std::size_t j = 0; j < nj && j < path.jerk_window.size(); ++j) {
+    window[j] = std::max<std::size_t>(1, static_cast<std::size_t>(std::llround(path.jerk_window[j] / dt)));
+    longest = std::max(longest, window[j]);
+  }
+  std::vector<kin::JointVector> raw(longest, q_prev);  // ring of the last raw samples
+  kin::JointVector sum(q_prev.size());
+  for (std::size_t j = 0; j < nj; ++j) sum[static_cast<Eigen::Index>(j)] = q_prev[static_cast<Eigen::Index>(j)] * static_cast<double>(window[j]);
+  // The last period of the move lands on the end point (the averaged command `longest` − 1
+  // periods later); then `settle` seconds at rest.
+  const auto total = static_cast<std::uint64_t>(std::ceil((t_end - t0) / dt - 1e-9) + std::floor(settle / dt + 1e-9)) +
+                     (longest - 1);
   for (std::uint64_t k = 0; k <= total; ++k) {
     const double t = t0 + static_cast<double>(k) * dt;
     while (seg + 1 < run.end && path.points[seg].t < t) ++seg;
@@ -552,6 +730,21 @@ void interpolate(const Path& path, const Run& run, double settle, const std::fun
       else s.q = a.q + (b.q - a.q) * f;
     }
     q_prev = s.q;
+    if (longest > 1) {
+      const std::size_t slot = static_cast<std::size_t>(k % longest);
+      for (std::size_t j = 0; j < nj; ++j) {
+        const auto ej = static_cast<Eigen::Index>(j);
+        // The sample leaving joint j's window is window[j] samples old.
+        const std::size_t old = (slot + longest - window[j]) % longest;
+        const double leaving = k >= window[j] ? raw[old][ej] : path.points[run.begin].q[ej];
+        sum[ej] += s.q[ej] - leaving;
+      }
+      raw[slot] = s.q;
+      for (std::size_t j = 0; j < nj; ++j) {
+        const auto ej = static_cast<Eigen::Index>(j);
+        if (window[j] > 1) s.q[ej] = sum[ej] / static_cast<double>(window[j]);
+      }
+    }
     visit(s);
   }
 }

@@ -38,6 +38,18 @@ void read_axis(Fields& f, AxisSettings& a, bool rotary) {
   f.finish();
 }
 
+/// [interpolator]: corner = "time" | "tolerance", corner_time, corner_tolerance.
+void read_interpolator(TomlDoc& doc, const toml::table& t, Machine& m) {
+  Fields f(doc, t, "interpolator");
+  static constexpr std::string_view kCorners[] = {"time", "tolerance"};
+  InterpolatorSettings& s = m.interpolator;
+  if (auto c = f.text("corner", false, kCorners)) s.corner = *c == "tolerance" ? CornerRule::tolerance : CornerRule::time;
+  if (auto v = f.quantity("corner_time", Dim::time, "s", false, Fields::Range{0, 1, true})) s.corner_time = *v;
+  if (auto v = f.quantity("corner_tolerance", Dim::length, "mm", false, Fields::Range{0, 10, true}))
+    s.corner_tolerance = *v;
+  f.finish();
+}
+
 /// [work_offsets] G54 = { X = …, Y = …, C = … }.
 void read_work_offsets(TomlDoc& doc, const toml::table& t, Machine& m) {
   for (const auto& [k, v] : t) {
@@ -291,6 +303,7 @@ std::optional<Machine> parse_machine(std::string file, std::string text, gcode::
                              m.model_kind));
     f.finish();
   }
+  if (const toml::table* t = top.table("interpolator", false)) read_interpolator(doc, *t, m);
   if (const toml::table* t = top.table("tool", true)) {
     Fields f(doc, *t, "tool");
     read_tool(doc, f, m);

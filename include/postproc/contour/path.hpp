@@ -14,8 +14,12 @@
 /// Limits (per axis, [axes.X] / [drives.q1]): a move is slowed until no joint exceeds its
 /// max_velocity; with max_acceleration, the look-ahead profile (forward and backward passes over
 /// the whole run) keeps every joint's acceleration along a move within its limit, and the speed at
-/// a junction is limited so that the velocity jump of every joint there stays within
-/// max_acceleration · corner_time (the corner slow-down). Jerk limits are not modelled.
+/// a junction is limited by the corner rule in force ([interpolator] in the machine file, or the
+/// program's blending words; docs/contour.md "Corners"): corner time (every joint's velocity jump
+/// within max_acceleration · corner_time) or corner tolerance (a circular blend deviating at most
+/// the tolerance, its centripetal acceleration and jerk within every joint's limits).
+/// max_jerk: the interpolator's output passes a moving average of max_acceleration / max_jerk per
+/// joint (the equivalent time constant that makes a trapezoidal ramp an S-curve of that jerk).
 ///
 /// A run is a stretch of consecutive feed moves (G1, G2/G3 as chords, not drilling cycles) in one
 /// controller context; rapids, dwells, program stops, context changes and refused blocks end a
@@ -81,6 +85,9 @@ struct Path {
   std::uint64_t feed_moves = 0;          ///< moves on the path
   std::uint64_t arcs = 0;                ///< arcs taken as chords
   double duration = 0;                   ///< total time of the runs, s
+  /// Per joint: the window of the moving average on the interpolator's output, s (max_acceleration
+  /// / max_jerk; 0 without a jerk limit).
+  std::vector<double> jerk_window;
   /// F measures the combined rate of the program axes (machine file feed = combined-axes): a
   /// move's time then follows its axis lengths, so corrected axis values change it.
   bool combined_feed = false;
@@ -89,9 +96,6 @@ struct Path {
 struct PathOptions {
   /// Chord tolerance for arcs on the path, mm.
   double arc_tolerance_mm = 0.0005;
-  /// Corner slow-down: the velocity jump of a joint at a junction may be at most
-  /// max_acceleration · corner_time (s).
-  double corner_time = 0.005;
 };
 
 /// The model of path point i: the calibrated (or, with `nominal`, the controller's nominal) model
@@ -131,7 +135,9 @@ struct Sample {
 /// until the run's end time, then `settle` seconds more at rest at the end point. Axis programs
 /// interpolate the joints linearly; tool-tip programs interpolate the tool tip and the tool axis
 /// linearly (the axis normalised) and take the joints from the controller's nominal inverse
-/// kinematics. Along a segment the path position follows the segment's speed profile.
+/// kinematics. Along a segment the path position follows the segment's speed profile. Joints with
+/// a jerk window (Path::jerk_window) get the moving average of their commands over that window; the
+/// run then lasts the longest window longer before `settle` starts.
 void interpolate(const Path& path, const Run& run, double settle, const std::function<void(const Sample&)>& visit);
 
 }  // namespace postproc::contour

@@ -49,6 +49,22 @@ struct AxisSettings {
   std::optional<double> max_jerk;            ///< mm/s³ (deg/s³)
 };
 
+/// How the interpolator treats a junction of two moves in continuous-path mode ([interpolator]
+/// corner, docs/contour.md "Corners").
+enum class CornerRule : std::uint8_t {
+  time,       ///< every joint's velocity jump at the junction ≤ max_acceleration · corner_time (Fanuc 1783)
+  tolerance,  ///< a blend arc deviating at most corner_tolerance from the corner (G64 P, G642, CYCLE 32 T)
+  distance,   ///< a blend arc starting corner_distance before the corner (Siemens G641 ADIS=, program only)
+};
+
+/// The controller's interpolator ([interpolator] table): corner behaviour in continuous-path mode.
+/// The program's own blending words (LinuxCNC G64 P, Siemens G641 ADIS= / G642) override it per run.
+struct InterpolatorSettings {
+  CornerRule corner = CornerRule::time;
+  double corner_time = 0.005;        ///< s (corner = time)
+  double corner_tolerance = 0.01;    ///< mm (corner = tolerance, and Siemens G642 without CTOL=)
+};
+
 struct Machine {
   std::string file;        ///< path as given
   std::string sha256;      ///< of the file's bytes, lowercase hex
@@ -68,6 +84,8 @@ struct Machine {
   /// e.g. C), -1 for none: while the spindle turns (M3 / M4) it is not a position, a block is a
   /// turning move whose tool-tip radius and Z are what the program means.
   int turning_spindle_axis = -1;
+  /// [interpolator]: the corner behaviour of the controller's interpolator.
+  InterpolatorSettings interpolator;
   /// Program axes the machine has (index gcode::Axis), with their settings.
   std::array<std::optional<AxisSettings>, gcode::kAxisCount> axes;
   /// Servo data of joints that are not program axes (parallel machines: "q1" …), from
