@@ -395,7 +395,7 @@ class Compensator final : public gcode::BlockVisitor {
                const kin::JointVector& q_written, AxisMask held = 0) {
     // The intended pose and the nominal joints of the end point come from the remap itself.
     // Poses are compared as the part sees them (a turning move: radius and Z; ProgramMap::as_cut).
-    const kin::Pose want = map.as_cut(map.nominal(), map.last_nominal_joints(), map.last_intended());
+    const kin::Pose& want = map.last_intended_cut();
     kin::Pose before, after, written_nominal;
     kin::JointVector qa;
     if (!map.actual().forward(map.last_nominal_joints(), before).ok()) return;

@@ -120,7 +120,7 @@ DiffResult diff(std::string_view original, std::string_view corrected, std::stri
           map_a->intended(Command{ma.end, ma.tool_vector}, start, pa, qa).ok() &&
           map_b->intended(Command{mb.end, mb.tool_vector}, start, pb, qb).ok()) {
         bd.tip_mm = (pb.p - pa.p).norm();
-        bd.axis_rad = std::atan2(pa.axis().cross(pb.axis()).norm(), pa.axis().dot(pb.axis()));
+        bd.axis_rad = kin::angle_between(pa.axis(), pb.axis());
         bd.deviation_mm = bd.tip_mm;
         bd.point_mm = pa.p;
         bd.point_known = true;

@@ -154,9 +154,8 @@ kin::Pose ProgramMap::as_cut(const kin::Model& model, const kin::JointVector& q,
   return out;
 }
 
-kin::Solve ProgramMap::solve_turning(const kin::Pose& goal, const kin::JointVector& q_nom, kin::JointVector& q) const {
+kin::Solve ProgramMap::solve_turning(const kin::Pose& want, kin::JointVector& q) const {
   const int n = actual_->joint_count();
-  const kin::Pose want = as_cut(*nominal_, q_nom, goal);
   // The tip's (radius, Z) residual at joints x, about the real spindle axis.
   const auto residual = [&](const kin::JointVector& x, Eigen::Vector2d& f) -> kin::Solve {
     kin::Pose at;
@@ -365,8 +364,9 @@ kin::Solve ProgramMap::correct(const Command& cmd, const kin::JointVector& start
   if (form_ == Form::turning) {
     // The spinning part sees the radius and Z of the tip: the linear axes set them, the rotary
     // ones keep their values (the spindle's is no position, a B head's stays as programmed).
+    last_goal_cut_ = as_cut(*nominal_, q_nom, goal);
     q_actual = q_nom;
-    if (auto s = solve_turning(goal, q_nom, q_actual); !s.ok()) return s;
+    if (auto s = solve_turning(last_goal_cut_, q_actual); !s.ok()) return s;
     return command(q_actual, cmd, out);
   }
   // Serial machines with fewer than five joints (3-axis, lathes) can only match what they have.

@@ -10,12 +10,6 @@
 
 namespace postproc::kin {
 
-namespace {
-
-// The tool-axis angle between two unit vectors, rad (exact for small and large angles).
-double axis_angle(const Eigen::Vector3d& a, const Eigen::Vector3d& b) { return std::atan2(a.cross(b).norm(), a.dot(b)); }
-
-}  // namespace
 
 Solve bounded_inverse(const Model& model, const Pose& target, const JointVector& anchor, JointVector& q,
                       const BoundedIkOptions& opt) {
@@ -56,7 +50,7 @@ Solve bounded_inverse(const Model& model, const Pose& target, const JointVector&
   const double c = std::max(opt.max_rotary_correction_rad, 1e-12);
   // A floor keeps the system regular where a rotary joint moves neither tip nor axis (C at A = 0
   // with the tip on the C axis); it leaves (1e-5 / σ)² of the error in a direction of strength σ.
-  const double e0 = axis_angle(now.pose.axis(), ot);
+  const double e0 = angle_between(now.pose.axis(), ot);
   const double smooth = std::sqrt(e0 / std::max(opt.max_correction_slope, 1e-12));
   const double lambda = std::max(std::clamp(opt.damping_share, 0.0, 1.0) * std::max(e0 / (2 * c), smooth), 1e-5);
   const double lambda2 = lambda * lambda;
@@ -70,7 +64,7 @@ Solve bounded_inverse(const Model& model, const Pose& target, const JointVector&
     s.status = st;
     s.iterations = it;
     s.residual_mm = now.rp.norm();
-    s.residual_rad = axis_angle(now.pose.axis(), ot);
+    s.residual_rad = angle_between(now.pose.axis(), ot);
     if (s.status == Status::ok && !(s.residual_mm <= opt.tolerance_mm)) s.status = Status::no_convergence;
     return s;
   };

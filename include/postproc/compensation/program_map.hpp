@@ -72,6 +72,10 @@ class ProgramMap {
   [[nodiscard]] int axis_of_joint(int j) const { return axis_of_joint_[static_cast<std::size_t>(j)]; }
   /// The intended pose and nominal joints of the last correct() call.
   [[nodiscard]] const kin::Pose& last_intended() const { return last_goal_; }
+  /// last_intended() as the part sees it (as_cut on the nominal machine): computed once per block.
+  [[nodiscard]] const kin::Pose& last_intended_cut() const {
+    return form_ == Form::turning ? last_goal_cut_ : last_goal_;
+  }
   [[nodiscard]] const kin::JointVector& last_nominal_joints() const { return last_q_nom_; }
   /// The tool-axis angle (rad) the last correct() left on the real machine because it took the
   /// bounded solve (kinematics/bounded_inverse.hpp: near a singular pose, or a machine with fewer
@@ -87,8 +91,9 @@ class ProgramMap {
  private:
   [[nodiscard]] kin::Pose target_of(const Command& cmd) const;
   /// Turning: the linear joints of q (the rest held) so that the real tool tip has the radius and
-  /// Z of `goal` (Gauss–Newton; least squares where the radius is below what the machine reaches).
-  [[nodiscard]] kin::Solve solve_turning(const kin::Pose& goal, const kin::JointVector& q_nom, kin::JointVector& q) const;
+  /// axial place of `want` (the intended pose as_cut; Gauss–Newton, least squares where the radius
+  /// is below what the machine reaches).
+  [[nodiscard]] kin::Solve solve_turning(const kin::Pose& want, kin::JointVector& q) const;
   /// The hexapod's correction of a tool-vector block: struts q that put the real tool tip and
   /// axis at `goal` and that the controller's own spin rule (from `start`, its previous struts)
   /// reproduces from the written block.
@@ -103,6 +108,7 @@ class ProgramMap {
   int spindle_joint_ = -1;  ///< turning: the joint of the workpiece spindle (held at 0)
   mutable double last_bounded_residual_rad_ = 0;
   mutable kin::Pose last_goal_;
+  mutable kin::Pose last_goal_cut_;
   mutable kin::JointVector last_q_nom_;
   std::array<int, kin::kMaxJoints> axis_of_joint_{};
   std::array<int, gcode::kAxisCount> joint_of_axis_{};

@@ -13,6 +13,7 @@
 /// - the Jacobian's rows are dP (mm) and the small rotation dθ of the tool frame (rad, workpiece
 ///   frame, dR = [dθ]× R); its columns are per mm of a linear joint and per degree of a rotary one.
 
+#include <cmath>
 #include <cstdint>
 #include <limits>
 #include <memory>
@@ -161,6 +162,10 @@ using ModelPtr = std::shared_ptr<const Model>;
 
 /// Small-rotation vector θ with R_b ≈ exp([θ]×) R_a (rad, the frame of both), exact for any angle < π.
 [[nodiscard]] Eigen::Vector3d rotation_difference(const Eigen::Matrix3d& r_b, const Eigen::Matrix3d& r_a);
+/// The angle between two unit vectors (tool axes), rad; exact for small and large angles (atan2).
+[[nodiscard]] inline double angle_between(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
+  return std::atan2(a.cross(b).norm(), a.dot(b));
+}
 /// The joint outside its travel, -1 if none (limits compared with a 1e-9 slack).
 [[nodiscard]] int joint_outside_limits(const Model& m, const JointVector& q);
 
