@@ -153,7 +153,7 @@ void setup_batch(CLI::App& app, int& rc) {
   cmd->add_option("-m,--machine", o->machine,
                   "default machine file; a machine.toml in a job folder (or a folder above it) overrides it there");
   cmd->add_option("-o,--output", o->out_dir, "output folder: the job folder's tree is mirrored here");
-  cmd->add_option("-j,--jobs", o->jobs, "programs compensated at once (default: the number of cores)");
+  cmd->add_option("-j,--jobs", o->jobs, "programs compensated at once (default: the cores this process may use, from its CPU affinity)");
   cmd->add_option("--glob", o->globs,
                   "file names to take (repeatable; case-insensitive; a glob with '/' matches the path below the job "
                   "folder); default *.nc *.ngc *.tap *.mpf *.spf *.cnc *.gcode *.eia *.iso *.ptp *.min");
@@ -205,7 +205,7 @@ void setup_batch(CLI::App& app, int& rc) {
     opt.compensate.allow_recompensation = o->allow_recompensation;
     opt.compensate.resolve = make_resolve_options(o->resolve);
     opt.precompensate.max_iterations = o->iterations;
-    opt.jobs = o->jobs > 0 ? o->jobs : std::max(1u, std::thread::hardware_concurrency());
+    opt.jobs = o->jobs > 0 ? o->jobs : usable_cores();
     if (!o->shard.empty()) opt.shard = batch::parse_shard(o->shard);
     opt.force = o->force;
     const bool contour = o->mode != "geometric";

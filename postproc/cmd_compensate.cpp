@@ -36,6 +36,7 @@ struct CompensateArgs {
   int iterations = 12;
   bool flatten = false;
   bool allow_recompensation = false;
+  unsigned jobs = 0;
   ResolveArgs resolve;
 };
 
@@ -108,6 +109,9 @@ void setup_compensate(CLI::App& app, int& rc) {
                 "compensate a program that already carries postproc's compensation header (refused otherwise, "
                 "PP-E620: the corrections would be applied twice)");
   cmd->add_flag("--in-place", o->in_place, "allow -o to name the input (a .bak backup is kept)");
+  cmd->add_option("-j,--jobs", o->jobs,
+                  "threads for the geometric stage (default: the cores this process may use, from its CPU "
+                  "affinity); the output is the same for any number");
   cmd->add_option("--max-per-code", o->max_per_code, "show at most this many diagnostics per code")->capture_default_str();
   cmd->callback([o, &rc] {
     if (!o->html.empty() && o->mode == "geometric")
@@ -145,6 +149,7 @@ void setup_compensate(CLI::App& app, int& rc) {
     opt.mode = o->mode;
     opt.flatten = o->flatten;
     opt.allow_recompensation = o->allow_recompensation;
+    opt.jobs = o->jobs > 0 ? o->jobs : usable_cores();
     opt.resolve = make_resolve_options(o->resolve);
     io::OutputFile out(o->output, o->input, o->in_place);
     ProgressBar bar("postproc:");

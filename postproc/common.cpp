@@ -1,12 +1,26 @@
 #include "common.hpp"
 #include "progress_bar.hpp"
 
+#include <sched.h>
+
+#include <thread>
+
 #include <fmt/format.h>
 
 #include "postproc/gcode/tool_table.hpp"
 #include "postproc/io/output_file.hpp"
 
 namespace postproc::cli {
+
+unsigned usable_cores() {
+  cpu_set_t set;
+  CPU_ZERO(&set);
+  if (sched_getaffinity(0, sizeof(set), &set) == 0) {
+    const int n = CPU_COUNT(&set);
+    if (n > 0) return static_cast<unsigned>(n);
+  }
+  return std::max(1u, std::thread::hardware_concurrency());
+}
 
 void add_dialect_options(CLI::App& cmd, DialectArgs& a, bool required) {
   auto* opt = cmd.add_option("--dialect", a.dialect,

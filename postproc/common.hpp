@@ -77,6 +77,10 @@ class OutputSet {
 /// After an --in-place run: says so when an existing NAME.bak (an earlier original) was kept.
 void note_backup_kept(const io::OutputFile& out);
 
+/// The cores this process may run on (its CPU affinity mask, not the machine's count): the
+/// default of -j. At least 1.
+[[nodiscard]] unsigned usable_cores();
+
 /// Exit code for a program given its diagnostics.
 ExitCode exit_code_for(const gcode::DiagnosticSink& sink);
 

@@ -132,8 +132,9 @@ bool refuse_recompensation(std::string_view line, std::uint64_t line_no, std::st
 CompensateResult compensate(gcode::LineReader& in, std::string_view file, const gcode::Dialect& dialect,
                             const machine::Machine& m, const CompensateOptions& opt, io::OutputFile& out,
                             gcode::DiagnosticSink& sink) {
+  if (opt.jobs > 1) return detail::compensate_parallel(in, file, dialect, m, opt, out, sink);
   CompensateResult r;
-  detail::Compensator c(file, dialect, m, opt, out, sink, r);
+  detail::Compensator c(file, dialect, m, opt, &out, sink, r);
   c.set_reader(&in);
   const gcode::ProgramStats st = gcode::run_program(in, dialect, file, c.collector(), c);
   c.finish();

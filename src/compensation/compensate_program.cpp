@@ -12,6 +12,8 @@ namespace {
 /// --mode all: the figures of the geometric stage next to the contour stage's.
 void merge_geometric(CompensateResult& r, const CompensateResult& g) {
   r.subdivided_blocks = g.subdivided_blocks;
+  r.parallel_chunks = g.parallel_chunks;
+  r.parallel_recomputed = g.parallel_recomputed;
   r.segments_added = g.segments_added;
   r.arcs_kept = g.arcs_kept;
   r.arcs_linearized = g.arcs_linearized;

@@ -54,9 +54,7 @@ Compensator::ArcCheck Compensator::arc_check(const Block& b, const Motion& m, co
 }
 
 void Compensator::restore_arc_mode(const Block& b, gcode::BlockEditor& ed) {
-  if (const auto* g = track_.block_motion()) {
-    if (g->def->meaning == gcode::GMeaning::arc_cw || g->def->meaning == gcode::GMeaning::arc_ccw)
-      arc_word_ = std::string(b.text(b.words[g->word].span));
+  if (track_.block_motion() != nullptr) {  // the block names its motion (arc_word_ is its G word if an arc)
     arc_mode_broken_ = false;
     return;
   }
@@ -104,7 +102,6 @@ bool Compensator::linearize_arc(const Block& b, const Motion& m, const ProgramMa
   const std::string sep = b.raw.find_first_of(" \t") == std::string_view::npos ? "" : " ";
   if (const auto* g = track_.block_motion()) {
     const Word& w = b.words[g->word];
-    arc_word_ = std::string(b.text(w.span));
     std::string v(b.text(w.value));
     const auto int_end = std::min(v.find('.'), v.size());
     if (int_end > 0) v[int_end - 1] = '1';

@@ -77,10 +77,10 @@ inline constexpr std::string_view kToolLengthError = "PP-E621";  // [errors] too
 /// ends.
 class ModalToolVector {
  public:
-  explicit ModalToolVector(const machine::Machine& m) : m_(m) {}
+  explicit ModalToolVector(const machine::Machine& m) : m_(&m) {}
   [[nodiscard]] gcode::Motion apply(const gcode::Motion& m) {
     gcode::Motion c = m;
-    const bool tip = m.tcp != gcode::TcpMode::off || m_.coordinates == machine::ProgramCoordinates::tool_tip;
+    const bool tip = m.tcp != gcode::TcpMode::off || m_->coordinates == machine::ProgramCoordinates::tool_tip;
     if (m.tool_vector_known) {
       vector_ = m.tool_vector;
       known_ = true;
@@ -91,9 +91,12 @@ class ModalToolVector {
     if (!tip) known_ = false;
     return c;
   }
+  [[nodiscard]] bool operator==(const ModalToolVector& o) const {
+    return m_ == o.m_ && vector_ == o.vector_ && known_ == o.known_;
+  }
 
  private:
-  const machine::Machine& m_;
+  const machine::Machine* m_;
   Eigen::Vector3d vector_ = Eigen::Vector3d::UnitZ();
   bool known_ = false;
 };

@@ -40,8 +40,10 @@ inline constexpr int kMaxSegments = 4096;
 
 class Compensator final : public gcode::BlockVisitor {
  public:
+  /// `out`: where the written lines go (flushed every MiB); nullptr keeps them in memory for
+  /// take_output() (a chunk of a parallel run, compensate_parallel.cpp).
   Compensator(std::string_view file, const gcode::Dialect& d, const machine::Machine& m, const CompensateOptions& opt,
-              io::OutputFile& out, gcode::DiagnosticSink& sink, CompensateResult& r)
+              io::OutputFile* out, gcode::DiagnosticSink& sink, CompensateResult& r)
       : file_(file), d_(d), m_(m), opt_(opt), out_(out), sink_(sink), r_(r), track_(d), models_(m) {
     collect_.on_report = [this](const gcode::Diagnostic& diag) {
       if (diag.severity == gcode::Severity::error) block_error_ = true;
@@ -55,10 +57,84 @@ class Compensator final : public gcode::BlockVisitor {
     written_.setZero();
   }
   gcode::DiagnosticSink& collector() { return collect_; }
+
+  /// The modal context a controller map is built for.
+  struct MapKey {
+    Form form = Form::axes;
+    gcode::Frame frame = gcode::Frame::work;
+    std::uint16_t code10 = 0, p = 0;
+    bool length_active = false;
+    std::uint16_t h = 0;
+    AxisVector shift = AxisVector::Zero();
+    bool operator==(const MapKey& o) const {
+      return form == o.form && frame == o.frame && code10 == o.code10 && p == o.p && length_active == o.length_active &&
+             h == o.h && shift == o.shift;
+    }
+  };
+
+  /// Everything the compensation of a block takes from the blocks before it. Two runs that reach
+  /// a block with equal states write it, and everything after it, identically: the parallel run
+  /// (compensate_parallel.cpp) starts chunks from a guessed state and accepts a chunk only when its
+  /// guess equals the state the chunk before it ended with.
+  struct Carry {
+    // From the program text alone (the parallel run's reader tracks them exactly).
+    gcode::ModalTrack track;
+    ModalToolVector vector;
+    std::string eol;
+    bool recompensation_checked = false;
+    bool header_done = false;
+    std::string arc_word;
+    // From the corrections written before.
+    kin::JointVector joints;
+    AxisVector written = AxisVector::Zero();
+    AxisMask written_known = 0;
+    AxisMask mask = 0;
+    Eigen::Vector3d prev_vector = Eigen::Vector3d::UnitZ();
+    Eigen::Vector3d prev_written_vector = Eigen::Vector3d::UnitZ();
+    bool arc_mode_broken = false;
+    bool turning_limit_warned = false;
+    bool map_held = false;  ///< a controller map of context map_key is held
+    MapKey map_key;
+    [[nodiscard]] bool operator==(const Carry& o) const;
+  };
+  [[nodiscard]] Carry carry() const {
+    return Carry{track_,  vector_,      eol_,         recompensation_checked_, header_done_,
+                 arc_word_, joints_,     written_,     written_known_,          mask_,
+                 prev_vector_, prev_written_vector_, arc_mode_broken_, turning_limit_warned_, map_held_,
+                 map_key_};
+  }
+  void restore(const Carry& c) {
+    track_ = c.track;
+    vector_ = c.vector;
+    eol_ = c.eol;
+    recompensation_checked_ = c.recompensation_checked;
+    header_done_ = c.header_done;
+    joints_ = c.joints;
+    written_ = c.written;
+    written_known_ = c.written_known;
+    mask_ = c.mask;
+    prev_vector_ = c.prev_vector;
+    prev_written_vector_ = c.prev_written_vector;
+    arc_mode_broken_ = c.arc_mode_broken;
+    arc_word_ = c.arc_word;
+    turning_limit_warned_ = c.turning_limit_warned;
+    map_held_ = c.map_held;
+    map_key_ = c.map_key;
+    map_.reset();  // rebuilt from map_key_ by the next motion
+  }
+  /// Reader-only mode: blocks update what comes from the text (carry()'s first part) and nothing
+  /// is corrected, reported or written.
+  void set_text_only(bool on) { text_only_ = on; }
+  /// The lines written so far (out == nullptr).
+  [[nodiscard]] std::string take_output() { return std::move(buffer_); }
   /// For progress reports (bytes read).
   void set_reader(const gcode::LineReader* in) { reader_ = in; }
 
   void block(const Block& b, std::span<const Motion> motions, bool lexed_ok) override {
+    if (text_only_) {
+      track_text(b, motions, lexed_ok);
+      return;
+    }
     ++r_.blocks;
     if (opt_.progress && reader_ != nullptr && (r_.blocks & 8191) == 0)
       opt_.progress("compensate", static_cast<double>(reader_->bytes_read()), static_cast<double>(opt_.input_bytes));
@@ -69,6 +145,7 @@ class Compensator final : public gcode::BlockVisitor {
     }
     maybe_header(b);
     track_.update(b);
+    note_arc_word(b);
     after_.clear();
     gcode::BlockEditor ed(b, d_.decimal_point_required);
     if (lexed_ok && !block_error_ && track_.has(gcode::GMeaning::home_return)) {
@@ -107,15 +184,40 @@ class Compensator final : public gcode::BlockVisitor {
   }
 
   void flush() {
-    out_.write(buffer_);
+    if (out_ == nullptr) return;
+    out_->write(buffer_);
     buffer_.clear();
   }
   void finish() {
     flush();
     map_.reset();
+    map_held_ = false;
   }
 
  private:
+  /// The arc mode's G word as the program writes it (G2, G02, G3 …), from the last block that set
+  /// it: what a modal arc after a linearised one gets back (restore_arc_mode).
+  void note_arc_word(const Block& b) {
+    if (const auto* g = track_.block_motion())
+      if (g->def->meaning == gcode::GMeaning::arc_cw || g->def->meaning == gcode::GMeaning::arc_ccw)
+        arc_word_ = std::string(b.text(b.words[g->word].span));
+  }
+  /// block() in reader-only mode: the text-derived state, as block() updates it.
+  void track_text(const Block& b, std::span<const Motion> motions, bool lexed_ok) {
+    if (!b.eol.empty()) eol_ = std::string(b.eol);
+    if (!recompensation_checked_ && !opt_.allow_recompensation &&
+        compensation_header_offset(b.raw) != std::string_view::npos) {
+      recompensation_checked_ = true;
+      block_error_ = true;
+    }
+    if (!header_done_ && opt_.header && !header_waits(b)) header_done_ = true;
+    track_.update(b);
+    note_arc_word(b);
+    if (lexed_ok && !block_error_ && !track_.has(gcode::GMeaning::home_return))
+      for (const Motion& m : motions) (void)vector_.apply(m);
+    block_error_ = false;
+  }
+
   /// False for blocks that change what the program's coordinates mean (G28/G30, a work offset,
   /// G10 offset writes).
   bool keeps_coordinates() const {
@@ -127,7 +229,7 @@ class Compensator final : public gcode::BlockVisitor {
     if (opt_.line_map != nullptr) opt_.line_map->push_back(from);
     buffer_.append(raw);
     buffer_.append(eol);
-    if (buffer_.size() > (1u << 20)) flush();
+    if (out_ != nullptr && buffer_.size() > (1u << 20)) flush();
   }
 
   void maybe_header(const Block& b) {
@@ -229,17 +331,19 @@ class Compensator final : public gcode::BlockVisitor {
     // The controller map depends on the modal context only: reuse it while that stays the same.
     const MapKey key{form, m.frame, m.work_offset.code10, m.work_offset.p, m.tool_length_active, m.tool_length_h,
                      m.local_offset + m.position_offset};
-    if (!map_ || !(key == map_key_)) {
+    if (!map_ || !map_held_ || !(key == map_key_)) {
       // The held corrected position is in the old context's coordinates unless only the tool
       // length changed (the program still names the same points).
-      if (map_ && !(key.form == map_key_.form && key.frame == map_key_.frame && key.code10 == map_key_.code10 &&
+      if (map_held_ && !(key.form == map_key_.form && key.frame == map_key_.frame && key.code10 == map_key_.code10 &&
                     key.p == map_key_.p && key.shift == map_key_.shift))
         written_known_ = 0;
       map_.reset();
+      map_held_ = false;
       auto fresh = map_of(b, m, form);
       if (!fresh) return false;
       map_.emplace(std::move(*fresh));
       map_key_ = key;
+      map_held_ = true;
     }
     ProgramMap* map = &*map_;
     mask_ = written_axes(form);
@@ -559,27 +663,17 @@ class Compensator final : public gcode::BlockVisitor {
   const gcode::Dialect& d_;
   const machine::Machine& m_;
   const CompensateOptions& opt_;
-  io::OutputFile& out_;
+  io::OutputFile* out_;
   gcode::DiagnosticSink& sink_;
   CompensateResult& r_;
   const gcode::LineReader* reader_ = nullptr;
   gcode::ModalTrack track_;
   ToolLengthModels models_;
   gcode::DiagnosticSink collect_{0};
-  struct MapKey {
-    Form form = Form::axes;
-    gcode::Frame frame = gcode::Frame::work;
-    std::uint16_t code10 = 0, p = 0;
-    bool length_active = false;
-    std::uint16_t h = 0;
-    AxisVector shift = AxisVector::Zero();
-    bool operator==(const MapKey& o) const {
-      return form == o.form && frame == o.frame && code10 == o.code10 && p == o.p && length_active == o.length_active &&
-             h == o.h && shift == o.shift;
-    }
-  };
-  std::optional<ProgramMap> map_;
+  std::optional<ProgramMap> map_;  ///< the map of map_key_ (a cache: rebuilt when empty)
   MapKey map_key_;
+  bool map_held_ = false;  ///< the last motion's context is map_key_ (its map built without refusal)
+  bool text_only_ = false;
   bool block_error_ = false;
   bool recompensation_checked_ = false;  ///< PP-E620 reported
   bool header_done_ = false;
@@ -600,5 +694,11 @@ class Compensator final : public gcode::BlockVisitor {
   std::string eol_ = "\n";
   WordWriter writer_{d_, m_, track_};
 };
+
+/// compensate() with opt.jobs > 1 threads (compensate_parallel.cpp): the same output, report and
+/// diagnostics as one thread.
+CompensateResult compensate_parallel(gcode::LineReader& in, std::string_view file, const gcode::Dialect& dialect,
+                                     const machine::Machine& m, const CompensateOptions& opt, io::OutputFile& out,
+                                     gcode::DiagnosticSink& sink);
 
 }  // namespace postproc::comp::detail

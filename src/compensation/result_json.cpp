@@ -42,6 +42,8 @@ nlohmann::json result_json(const CompensateResult& r, std::string_view mode, con
                               {"listed", list},
                               {"truncated", r.axis_limited_blocks > r.axis_limited.size()}};
   }
+  if (r.parallel_chunks > 0)  // the geometric stage on several threads (CompensateOptions::jobs)
+    j["parallel"] = {{"chunks", r.parallel_chunks}, {"recomputed", r.parallel_recomputed}};
   if (r.resolved_lines > 0) {  // a program with parameters or control flow (gcode/resolve.hpp)
     nlohmann::json used = nlohmann::json::object();
     for (const auto& [name, value] : r.used_settings) used[name] = value;

@@ -53,6 +53,7 @@ struct ModalTrack {
   struct G {
     const GCodeDef* def = nullptr;
     std::size_t word = 0;
+    [[nodiscard]] bool operator==(const G&) const = default;
   };
   std::vector<G> block_g;
   [[nodiscard]] const G* find(GMeaning m) const;
@@ -81,6 +82,7 @@ struct ModalTrack {
   bool tcp_vector = false;  ///< Fanuc G43.5: I J K are a tool direction
   bool polar_command = false;  ///< Fanuc G16: X/Y are radius/angle
   bool units_in_block = false;  ///< the block has a units word
+  [[nodiscard]] bool operator==(const ModalTrack&) const = default;
 };
 
 /// One diagnostic of the block being visited (reported by the lexer or interpreter).

@@ -54,6 +54,15 @@ struct CompensateOptions {
   /// Compensate a program that already carries postproc's compensation header (header_comment);
   /// without it such a program is refused (PP-E620, docs/compensation-verification.md).
   bool allow_recompensation = false;
+  /// Threads for the geometric stage of one program (compensate_parallel.cpp). The program is
+  /// read once, in order, and cut into chunks of `chunk_blocks` blocks that are corrected in
+  /// parallel, each starting from the state it guesses by correcting the `warmup_blocks` blocks
+  /// before it. A chunk is written only when its guessed start state equals the state the chunk
+  /// before it ended with, else it is corrected again from that state: the output, the report and
+  /// the diagnostics are those of the one-thread run, for any number of jobs. 1: one thread.
+  unsigned jobs = 1;
+  std::size_t chunk_blocks = 4096;
+  std::size_t warmup_blocks = 32;
 };
 
 /// Where `line` carries postproc's compensation header (as header_comment writes it: "postproc
@@ -144,6 +153,9 @@ struct CompensateResult {
   bool flattened = false;                 ///< written as the resolved literal program (--flatten)
   std::vector<std::string> subprogram_files;  ///< files the resolution read besides the program
   std::map<std::string, double> used_settings;  ///< --set values the program read
+  // The parallel geometric stage (CompensateOptions::jobs > 1): how its guesses fared.
+  std::uint64_t parallel_chunks = 0;      ///< chunks the program was cut into (0: one thread)
+  std::uint64_t parallel_recomputed = 0;  ///< chunks whose guessed start state was wrong: corrected again
 };
 
 /// Compensates the program read by `in` into `out`. Refusals go to `sink` as errors (the caller
