@@ -202,7 +202,7 @@ class ParallelRun final : public gcode::BlockVisitor {
     }
     job_cv_.notify_one();
     // Write what is done; hold the reader while too many chunks wait (bounded memory).
-    while (!in_flight_.empty() && merge_front(in_flight_.size() >= 2 * threads_.size() + 2)) {
+    while (!in_flight_.empty() && merge_front(in_flight_.size() >= threads_.size() + 2)) {
     }
   }
 
