@@ -17,7 +17,7 @@
 //
 // The cutting passes are G1 only, every block carries every axis word of the machine with the
 // machine file's output decimals, F2000 on the first feed block of a pass. Machine axis values
-// come from the machine's nominal kinematics through the library (comp::ProgramMap, the same
+// come from the machine's nominal kinematics through the library (machine::ProgramMap, the same
 // command ↔ joints map the compensator uses), so they are what the controller would be given.
 
 #include <algorithm>
@@ -33,16 +33,16 @@
 
 #include <fmt/format.h>
 
-#include "postproc/compensation/program_map.hpp"
+#include "postproc/machine/program_map.hpp"
 #include "postproc/kinematics/model.hpp"
 #include "postproc/kinematics/serial.hpp"
 #include "postproc/machine/machine.hpp"
 
 namespace {
 
-using postproc::comp::Command;
-using postproc::comp::Form;
-using postproc::comp::ProgramMap;
+using postproc::machine::Command;
+using postproc::machine::Form;
+using postproc::machine::ProgramMap;
 using postproc::gcode::AxisVector;
 namespace kin = postproc::kin;
 namespace machine = postproc::machine;
@@ -420,7 +420,7 @@ Stats pocket(const std::string& machines, const std::string& out) {
       (Eigen::AngleAxisd(kA * kDeg, Eigen::Vector3d::UnitX()) * Eigen::AngleAxisd(kB * kDeg, Eigen::Vector3d::UnitY()))
           .toRotationMatrix();
   const Eigen::Vector3d u = r.col(0), v = r.col(1), nrm = r.col(2);
-  if ((nrm - postproc::comp::virtual_ab_axis(kA, kB)).norm() > 1e-12) fail("pocket: plane normal ≠ virtual A B axis");
+  if ((nrm - postproc::machine::virtual_ab_axis(kA, kB)).norm() > 1e-12) fail("pocket: plane normal ≠ virtual A B axis");
   const Eigen::Vector3d centre(0, 0, -2);
   constexpr double kRadius = 8.0, kTarget = 0.3, kApproach = 20.0;
   struct Loop {

@@ -52,7 +52,7 @@ inline postproc::contour::Path empty_path(const postproc::machine::Machine& m) {
   auto drives = postproc::contour::joint_drives(m, why);
   EXPECT_TRUE(drives.has_value()) << why;
   if (drives) p.drives = *drives;
-  p.maps.emplace_back(m, m.nominal, m.actual, postproc::comp::Form::axes, postproc::gcode::AxisVector::Zero(), false,
+  p.maps.emplace_back(m, m.nominal, m.actual, postproc::machine::Form::axes, postproc::gcode::AxisVector::Zero(), false,
                       0.0);
   return p;
 }

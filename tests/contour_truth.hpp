@@ -46,7 +46,7 @@ struct TruthOptions {
   bool nominal = false;      ///< the intended points through the nominal model (--mode all)
   /// Tool-tip programs (G43.4, TRAORI: a controller map of tool-tip form) interpolated as the
   /// controller does, the tool tip and the tool axis linear between the points and the joints
-  /// from the controller map's inverse (comp::ProgramMap::joints, the program's reading, not the
+  /// from the controller map's inverse (machine::ProgramMap::joints, the program's reading, not the
   /// code under test). Without it every program's joints move linearly between the points, and the
   /// commanded tip of a tool-tip program leaves its chords where rotary axes move.
   bool tip_interpolation = false;
@@ -136,11 +136,11 @@ inline Truth simulate_truth(const ct::Path& commanded, const ct::Path& original,
       rq = a.q + s * (b.q - a.q);
       rv = h > 0 ? kin::JointVector((b.q - a.q) / h) : kin::JointVector::Zero(nj);
       at = seg;
-      if (opt.tip_interpolation && !commanded.maps.empty() && commanded.maps[b.map].form() != postproc::comp::Form::axes &&
+      if (opt.tip_interpolation && !commanded.maps.empty() && commanded.maps[b.map].form() != postproc::machine::Form::axes &&
           s > 0 && s < 1) {
-        const postproc::comp::ProgramMap& map = commanded.maps[b.map];
+        const postproc::machine::ProgramMap& map = commanded.maps[b.map];
         const auto joints_at = [&](double f, kin::JointVector& q) {
-          postproc::comp::Command c;
+          postproc::machine::Command c;
           c.c = a.command.c + f * (b.command.c - a.command.c);
           c.vector = (a.command.vector + f * (b.command.vector - a.command.vector)).normalized();
           const kin::JointVector guess = a.q + f * (b.q - a.q);  // picks the branch

@@ -11,7 +11,7 @@
 
 #include "postproc/calibration/identify.hpp"
 #include "postproc/calibration/plan.hpp"
-#include "postproc/compensation/program_map.hpp"
+#include "postproc/machine/program_map.hpp"
 #include "postproc/error.hpp"
 #include "postproc/machine/machine.hpp"
 #include "support.hpp"
@@ -236,10 +236,10 @@ void round_trip(const char* file, int poses) {
   double worst = 0;
   std::size_t next = 0;
   for (const gc::Motion& mo : prog.motions) {
-    const auto offset = comp::program_offset(m, mo);
+    const auto offset = machine::program_offset(m, mo);
     ASSERT_TRUE(offset.has_value());
-    const comp::ProgramMap map(m, m.nominal, m.actual, comp::form_of(m, mo), *offset, false, 0.0);
-    comp::Command cmd;
+    const machine::ProgramMap map(m, m.nominal, m.actual, machine::form_of(m, mo), *offset, false, 0.0);
+    machine::Command cmd;
     cmd.c = mo.end;
     cmd.vector = mo.tool_vector;
     kin::JointVector at;

@@ -9,7 +9,7 @@
 #include <fmt/format.h>
 
 #include "postproc/compensation/compensate.hpp"
-#include "postproc/compensation/program_map.hpp"
+#include "postproc/machine/program_map.hpp"
 #include "postproc/compensation/verify.hpp"
 #include "postproc/machine/machine.hpp"
 #include "sample_machine.hpp"
@@ -275,16 +275,16 @@ TEST(ProgramMap, VirtualAnglesRoundTrip) {
   std::uniform_real_distribution<double> ang(-80, 80);
   for (int i = 0; i < 1000; ++i) {
     const double a = ang(rng), b = ang(rng);
-    const Eigen::Vector3d o = cp::virtual_ab_axis(a, b);
+    const Eigen::Vector3d o = postproc::machine::virtual_ab_axis(a, b);
     EXPECT_NEAR(o.norm(), 1.0, 1e-15);
-    const Eigen::Vector2d back = cp::virtual_ab_angles(o);
+    const Eigen::Vector2d back = postproc::machine::virtual_ab_angles(o);
     EXPECT_NEAR(back[0], a, 1e-9);
     EXPECT_NEAR(back[1], b, 1e-9);
   }
   // A = B = 0 is the spindle axis; A turns it toward −Y, B toward +X.
-  EXPECT_TRUE(cp::virtual_ab_axis(0, 0).isApprox(Eigen::Vector3d::UnitZ()));
-  EXPECT_LT(cp::virtual_ab_axis(10, 0).y(), 0);
-  EXPECT_GT(cp::virtual_ab_axis(0, 10).x(), 0);
+  EXPECT_TRUE(postproc::machine::virtual_ab_axis(0, 0).isApprox(Eigen::Vector3d::UnitZ()));
+  EXPECT_LT(postproc::machine::virtual_ab_axis(10, 0).y(), 0);
+  EXPECT_GT(postproc::machine::virtual_ab_axis(0, 10).x(), 0);
 }
 
 /// The controller's map and its inverse agree: command(joints(c)) = c for every form.
@@ -295,13 +295,13 @@ TEST(ProgramMap, CommandOfJointsIsTheCommand) {
   offset[2] = 35;
   std::mt19937_64 rng(11);
   std::uniform_real_distribution<double> lin(-80, 80), b(-60, 60), c(-400, 400);
-  for (cp::Form f : {cp::Form::axes, cp::Form::tcp_rotary, cp::Form::tcp_vector}) {
-    const cp::ProgramMap map(m, m.nominal, m.actual, f, offset, f == cp::Form::axes, 85.25);
+  for (postproc::machine::Form f : {postproc::machine::Form::axes, postproc::machine::Form::tcp_rotary, postproc::machine::Form::tcp_vector}) {
+    const postproc::machine::ProgramMap map(m, m.nominal, m.actual, f, offset, f == postproc::machine::Form::axes, 85.25);
     postproc::kin::JointVector start = postproc::kin::JointVector::Zero(m.nominal->joint_count());
     for (int i = 0; i < 200; ++i) {
-      cp::Command cmd;
+      postproc::machine::Command cmd;
       cmd.c << lin(rng), lin(rng), lin(rng), 0, b(rng), c(rng), 0, 0, 0;
-      if (f == cp::Form::tcp_vector) {
+      if (f == postproc::machine::Form::tcp_vector) {
         // A reachable vector: the nominal axis of some B/C.
         postproc::kin::JointVector q = start;
         q[0] = b(rng);
@@ -312,10 +312,10 @@ TEST(ProgramMap, CommandOfJointsIsTheCommand) {
         start = q;
       }
       postproc::kin::JointVector q;
-      ASSERT_TRUE(map.joints(cmd, start, q).ok()) << cp::to_string(f);
-      cp::Command back;
+      ASSERT_TRUE(map.joints(cmd, start, q).ok()) << postproc::machine::to_string(f);
+      postproc::machine::Command back;
       ASSERT_TRUE(map.command(q, cmd, back).ok());
-      for (int a = 0; a < 6; ++a) EXPECT_NEAR(back.c[a], cmd.c[a], 1e-8) << cp::to_string(f) << " axis " << a;
+      for (int a = 0; a < 6; ++a) EXPECT_NEAR(back.c[a], cmd.c[a], 1e-8) << postproc::machine::to_string(f) << " axis " << a;
       EXPECT_LT((back.vector - cmd.vector).norm(), 1e-9);
     }
   }

@@ -305,7 +305,7 @@ TEST(CompensateGate, ToolLengthErrorIsCompensated) {
   const mc::Machine m = parse(trunnion_with_tool_length("100.02 mm"));
   ASSERT_DOUBLE_EQ(m.tool_length, 100.0);
   // The model compensate uses for the [tool] length is calibrate simulate's (m.actual itself).
-  comp::ToolLengthModels models(m);
+  postproc::machine::ToolLengthModels models(m);
   EXPECT_EQ(models.with_tool_length(100.0).second.get(), m.actual.get());
   EXPECT_TRUE(models.length_error_known(100.0));
   EXPECT_FALSE(models.length_error_known(85.25));

@@ -14,7 +14,7 @@
 #include <Eigen/Geometry>
 
 #include "contour_support.hpp"
-#include "postproc/compensation/program_map.hpp"
+#include "postproc/machine/program_map.hpp"
 #include "postproc/contour/path.hpp"
 #include "postproc/contour/reference.hpp"
 #include "postproc/error.hpp"

@@ -10,7 +10,7 @@
 #include <vector>
 
 #include "contour_support.hpp"
-#include "postproc/compensation/program_map.hpp"
+#include "postproc/machine/program_map.hpp"
 #include "postproc/contour/path.hpp"
 #include "postproc/contour/reference.hpp"
 #include "postproc/contour/simulate.hpp"

@@ -451,7 +451,7 @@ struct Writer {
 };
 
 /// Virtual angles (degrees) of a tool axis, O = Rx(A)·Ry(B)·ẑ = (sin B, −sin A cos B, cos A cos B):
-/// the inverse of how compensation/program_map.cpp reads A and B.
+/// the inverse of how machine/program_map.cpp reads A and B.
 Eigen::Vector2d virtual_ab(const Vec3& axis) {
   const Vec3 u = axis.normalized();
   return {std::atan2(-u.y(), u.z()) / kin::kDeg, std::asin(std::clamp(u.x(), -1.0, 1.0)) / kin::kDeg};

@@ -13,37 +13,6 @@ using gcode::Block;
 using gcode::Motion;
 using gcode::Word;
 
-ToolLengthModels::ToolLengthModels(const machine::Machine& m) : m_(m) {
-  const int in = m.nominal->parameter_index("tool.length");
-  const int ia = m.actual->parameter_index("tool.length");
-  if (in >= 0 && ia >= 0)
-    deviation_ = m.actual->values()[static_cast<std::size_t>(ia)] - m.nominal->values()[static_cast<std::size_t>(in)];
-}
-
-const std::pair<kin::ModelPtr, kin::ModelPtr>& ToolLengthModels::with_tool_length(double mm) {
-  auto it = cache_.find(mm);
-  if (it != cache_.end()) return it->second;
-  auto set = [](const kin::ModelPtr& model, double length) -> kin::ModelPtr {
-    const int i = model->parameter_index("tool.length");
-    if (i < 0) return model;
-    std::vector<double> v = model->values();
-    if (v[static_cast<std::size_t>(i)] == length) return model;  // the machine file's tool: m.actual itself
-    v[static_cast<std::size_t>(i)] = length;
-    return model->with_values(std::move(v));
-  };
-  // The [tool] length's tool: m.actual as it is (its "tool.length" is mm + deviation_ exactly).
-  kin::ModelPtr act = std::abs(mm - m_.tool_length) <= 1e-9 ? m_.actual : set(m_.actual, mm + deviation_);
-  return cache_.emplace(mm, std::make_pair(set(m_.nominal, mm), std::move(act))).first->second;
-}
-
-std::string ToolLengthModels::unknown_length_error(double mm, std::uint32_t h) const {
-  return fmt::format(
-      "machine file {} calibrates the tool length ([errors] \"tool.length\" = {:.6f} mm for the tool of [tool] length "
-      "{} mm), but this block runs with tool length {} mm{}, whose length error the file does not give; compensate "
-      "with a machine file calibrated for this tool, or make [tool] length this tool's",
-      m_.file, m_.tool_length + deviation_, m_.tool_length, mm, h != 0 ? fmt::format(" (H{})", h) : std::string());
-}
-
 double unit_scale(int a, const Motion& m) {
   double k = 1.0;
   if (!gcode::is_rotary(a) && m.inch_source) k *= 25.4;
@@ -61,18 +30,6 @@ int program_decimals(const machine::Machine& mc, int a, const Motion& m) {
   return mc.decimals(a) + (m.inch_source && !gcode::is_rotary(a) ? 1 : 0);
 }
 
-std::optional<ProgramMap> map_of(const machine::Machine& m, ToolLengthModels& models, const gcode::Motion& mo) {
-  const auto offset = program_offset(m, mo);
-  if (!offset) return std::nullopt;
-  const auto tool = machine::tool_length_of(m, mo);
-  if (!tool) return std::nullopt;
-  const double length = *tool;
-  if (!models.length_error_known(length)) return std::nullopt;
-  const Form f = form_of(m, mo);
-  const auto& [nom, act] = models.with_tool_length(length);
-  return ProgramMap(m, nom, act, f, *offset, f == Form::axes && mo.tool_length_active, length);
-}
-
 void MotionCollector::block(const gcode::Block& b, std::span<const gcode::Motion> motions, bool) {
   track_.update(b);
   if (motions.size() != 1) return;
@@ -87,24 +44,6 @@ void MotionCollector::block(const gcode::Block& b, std::span<const gcode::Motion
   by_line[b.line] = CollectedMotion{m, track_.has(gcode::GMeaning::home_return)};
 }
 
-
-gcode::AxisMask written_axes(const machine::Machine& m, Form f) {
-  gcode::AxisMask mask = 0;
-  if (f == Form::axes || f == Form::tcp_rotary) {
-    // Under TCP with rotary axes the block carries the tool tip (X Y Z) and the rotary values.
-    for (int a = 0; a < gcode::kAxisCount; ++a)
-      if (m.joint_of_axis[static_cast<std::size_t>(a)] >= 0 && (f == Form::axes || a < 3 || gcode::is_rotary(a)))
-        mask |= static_cast<gcode::AxisMask>(1u << a);
-  } else if (f == Form::turning) {
-    // Turning: the linear axes set the tip's radius and Z; rotary values stay as programmed.
-    for (int a = 0; a < 3; ++a)
-      if (m.joint_of_axis[static_cast<std::size_t>(a)] >= 0) mask |= static_cast<gcode::AxisMask>(1u << a);
-  } else {
-    mask = 0b111;
-    if (f == Form::tcp_virtual) mask |= 0b11000;
-  }
-  return mask;
-}
 
 bool WordWriter::vector_form(const Motion& m) const {
   if (m_.coordinates == machine::ProgramCoordinates::tool_tip) return m_.orientation == machine::Orientation::vector;

@@ -8,7 +8,7 @@
 #include <string>
 #include <utility>
 
-#include "postproc/compensation/program_map.hpp"
+#include "postproc/machine/program_map.hpp"
 #include "postproc/gcode/block_writer.hpp"
 #include "postproc/gcode/program.hpp"
 #include "postproc/gcode/write_back.hpp"
@@ -18,6 +18,14 @@
 namespace postproc::comp {
 
 using gcode::header_waits;  // gcode/write_back.hpp
+// The controller's map per program form (machine/program_map.hpp).
+using machine::Command;
+using machine::Form;
+using machine::map_of;
+using machine::ModalToolVector;
+using machine::ProgramMap;
+using machine::ToolLengthModels;
+using machine::written_axes;
 
 // Issue 17, compensation verification gate (docs/compensation-verification.md): codes PP-E620…E629,
 // PP-W620…W629.
@@ -34,72 +42,7 @@ inline constexpr std::string_view kContourUnverified = "PP-W621";  // the writte
 /// inch program's linear words carry one more (0.0001 in = 2.54 µm, the controllers' inch
 /// increment), else the corrections of inch programs would be rounded to 25.4 µm.
 [[nodiscard]] int program_decimals(const machine::Machine& mc, int a, const gcode::Motion& m);
-/// The program axes whose words a block of form `f` carries on machine `m`.
-[[nodiscard]] gcode::AxisMask written_axes(const machine::Machine& m, Form f);
-
-/// Nominal and actual models with the tool length of the block (serial models carry it as the
-/// parameter "tool.length"; others ignore it). Cached per length.
-///
-/// [errors] "tool.length" (docs/machine-file.md: the calibrated length of the tool of [tool]
-/// length, as `calibrate` writes it) is the actual model's tool length for that tool, exactly as
-/// `calibrate simulate` uses m.actual; its deviation from [tool] length is known for that tool
-/// only, so a block with another tool length is refused (length_error_known, PP-E621).
-class ToolLengthModels {
- public:
-  explicit ToolLengthModels(const machine::Machine& m);
-  /// Nominal model with `mm`; actual model with `mm` plus the calibrated deviation (0 without
-  /// [errors] "tool.length").
-  const std::pair<kin::ModelPtr, kin::ModelPtr>& with_tool_length(double mm);
-  /// False when the machine file calibrates the tool length ([errors] "tool.length") and `mm`
-  /// is not the length of that tool ([tool] length).
-  [[nodiscard]] bool length_error_known(double mm) const {
-    return deviation_ == 0 || std::abs(mm - m_.tool_length) <= 1e-9;
-  }
-  /// The message for a block whose tool length is not that tool's (PP-E621).
-  [[nodiscard]] std::string unknown_length_error(double mm, std::uint32_t h) const;
-
- private:
-  const machine::Machine& m_;
-  double deviation_ = 0;  ///< actual − nominal "tool.length" of the machine file, mm
-  std::map<double, std::pair<kin::ModelPtr, kin::ModelPtr>> cache_;
-};
-
-inline constexpr std::string_view kToolLengthError = "PP-E621";  // [errors] tool.length, another tool
-
-/// The controller map of a motion's context (form, work offset + shifts, tool length); nullopt
-/// when the machine file lacks the work offset or the tool length. For checks and comparisons;
-/// compensate itself reports what is missing.
-[[nodiscard]] std::optional<ProgramMap> map_of(const machine::Machine& m, ToolLengthModels& models,
-                                               const gcode::Motion& mo);
-
-/// The tool vector is modal under TCP (G43.5 / TRAORI blocks without I J K / A3 B3 C3 keep it;
-/// tool-tip machines always): fills it into motions that do not program it, forgets it when TCP
-/// ends.
-class ModalToolVector {
- public:
-  explicit ModalToolVector(const machine::Machine& m) : m_(&m) {}
-  [[nodiscard]] gcode::Motion apply(const gcode::Motion& m) {
-    gcode::Motion c = m;
-    const bool tip = m.tcp != gcode::TcpMode::off || m_->coordinates == machine::ProgramCoordinates::tool_tip;
-    if (m.tool_vector_known) {
-      vector_ = m.tool_vector;
-      known_ = true;
-    } else if (known_ && tip) {
-      c.tool_vector = vector_;
-      c.tool_vector_known = true;
-    }
-    if (!tip) known_ = false;
-    return c;
-  }
-  [[nodiscard]] bool operator==(const ModalToolVector& o) const {
-    return m_ == o.m_ && vector_ == o.vector_ && known_ == o.known_;
-  }
-
- private:
-  const machine::Machine* m_;
-  Eigen::Vector3d vector_ = Eigen::Vector3d::UnitZ();
-  bool known_ = false;
-};
+using machine::kToolLengthError;  // PP-E621
 
 /// One block's single motion as read back (tool vector carried modally).
 struct CollectedMotion {

@@ -12,7 +12,7 @@
 #include <fmt/format.h>
 
 #include "postproc/compensation/compensate.hpp"
-#include "postproc/compensation/program_map.hpp"
+#include "postproc/machine/program_map.hpp"
 #include "postproc/gcode/block_writer.hpp"
 #include "postproc/gcode/lexer.hpp"
 #include "postproc/gcode/number_style.hpp"
@@ -250,7 +250,7 @@ class Compensator final : public gcode::BlockVisitor {
     gcode::report_at(gcode::LexContext{file_, &sink_}, b, s, gcode::Severity::warning, code, std::move(why));
   }
 
-  Form form_of(const Motion& m) const { return comp::form_of(m_, m); }
+  Form form_of(const Motion& m) const { return machine::form_of(m_, m); }
 
   /// The controller map of this motion, or nullopt after a refusal.
   std::optional<ProgramMap> map_of(const Block& b, const Motion& m, Form form) {
@@ -289,7 +289,7 @@ class Compensator final : public gcode::BlockVisitor {
     return ProgramMap(m_, nom, act, form, *offset, form == Form::axes && m.tool_length_active, length);
   }
 
-  AxisMask written_axes(Form form) const { return comp::written_axes(m_, form); }
+  AxisMask written_axes(Form form) const { return machine::written_axes(m_, form); }
 
   void check_unchanged(const Block& b, const Motion& m) {
     // Several motions in one block (G28 intermediate points, cycles): accepted only when the

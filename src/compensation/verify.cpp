@@ -4,7 +4,7 @@
 
 #include <cmath>
 
-#include "postproc/compensation/program_map.hpp"
+#include "postproc/machine/program_map.hpp"
 #include "postproc/gcode/program.hpp"
 #include "src/compensation/compensate_support.hpp"
 

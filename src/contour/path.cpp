@@ -14,8 +14,8 @@
 #include "postproc/error.hpp"
 #include "postproc/gcode/lexer.hpp"
 #include "postproc/gcode/program.hpp"
-#include "src/compensation/compensate_support.hpp"
 #include "src/gcode/block_words.hpp"
+#include "src/gcode/convert_support.hpp"
 #include "src/gcode/number_text.hpp"
 #include "src/gcode/text.hpp"
 #include "src/gcode/linearize.hpp"
@@ -204,15 +204,15 @@ class Builder final : public gcode::BlockVisitor {
 
   /// The controller map of the motion's context (index into p_.maps); -1 after an error.
   int map_for(const gcode::Block& b, const Motion& m) {
-    const comp::Form form = comp::form_of(m_, m);
-    if (form == comp::Form::turning) {
+    const machine::Form form = machine::form_of(m_, m);
+    if (form == machine::Form::turning) {
       // The spinning part (radius and Z) is corrected geometrically; its servo contour is not modelled.
       error(b, m, kUnmodelled,
             "a turning move (the workpiece spindle turns: [machine] turning_spindle, M3/M4) is not modelled by the "
             "contour prediction; compensate it with --mode geometric");
       return -1;
     }
-    const auto offset = comp::program_offset(m_, m);
+    const auto offset = machine::program_offset(m_, m);
     if (!offset) {
       error(b, m, kMachineData,
             fmt::format("work offset {} is not in machine file {}; add it under [work_offsets]",
@@ -227,11 +227,11 @@ class Builder final : public gcode::BlockVisitor {
       return -1;
     }
     const double length = *tool;
-    const bool on_z = form == comp::Form::axes && m.tool_length_active;
+    const bool on_z = form == machine::Form::axes && m.tool_length_active;
     if (map_index_ >= 0 && form == key_form_ && *offset == key_offset_ && on_z == key_on_z_ && length == key_length_)
       return map_index_;
     if (!models_.length_error_known(length)) {
-      error(b, m, comp::kToolLengthError,
+      error(b, m, machine::kToolLengthError,
             models_.unknown_length_error(length, m.tool_length_active ? m.tool_length_h : 0));
       return -1;
     }
@@ -247,12 +247,12 @@ class Builder final : public gcode::BlockVisitor {
   }
 
   /// Feed-metric length of the segment between two commands, with its direction.
-  Metric metric(const comp::ProgramMap& map, const comp::Command& a, const comp::Command& b, AxisMask mask) const {
+  Metric metric(const machine::ProgramMap& map, const machine::Command& a, const machine::Command& b, AxisMask mask) const {
     Metric out;
     if (m_.feed == machine::FeedReference::tool_tip) {
       double len = 0;
       Eigen::Vector3d chord = Eigen::Vector3d::Zero();
-      if (map.form() != comp::Form::axes) {
+      if (map.form() != machine::Form::axes) {
         chord = b.c.head<3>() - a.c.head<3>();
         len = chord.norm();
       } else {
@@ -292,8 +292,8 @@ class Builder final : public gcode::BlockVisitor {
       end_run();
       return;
     }
-    const comp::ProgramMap& map = p_.maps[static_cast<std::size_t>(mi)];
-    const AxisMask need = comp::written_axes(m_, map.form());
+    const machine::ProgramMap& map = p_.maps[static_cast<std::size_t>(mi)];
+    const AxisMask need = machine::written_axes(m_, map.form());
     if ((mo.known & need) != need) {
       end_run();
       std::string names;
@@ -321,7 +321,7 @@ class Builder final : public gcode::BlockVisitor {
     }
     // The run's start: the end of the previous motion (the controller holds it).
     if (!in_run_) {
-      comp::Command start{mo.start, last_vector_};
+      machine::Command start{mo.start, last_vector_};
       if (!mo.tool_vector_known) start.vector = mo.tool_vector;
       kin::JointVector q;
       q_ = kin::JointVector::Zero(m_.nominal->joint_count());
@@ -344,7 +344,7 @@ class Builder final : public gcode::BlockVisitor {
       n = k ? std::max<std::uint64_t>(*k, 2) : 2;
     }
     for (std::uint64_t i = 1; i <= n; ++i) {
-      comp::Command c{arc ? gcode::arc_point(mo, static_cast<double>(i) / static_cast<double>(n)) : mo.end, mo.tool_vector};
+      machine::Command c{arc ? gcode::arc_point(mo, static_cast<double>(i) / static_cast<double>(n)) : mo.end, mo.tool_vector};
       if (i == n) c.c = mo.end;
       kin::JointVector q;
       if (!map.joints(c, q_, q).ok()) {
@@ -359,10 +359,10 @@ class Builder final : public gcode::BlockVisitor {
     note_position(mo);
   }
 
-  void add_point(const gcode::Block& b, const Motion& mo, int mi, const comp::Command& c, const kin::JointVector& q,
+  void add_point(const gcode::Block& b, const Motion& mo, int mi, const machine::Command& c, const kin::JointVector& q,
                  bool block_end, bool arc) {
-    const comp::ProgramMap& map = p_.maps[static_cast<std::size_t>(mi)];
-    const AxisMask need = comp::written_axes(m_, map.form());
+    const machine::ProgramMap& map = p_.maps[static_cast<std::size_t>(mi)];
+    const AxisMask need = machine::written_axes(m_, map.form());
     SegmentProfile s;
     const Metric mt = metric(map, prev_cmd_, c, need);
     s.length = mt.length;
@@ -372,7 +372,7 @@ class Builder final : public gcode::BlockVisitor {
     double v = 0;
     if (mo.feed_mode == gcode::FeedMode::inverse_time) {
       double total =
-          metric(map, comp::Command{mo.start, prev_cmd_.vector}, comp::Command{mo.end, mo.tool_vector}, need).length;
+          metric(map, machine::Command{mo.start, prev_cmd_.vector}, machine::Command{mo.end, mo.tool_vector}, need).length;
       if (mo.type != MotionType::linear && mo.arc.radius > 0)
         total = std::max(total, std::abs(mo.arc.sweep) * mo.arc.radius);
       const double block_time = 60.0 / mo.feed;
@@ -399,7 +399,7 @@ class Builder final : public gcode::BlockVisitor {
 
   /// A point of the block's motion (the block's single motion is the last one counted) with the
   /// profile of the segment ending there.
-  void push_point(const gcode::Block& b, const Motion& mo, int mi, const comp::Command& c, const kin::JointVector& q,
+  void push_point(const gcode::Block& b, const Motion& mo, int mi, const machine::Command& c, const kin::JointVector& q,
                   bool block_end, bool run_start, const SegmentProfile& s) {
     PathPoint p;
     p.q = q;
@@ -584,7 +584,7 @@ class Builder final : public gcode::BlockVisitor {
   gcode::DiagnosticSink& sink_;
   Path& p_;
   gcode::ModalTrack track_;
-  comp::ToolLengthModels models_;
+  machine::ToolLengthModels models_;
   std::vector<JointLimits> limits_;
   gcode::DiagnosticSink collect_{0};
   bool in_run_ = false;
@@ -598,11 +598,11 @@ class Builder final : public gcode::BlockVisitor {
   std::uint16_t siemens_code_ = 0; ///< the Siemens path-control code in force (code10: 640, 6410, …), 0 before any
   std::size_t run_begin_ = 0;
   kin::JointVector q_;
-  comp::Command prev_cmd_;
+  machine::Command prev_cmd_;
   Eigen::Vector3d last_vector_ = Eigen::Vector3d::UnitZ();
-  comp::ModalToolVector vector_{m_};
+  machine::ModalToolVector vector_{m_};
   int map_index_ = -1;
-  comp::Form key_form_ = comp::Form::axes;
+  machine::Form key_form_ = machine::Form::axes;
   gcode::AxisVector key_offset_ = gcode::AxisVector::Zero();
   bool key_on_z_ = false;
   double key_length_ = 0;
@@ -715,14 +715,14 @@ void interpolate(const Path& path, const Run& run, double settle, const std::fun
     double f = 1.0;
     if (t < b.t && prof.length > 0) f = std::clamp(position_at(prof, t - a.t) / prof.length, 0.0, 1.0);
     else if (t < b.t && prof.duration > 0) f = std::clamp((t - a.t) / prof.duration, 0.0, 1.0);
-    const comp::ProgramMap& map = path.maps[b.map];
+    const machine::ProgramMap& map = path.maps[b.map];
     s.t = t;
     s.segment = seg;
     s.fraction = f;
-    if (map.form() == comp::Form::axes || f <= 0.0 || f >= 1.0) {
+    if (map.form() == machine::Form::axes || f <= 0.0 || f >= 1.0) {
       s.q = f >= 1.0 ? b.q : (f <= 0.0 ? a.q : kin::JointVector(a.q + (b.q - a.q) * f));
     } else {
-      comp::Command c;
+      machine::Command c;
       c.c = a.command.c + (b.command.c - a.command.c) * f;
       c.vector = (a.command.vector + (b.command.vector - a.command.vector) * f).normalized();
       kin::JointVector q;

@@ -71,7 +71,7 @@ void predict_run(const Path& path, const kin::Model& actual, const Reference& re
     // Corrected axis values change a move's length in the combined-axes feed metric, and so the
     // time the controller gives it (the joints of an axis program are its axes).
     if (dt > 0 && retime && path.combined_feed && !path.maps.empty() &&
-        path.maps[path.points[i].map].form() == comp::Form::axes) {
+        path.maps[path.points[i].map].form() == machine::Form::axes) {
       const double was = (path.points[i].q - path.points[i - 1].q).norm();
       const double now = (commands[i] - commands[i - 1]).norm();
       if (was > 1e-12) dt *= now / was;

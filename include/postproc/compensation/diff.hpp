@@ -11,7 +11,7 @@
 /// Per pair: the axis deltas (corrected − original, mm / degrees, work coordinates); with a machine
 /// file also the distance between the two intended tool tips and the angle between the two
 /// intended tool axes in the workpiece frame (each command through the controller's nominal map,
-/// compensation/program_map.hpp). The deviation summarised is that tool-tip distance with a
+/// machine/program_map.hpp). The deviation summarised is that tool-tip distance with a
 /// machine, else the length of the linear-axis delta.
 
 #include <cstddef>

@@ -30,7 +30,7 @@
 #include <string_view>
 #include <vector>
 
-#include "postproc/compensation/program_map.hpp"
+#include "postproc/machine/program_map.hpp"
 #include "postproc/contour/drive.hpp"
 #include "postproc/gcode/diagnostic.hpp"
 #include "postproc/gcode/dialect.hpp"
@@ -44,7 +44,7 @@ namespace postproc::contour {
 /// its chord points too).
 struct PathPoint {
   kin::JointVector q;            ///< commanded joints, mm / degrees
-  comp::Command command;         ///< the same point in program coordinates (work coordinates, mm / deg)
+  machine::Command command;         ///< the same point in program coordinates (work coordinates, mm / deg)
   double t = 0;                  ///< time at which the interpolator reaches the point, s
   double speed = 0;              ///< path speed there (feed metric of the move, mm/s; 0 at rest)
   std::uint64_t line = 0;        ///< source line of the move ending here (of the run's first move for a run start)
@@ -76,7 +76,7 @@ struct Path {
   std::vector<PathPoint> points;
   std::vector<SegmentProfile> segments;  ///< segments[i]: from point i−1 to point i (unused at run starts)
   std::vector<Run> runs;
-  std::vector<comp::ProgramMap> maps;    ///< controller contexts (form, offsets, tool length)
+  std::vector<machine::ProgramMap> maps;    ///< controller contexts (form, offsets, tool length)
   std::vector<Drive> drives;             ///< per joint
   int joints = 0;
   double period = 0.001;                 ///< interpolation period, s
@@ -104,7 +104,7 @@ struct PathOptions {
 [[nodiscard]] inline const kin::Model& model_at(const Path& p, std::size_t i, const kin::Model& fallback,
                                                 bool nominal = false) {
   if (p.maps.empty()) return fallback;
-  const comp::ProgramMap& m = p.maps[p.points[i].map];
+  const machine::ProgramMap& m = p.maps[p.points[i].map];
   return nominal ? m.nominal() : m.actual();
 }
 

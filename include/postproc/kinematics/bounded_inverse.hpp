@@ -31,7 +31,7 @@ struct BoundedIkOptions {
   double max_rotary_correction_rad = kDeg;
   /// s in λ = s·|e_O(a)| / (2c), 0…1: callers blend in the damping as the exact solution's
   /// rotary correction approaches c, so the joints stay continuous across the switch (see
-  /// compensation/program_map.cpp).
+  /// machine/program_map.cpp).
   double damping_share = 1;
   /// K, rad of rotary correction per rad of pose: the damping is also at least √(|e_O(a)| / K),
   /// which bounds the slope of the correction against σ by K (the curvature by |e|/λ³): the joint

@@ -1,7 +1,8 @@
 #pragma once
 /// @file
 /// How a controller turns a block's command into joint values, and the geometric remap that
-/// makes the real machine do what the nominal one would have done.
+/// makes the real machine do what the nominal one would have done. Below every compensation
+/// stage (geometric remap, contour) and the checks that compare programs.
 ///
 /// Let C(c) be the controller's map from a command c (program coordinates) to joint values:
 /// - axis programs: q = c + work offset (+ the tool length on Z while G43 is active);
@@ -14,8 +15,10 @@
 ///   its nominal model to c' and so commands exactly the joints IK_actual found.
 
 #include <cstdint>
+#include <map>
 #include <optional>
 #include <string>
+#include <utility>
 
 #include "postproc/gcode/motion.hpp"
 #include "postproc/kinematics/model.hpp"
@@ -25,7 +28,7 @@ namespace postproc::kin {
 class Hexapod;
 }  // namespace postproc::kin
 
-namespace postproc::comp {
+namespace postproc::machine {
 
 /// What a block's axis words mean.
 enum class Form : std::uint8_t {
@@ -129,4 +132,72 @@ class ProgramMap {
 [[nodiscard]] Eigen::Vector3d virtual_ab_axis(double a_deg, double b_deg);
 [[nodiscard]] Eigen::Vector2d virtual_ab_angles(const Eigen::Vector3d& o);
 
-}  // namespace postproc::comp
+/// The program axes whose words a block of form `f` carries on machine `m`.
+[[nodiscard]] gcode::AxisMask written_axes(const machine::Machine& m, Form f);
+
+/// Nominal and actual models with the tool length of the block (serial models carry it as the
+/// parameter "tool.length"; others ignore it). Cached per length.
+///
+/// [errors] "tool.length" (docs/machine-file.md: the calibrated length of the tool of [tool]
+/// length, as `calibrate` writes it) is the actual model's tool length for that tool, exactly as
+/// `calibrate simulate` uses m.actual; its deviation from [tool] length is known for that tool
+/// only, so a block with another tool length is refused (length_error_known, PP-E621).
+class ToolLengthModels {
+ public:
+  explicit ToolLengthModels(const machine::Machine& m);
+  /// Nominal model with `mm`; actual model with `mm` plus the calibrated deviation (0 without
+  /// [errors] "tool.length").
+  const std::pair<kin::ModelPtr, kin::ModelPtr>& with_tool_length(double mm);
+  /// False when the machine file calibrates the tool length ([errors] "tool.length") and `mm`
+  /// is not the length of that tool ([tool] length).
+  [[nodiscard]] bool length_error_known(double mm) const {
+    return deviation_ == 0 || std::abs(mm - m_.tool_length) <= 1e-9;
+  }
+  /// The message for a block whose tool length is not that tool's (PP-E621).
+  [[nodiscard]] std::string unknown_length_error(double mm, std::uint32_t h) const;
+
+ private:
+  const machine::Machine& m_;
+  double deviation_ = 0;  ///< actual − nominal "tool.length" of the machine file, mm
+  std::map<double, std::pair<kin::ModelPtr, kin::ModelPtr>> cache_;
+};
+
+/// The diagnostic code of unknown_length_error (compensate, contour paths).
+inline constexpr std::string_view kToolLengthError = "PP-E621";
+
+/// The controller map of a motion's context (form, work offset + shifts, tool length); nullopt
+/// when the machine file lacks the work offset or the tool length. For checks and comparisons;
+/// compensate itself reports what is missing.
+[[nodiscard]] std::optional<ProgramMap> map_of(const machine::Machine& m, ToolLengthModels& models,
+                                               const gcode::Motion& mo);
+
+/// The tool vector is modal under TCP (G43.5 / TRAORI blocks without I J K / A3 B3 C3 keep it;
+/// tool-tip machines always): fills it into motions that do not program it, forgets it when TCP
+/// ends.
+class ModalToolVector {
+ public:
+  explicit ModalToolVector(const machine::Machine& m) : m_(&m) {}
+  [[nodiscard]] gcode::Motion apply(const gcode::Motion& m) {
+    gcode::Motion c = m;
+    const bool tip = m.tcp != gcode::TcpMode::off || m_->coordinates == machine::ProgramCoordinates::tool_tip;
+    if (m.tool_vector_known) {
+      vector_ = m.tool_vector;
+      known_ = true;
+    } else if (known_ && tip) {
+      c.tool_vector = vector_;
+      c.tool_vector_known = true;
+    }
+    if (!tip) known_ = false;
+    return c;
+  }
+  [[nodiscard]] bool operator==(const ModalToolVector& o) const {
+    return m_ == o.m_ && vector_ == o.vector_ && known_ == o.known_;
+  }
+
+ private:
+  const machine::Machine* m_;
+  Eigen::Vector3d vector_ = Eigen::Vector3d::UnitZ();
+  bool known_ = false;
+};
+
+}  // namespace postproc::machine

@@ -1,9 +1,11 @@
 // The controller's command → joints map per program form, and the geometric remap through it.
-#include "postproc/compensation/program_map.hpp"
+#include "postproc/machine/program_map.hpp"
 
 #include <array>
 #include <cmath>
 #include <limits>
+
+#include <fmt/format.h>
 
 #include <Eigen/QR>
 
@@ -11,7 +13,7 @@
 #include "postproc/kinematics/hexapod.hpp"
 #include "postproc/kinematics/serial.hpp"
 
-namespace postproc::comp {
+namespace postproc::machine {
 
 std::string_view to_string(Form f) {
   switch (f) {
@@ -393,4 +395,65 @@ kin::Solve ProgramMap::correct(const Command& cmd, const kin::JointVector& start
   return command(q_actual, cmd, out);
 }
 
-}  // namespace postproc::comp
+gcode::AxisMask written_axes(const machine::Machine& m, Form f) {
+  gcode::AxisMask mask = 0;
+  if (f == Form::axes || f == Form::tcp_rotary) {
+    // Under TCP with rotary axes the block carries the tool tip (X Y Z) and the rotary values.
+    for (int a = 0; a < gcode::kAxisCount; ++a)
+      if (m.joint_of_axis[static_cast<std::size_t>(a)] >= 0 && (f == Form::axes || a < 3 || gcode::is_rotary(a)))
+        mask |= static_cast<gcode::AxisMask>(1u << a);
+  } else if (f == Form::turning) {
+    // Turning: the linear axes set the tip's radius and Z; rotary values stay as programmed.
+    for (int a = 0; a < 3; ++a)
+      if (m.joint_of_axis[static_cast<std::size_t>(a)] >= 0) mask |= static_cast<gcode::AxisMask>(1u << a);
+  } else {
+    mask = 0b111;
+    if (f == Form::tcp_virtual) mask |= 0b11000;
+  }
+  return mask;
+}
+
+ToolLengthModels::ToolLengthModels(const machine::Machine& m) : m_(m) {
+  const int in = m.nominal->parameter_index("tool.length");
+  const int ia = m.actual->parameter_index("tool.length");
+  if (in >= 0 && ia >= 0)
+    deviation_ = m.actual->values()[static_cast<std::size_t>(ia)] - m.nominal->values()[static_cast<std::size_t>(in)];
+}
+
+const std::pair<kin::ModelPtr, kin::ModelPtr>& ToolLengthModels::with_tool_length(double mm) {
+  auto it = cache_.find(mm);
+  if (it != cache_.end()) return it->second;
+  auto set = [](const kin::ModelPtr& model, double length) -> kin::ModelPtr {
+    const int i = model->parameter_index("tool.length");
+    if (i < 0) return model;
+    std::vector<double> v = model->values();
+    if (v[static_cast<std::size_t>(i)] == length) return model;  // the machine file's tool: m.actual itself
+    v[static_cast<std::size_t>(i)] = length;
+    return model->with_values(std::move(v));
+  };
+  // The [tool] length's tool: m.actual as it is (its "tool.length" is mm + deviation_ exactly).
+  kin::ModelPtr act = std::abs(mm - m_.tool_length) <= 1e-9 ? m_.actual : set(m_.actual, mm + deviation_);
+  return cache_.emplace(mm, std::make_pair(set(m_.nominal, mm), std::move(act))).first->second;
+}
+
+std::string ToolLengthModels::unknown_length_error(double mm, std::uint32_t h) const {
+  return fmt::format(
+      "machine file {} calibrates the tool length ([errors] \"tool.length\" = {:.6f} mm for the tool of [tool] length "
+      "{} mm), but this block runs with tool length {} mm{}, whose length error the file does not give; compensate "
+      "with a machine file calibrated for this tool, or make [tool] length this tool's",
+      m_.file, m_.tool_length + deviation_, m_.tool_length, mm, h != 0 ? fmt::format(" (H{})", h) : std::string());
+}
+
+std::optional<ProgramMap> map_of(const machine::Machine& m, ToolLengthModels& models, const gcode::Motion& mo) {
+  const auto offset = program_offset(m, mo);
+  if (!offset) return std::nullopt;
+  const auto tool = machine::tool_length_of(m, mo);
+  if (!tool) return std::nullopt;
+  const double length = *tool;
+  if (!models.length_error_known(length)) return std::nullopt;
+  const Form f = form_of(m, mo);
+  const auto& [nom, act] = models.with_tool_length(length);
+  return ProgramMap(m, nom, act, f, *offset, f == Form::axes && mo.tool_length_active, length);
+}
+
+}  // namespace postproc::machine
