@@ -75,7 +75,7 @@ int main(int argc, char** argv) {
   comp::CompensateResult r;
   const double t_all = median_seconds([&] {
     comp::CompensateOptions opt;
-    opt.mode = "contour";
+    opt.mode = postproc::comp::Mode::contour;
     auto out = io::OutputFile::memory();
     r = comp::compensate_contour(text, "bench.nc", d, *m, opt, contour::PrecompensateOptions{}, out, sink);
   });

@@ -196,7 +196,7 @@ void setup_batch(CLI::App& app, int& rc) {
     opt.machine = o->machine;
     opt.machine_name = o->machine_name;
     opt.globs = o->globs;
-    opt.compensate.mode = o->mode;
+    opt.compensate.mode = *comp::parse_mode(o->mode);  // checked by --mode
     opt.compensate.max_deviation_mm = o->max_deviation_um / 1000.0;
     opt.compensate.max_angle_rad = o->max_angle_arcsec / 3600.0 * 3.14159265358979323846 / 180.0;
     opt.compensate.header = !o->no_header;

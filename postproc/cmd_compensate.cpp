@@ -50,7 +50,7 @@ nlohmann::json report_json(const CompensateArgs& a, const machine::Machine& m, c
   j["mode"] = a.mode;
   j["status"] = ok ? "written" : "refused";
   j["limits"] = {{"max_deviation_mm", a.max_deviation_um / 1000.0}, {"max_angle_deviation_deg", a.max_angle_arcsec / 3600.0}};
-  j.update(comp::result_json(r, a.mode, &contour));
+  j.update(comp::result_json(r, *comp::parse_mode(a.mode), &contour));
   if (r.resolved_lines > 0) {
     nlohmann::json given = nlohmann::json::object(), used = nlohmann::json::object();
     for (const auto& [name, value] : make_resolve_options(a.resolve).set) given[name] = value;
@@ -146,7 +146,7 @@ void setup_compensate(CLI::App& app, int& rc) {
     opt.max_angle_rad = o->max_angle_arcsec / 3600.0 * 3.14159265358979323846 / 180.0;
     opt.header = !o->no_header;
     opt.tool_version = POSTPROC_VERSION;
-    opt.mode = o->mode;
+    opt.mode = *comp::parse_mode(o->mode);  // checked by --mode
     opt.flatten = o->flatten;
     opt.allow_recompensation = o->allow_recompensation;
     opt.jobs = o->jobs > 0 ? o->jobs : usable_cores();

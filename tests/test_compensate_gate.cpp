@@ -47,7 +47,7 @@ void compensate(const std::string& program, const mc::Machine& m, const std::str
                 const std::string& file = "t.nc") {
   const gc::Dialect d = *gc::make_dialect(m.dialect_name, m.dialect_options);
   comp::CompensateOptions opt;
-  opt.mode = mode;
+  opt.mode = *comp::parse_mode(mode);
   opt.tool_version = "test";
   auto out = postproc::io::OutputFile::memory();
   run.r = comp::compensate_program(program, file, d, m, opt, ct::PrecompensateOptions{}, out, run.sink);
@@ -109,7 +109,7 @@ TEST(CompensateGate, ContourNotBetterOnTheSimulatorIsWrittenUncorrected) {
   {
     const gc::Dialect d = *gc::make_dialect(m.dialect_name, m.dialect_options);
     comp::CompensateOptions opt;
-    opt.mode = "contour";
+    opt.mode = comp::Mode::contour;
     opt.tool_version = "test";
     comp::ContourDetails cd;
     gc::DiagnosticSink sink;

@@ -182,7 +182,7 @@ std::string contour_compensate(const std::string& program, const mc::Machine& m,
                                gc::DiagnosticSink& sink) {
   const gc::Dialect d = *gc::make_dialect(m.dialect_name, m.dialect_options);
   comp::CompensateOptions opt;
-  opt.mode = "contour";
+  opt.mode = postproc::comp::Mode::contour;
   opt.tool_version = "test";
   auto out = postproc::io::OutputFile::memory();
   r = comp::compensate_contour(program, "t.nc", d, m, opt, ct::PrecompensateOptions{}, out, sink);

@@ -55,7 +55,7 @@ struct Compensated {
 Compensated compensate(const std::string& program, const mc::Machine& m, const std::string& mode) {
   const gc::Dialect d = *gc::make_dialect(m.dialect_name, m.dialect_options);
   comp::CompensateOptions opt;
-  opt.mode = mode;
+  opt.mode = *postproc::comp::parse_mode(mode);
   opt.tool_version = "test";
   gc::DiagnosticSink sink;
   auto out = postproc::io::OutputFile::memory();

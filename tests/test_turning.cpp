@@ -55,7 +55,7 @@ void compensate(const mc::Machine& m, const std::string& program, Outcome& r, co
   const std::string path = dir.file("out.ngc");
   cp::CompensateOptions opt;
   opt.header = false;
-  opt.mode = mode;
+  opt.mode = *postproc::comp::parse_mode(mode);
   postproc::io::OutputFile out(path);
   if (mode == "contour") {
     r.result = cp::compensate_contour(program, "turn.ngc", d, m, opt, {}, out, r.sink);

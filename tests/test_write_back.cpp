@@ -47,7 +47,7 @@ void run(const mc::Machine& m, std::string_view program, Outcome& r, bool flatte
   cp::CompensateOptions opt;
   opt.tool_version = "test";
   opt.flatten = flatten;
-  opt.mode = mode;
+  opt.mode = *postproc::comp::parse_mode(mode);
   opt.header = header;
   postproc::contour::PrecompensateOptions popt;
   auto mem = postproc::io::OutputFile::memory();

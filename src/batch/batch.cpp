@@ -83,9 +83,9 @@ void walk(const fs::path& dir, const std::string& rel_dir, const std::vector<std
 
 std::string settings_of(const BatchOptions& o) {
   const comp::CompensateOptions& c = o.compensate;
-  std::string s = fmt::format("mode={};max_deviation_mm={:.17g};max_angle_rad={:.17g};header={}", c.mode,
+  std::string s = fmt::format("mode={};max_deviation_mm={:.17g};max_angle_rad={:.17g};header={}", comp::to_string(c.mode),
                               c.max_deviation_mm, c.max_angle_rad, c.header ? 1 : 0);
-  if (c.mode != "geometric") s += fmt::format(";iterations={}", o.precompensate.max_iterations);
+  if (c.mode != comp::Mode::geometric) s += fmt::format(";iterations={}", o.precompensate.max_iterations);
   if (c.flatten) s += ";flatten=1";
   for (const auto& [name, value] : c.resolve.set) s += fmt::format(";set {}={:.17g}", name, value);
   for (const std::string& dir : c.resolve.search_dirs) s += fmt::format(";subprogram-dir {}", dir);
@@ -523,7 +523,7 @@ nlohmann::json manifest_json(const BatchOptions& opt, const BatchResult& r) {
   j["tool"] = {{"name", "postproc"}, {"version", opt.compensate.tool_version}};
   j["job_dir"] = opt.job_dir.string();
   j["out_dir"] = opt.out_dir.string();
-  j["mode"] = opt.compensate.mode;
+  j["mode"] = comp::to_string(opt.compensate.mode);
   j["settings"] = settings_of(opt);
   j["limits"] = {{"max_deviation_mm", opt.compensate.max_deviation_mm},
                  {"max_angle_deviation_deg", opt.compensate.max_angle_rad * 180.0 / 3.14159265358979323846}};

@@ -70,8 +70,23 @@ void Compensator::write_segments(const Block& b, const Motion& m, gcode::BlockEd
 
 }  // namespace detail
 
+std::string_view to_string(Mode m) {
+  switch (m) {
+    case Mode::geometric: return "geometric";
+    case Mode::contour: return "contour";
+    case Mode::all: return "all";
+  }
+  return "?";
+}
+
+std::optional<Mode> parse_mode(std::string_view s) {
+  for (Mode m : {Mode::geometric, Mode::contour, Mode::all})
+    if (s == to_string(m)) return m;
+  return std::nullopt;
+}
+
 std::string header_comment(const gcode::Dialect& d, const machine::Machine& m, const CompensateOptions& opt) {
-  std::string text = fmt::format("postproc {} compensate mode={} machine={} sha256={}", opt.tool_version, opt.mode,
+  std::string text = fmt::format("postproc {} compensate mode={} machine={} sha256={}", opt.tool_version, to_string(opt.mode),
                                  m.file, m.sha256);
   // The controller conventions the corrections were computed under (docs/machine-file.md).
   if (const auto* hex = dynamic_cast<const kin::Hexapod*>(m.nominal.get()))

@@ -107,15 +107,13 @@ CompensateResult compensate_flat(std::string_view text, std::string_view file, c
                                  const machine::Machine& m, const CompensateOptions& opt,
                                  const contour::PrecompensateOptions& popt, io::OutputFile& out,
                                  gcode::DiagnosticSink& sink, ContourDetails* details) {
-  if (opt.mode == "geometric") {
+  if (opt.mode == Mode::geometric) {
     gcode::LineReader reader{text};
     return compensate(reader, file, dialect, m, opt, out, sink);
   }
-  if (opt.mode != "contour" && opt.mode != "all")
-    throw Error(ExitCode::usage, "unknown compensation mode '" + opt.mode + "' (geometric, contour or all)");
   ContourDetails local;
   ContourDetails& cd = details ? *details : local;
-  if (opt.mode == "contour") return compensate_contour(text, file, dialect, m, opt, popt, out, sink, &cd);
+  if (opt.mode == Mode::contour) return compensate_contour(text, file, dialect, m, opt, popt, out, sink, &cd);
   // all: the geometric stage into memory, then the contour stage on its output.
   CompensateOptions gopt = opt;
   CompensateOptions copt = opt;

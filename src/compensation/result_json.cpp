@@ -9,7 +9,7 @@ constexpr double kDeg = 180.0 / 3.14159265358979323846;
 constexpr double kArcsec = kDeg * 3600.0;
 }  // namespace
 
-nlohmann::json result_json(const CompensateResult& r, std::string_view mode, const ContourDetails* contour) {
+nlohmann::json result_json(const CompensateResult& r, Mode mode, const ContourDetails* contour) {
   nlohmann::json j;
   j["counts"] = {{"blocks", r.blocks},
                  {"motions", r.motions},
@@ -52,7 +52,7 @@ nlohmann::json result_json(const CompensateResult& r, std::string_view mode, con
                        {"source_lines_rewritten", r.source_lines_rewritten},
                        {"set_used", used}};
   }
-  if (mode != "geometric") {
+  if (mode != Mode::geometric) {
     j["contour"] = {{"before_tip_um", r.contour_before_mm * 1000},
                     {"before_axis_arcsec", r.contour_before_rad * kArcsec},
                     {"after_tip_um", r.contour_after_mm * 1000},

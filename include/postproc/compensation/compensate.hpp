@@ -24,6 +24,16 @@
 
 namespace postproc::comp {
 
+/// Which stages run (postproc compensate --mode).
+enum class Mode : std::uint8_t {
+  geometric,  ///< the geometric remap through the calibrated machine
+  contour,    ///< the servo contour precompensation
+  all,        ///< the geometric remap, then the contour stage on its result
+};
+[[nodiscard]] std::string_view to_string(Mode m);
+/// "geometric", "contour" or "all"; nullopt otherwise.
+[[nodiscard]] std::optional<Mode> parse_mode(std::string_view s);
+
 struct CompensateOptions {
   /// Largest distance allowed between the real tool-tip path of the corrected program and the
   /// intended path, between corrected end points (mm); longer moves are subdivided.
@@ -32,7 +42,7 @@ struct CompensateOptions {
   double max_angle_rad = 2e-5;
   bool header = true;          ///< write the header comment naming tool, machine file, hash, mode
   std::string tool_version;    ///< for the header and the report
-  std::string mode = "geometric";
+  Mode mode = Mode::geometric;
   /// If set, receives for every output line the input line it came from (0 for the header).
   std::vector<std::uint64_t>* line_map = nullptr;
   /// Told how far the run is (optional): "compensate" in bytes read of `input_bytes` (0 =

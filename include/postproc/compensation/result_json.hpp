@@ -15,7 +15,7 @@ namespace postproc::comp {
 
 /// `{"counts": {...}, "figures": {...}}` and, for the contour modes, `"contour": {...}` (with the
 /// iteration history when `contour` is given).
-[[nodiscard]] nlohmann::json result_json(const CompensateResult& r, std::string_view mode,
+[[nodiscard]] nlohmann::json result_json(const CompensateResult& r, Mode mode,
                                          const ContourDetails* contour = nullptr);
 
 /// The stored diagnostics of `sink` (at most `limit`): severity, code, file, line, column, message.
