@@ -178,7 +178,7 @@ void Compensator::drill(const Block& b, const Motion& m, const ProgramMap& map, 
       }
       st = gcode::detect_style(b.text(*lit));
       dec = std::max(st.decimals, dec);
-      ed.replace(*lit, gcode::format_counts(std::llround(program_units(p.n, to, m) * std::pow(10.0, dec)), dec, st,
+      ed.replace(*lit, gcode::format_counts(std::llround(program_units(p.n, to, m) * gcode::decimal_scale(dec)), dec, st,
                                             d_.decimal_point_required));
       ++r_.words_changed;
     } else {
@@ -186,7 +186,7 @@ void Compensator::drill(const Block& b, const Motion& m, const ProgramMap& map, 
       gcode::Span anchor{};
       for (const Word& w : b.words) anchor.end = std::max(anchor.end, w.span.end);
       ed.insert_after(anchor, sep + std::string(1, L) +
-                                  gcode::format_counts(std::llround(program_units(p.n, to, m) * std::pow(10.0, dec)),
+                                  gcode::format_counts(std::llround(program_units(p.n, to, m) * gcode::decimal_scale(dec)),
                                                        dec, st, d_.decimal_point_required));
       ++r_.words_inserted;
     }

@@ -109,7 +109,7 @@ WordWriter::Outcome WordWriter::rewrite(const Block& b, const Motion& m, gcode::
     if (wi < 0) {
       // An axis the block does not name stays where the controller holds it: write it if the
       // corrected end differs there at the output decimals.
-      const double s = std::pow(10.0, dm);
+      const double s = gcode::decimal_scale(dm);
       if (std::abs(pv - held) < 1e-9 || std::llround(pv * s) == std::llround(held * s)) continue;
       if (m.words_transformed) {
         o = {false, m.column, "the block's axis words are not work coordinates (Fanuc G16, G51.1 or G29) and a "
@@ -143,7 +143,7 @@ WordWriter::Outcome WordWriter::rewrite(const Block& b, const Motion& m, gcode::
     const auto lit = gcode::literal_span(b, w);
     const bool inc = track_.incremental(w);
     if (!lit) {
-      const double s = std::pow(10.0, dm);
+      const double s = gcode::decimal_scale(dm);
       const double was = program_units(a, m.end[a], m);
       if (std::abs(pv - was) < 1e-9 || std::llround(pv * s) == std::llround(was * s)) continue;
       o = {false, column_of(w), "the axis word is an expression or parameter and needs a correction; the program "
@@ -155,7 +155,7 @@ WordWriter::Outcome WordWriter::rewrite(const Block& b, const Motion& m, gcode::
     gcode::NumberStyle st = gcode::detect_style(text);
     if (implied > 0) st = gcode::NumberStyle{st.plus_sign, true, implied, false, false};
     const int dec = std::max(st.decimals, dm);
-    const double s = std::pow(10.0, dec);
+    const double s = gcode::decimal_scale(dec);
     if (inc && !have_start) {
       o = {false, column_of(w), "an incremental word needs a correction but the position before it is unknown", 0, 0};
       return o;
@@ -202,7 +202,7 @@ WordWriter::Outcome WordWriter::rewrite(const Block& b, const Motion& m, gcode::
       const gcode::NumberStyle st = gcode::detect_style(b.text(*lit));
       const int dec = std::max(st.decimals, 6);
       std::int64_t old = 0;
-      const std::int64_t want = std::llround(v * std::pow(10.0, dec));
+      const std::int64_t want = std::llround(v * gcode::decimal_scale(dec));
       if (gcode::literal_counts(b.text(*lit), dec, old) && old == want) continue;
       ed.replace(*lit, gcode::format_counts(want, dec, st, d_.decimal_point_required));
       ++o.changed;
@@ -242,7 +242,7 @@ std::optional<std::string> WordWriter::segment_line(const Block& b, const Motion
   for (int a = 0; a < gcode::kAxisCount; ++a) {
     if (!((mask >> a) & 1u)) continue;
     const int dm = program_decimals(m_, a, m);
-    const double s = std::pow(10.0, dm);
+    const double s = gcode::decimal_scale(dm);
     const double pv = program_units(a, to.c[a], m);
     const double pf = program_units(a, from[a], m);
     if (std::abs(pv - pf) < 1e-9 || std::llround(pv * s) == std::llround(pf * s)) continue;

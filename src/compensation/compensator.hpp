@@ -320,7 +320,7 @@ class Compensator final : public gcode::BlockVisitor {
     // off the output grid would otherwise round either way).
     const double f = program_units(a, from, m), t = program_units(a, to, m);
     if (std::abs(t - f) < 1e-9) return false;
-    const double s = std::pow(10.0, program_decimals(m_, a, m));
+    const double s = gcode::decimal_scale(program_decimals(m_, a, m));
     return std::llround(f * s) != std::llround(t * s);
   }
 
@@ -524,7 +524,7 @@ class Compensator final : public gcode::BlockVisitor {
     Command printed = out;
     for (int a = 0; a < gcode::kAxisCount; ++a) {
       if (!((mask_ >> a) & 1u) || ((held >> a) & 1u)) continue;
-      const double s = std::pow(10.0, program_decimals(m_, a, m));
+      const double s = gcode::decimal_scale(program_decimals(m_, a, m));
       // The value the controller will read: rounded in program units, back to mm / degrees.
       const double pu = program_units(a, out.c[a], m);
       printed.c[a] = out.c[a] + (static_cast<double>(std::llround(pu * s)) / s - pu) * unit_scale(a, m);

@@ -262,7 +262,7 @@ void Linearizer::linearize(const Block& b, const Motion& m, BlockEditor& ed, std
   for (int a = 0; a < kAxisCount; ++a) {
     AxisOut& o = ax[static_cast<std::size_t>(a)];
     if (!o.on) continue;
-    const double scale = std::pow(10.0, o.decimals);
+    const double scale = decimal_scale(o.decimals);
     const double base = o.incremental ? written(a, m.start) : 0.0;
     o.counts.resize(n + 1);
     o.counts[0] = o.incremental ? 0 : std::llround(written(a, m.start) * scale);
@@ -327,7 +327,7 @@ void Linearizer::linearize(const Block& b, const Motion& m, BlockEditor& ed, std
       fs = detect_style(b.text(w.value));
       if (!literal_counts(b.text(w.value), fs.decimals, f)) f = 0;
     } else {
-      f = std::llround(m.feed * std::pow(10.0, fs.decimals));
+      f = std::llround(m.feed * decimal_scale(fs.decimals));
     }
     const std::string ftext = format_counts(f * static_cast<std::int64_t>(segments), fs.decimals, fs,
                                             d_.decimal_point_required);

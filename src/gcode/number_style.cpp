@@ -2,6 +2,7 @@
 #include "postproc/gcode/number_style.hpp"
 
 #include <algorithm>
+#include <charconv>
 #include <cmath>
 
 #include <fmt/format.h>
@@ -26,8 +27,8 @@ std::string_view strip_address(std::string_view s) {
 struct Parts {
   bool negative = false;
   bool plus = false;
-  std::string int_digits;
-  std::string frac_digits;
+  std::string_view int_digits;   ///< views into the literal (digits are contiguous)
+  std::string_view frac_digits;
   bool point = false;
 };
 
@@ -43,27 +44,32 @@ bool split(std::string_view s, Parts& p) {
     ++i;
     skip_blanks();
   }
-  while (i < s.size() && is_digit(s[i])) p.int_digits += s[i++];
+  const std::size_t int_begin = i;
+  while (i < s.size() && is_digit(s[i])) ++i;
+  p.int_digits = s.substr(int_begin, i - int_begin);
   if (i < s.size() && s[i] == '.') {
     p.point = true;
     ++i;
-    while (i < s.size() && is_digit(s[i])) p.frac_digits += s[i++];
+    const std::size_t frac_begin = i;
+    while (i < s.size() && is_digit(s[i])) ++i;
+    p.frac_digits = s.substr(frac_begin, i - frac_begin);
   }
   skip_blanks();
   return i == s.size() && !(p.int_digits.empty() && p.frac_digits.empty());
 }
 
 /// Applies the style to a fixed-precision rendering (sign, integer digits, fraction digits).
-std::string finish(bool negative, std::string int_digits, std::string frac, const NumberStyle& st,
+std::string finish(bool negative, std::string_view int_digits, std::string_view frac, const NumberStyle& st,
                    bool point_required) {
   if (!st.trailing_zeros)
-    while (!frac.empty() && frac.back() == '0') frac.pop_back();
-  const bool zero = int_digits.find_first_not_of('0') == std::string::npos &&
-                    frac.find_first_not_of('0') == std::string::npos;
+    while (!frac.empty() && frac.back() == '0') frac.remove_suffix(1);
+  const bool zero = int_digits.find_first_not_of('0') == std::string_view::npos &&
+                    frac.find_first_not_of('0') == std::string_view::npos;
   if (zero) negative = false;  // never "-0"
-  if (int_digits.empty()) int_digits.push_back('0');
-  if (!st.leading_zero && !frac.empty() && int_digits == "0") int_digits.clear();
+  if (int_digits.empty()) int_digits = "0";
+  if (!st.leading_zero && !frac.empty() && int_digits == "0") int_digits = {};
   std::string out;
+  out.reserve(int_digits.size() + frac.size() + 3);
   if (negative) {
     out += '-';
   } else if (st.plus_sign) {
@@ -97,10 +103,10 @@ std::string format_number(double v, const NumberStyle& src, int min_decimals, bo
   const int d = std::max(src.decimals, min_decimals);
   // fmt rounds the exact binary value correctly; only the text is post-processed.
   const std::string fixed = fmt::format("{:.{}f}", std::abs(v), d);
-  const auto dot = fixed.find('.');
-  std::string int_digits = fixed.substr(0, dot);
-  std::string frac = dot == std::string::npos ? std::string() : fixed.substr(dot + 1);
-  return finish(std::signbit(v), std::move(int_digits), std::move(frac), src, decimal_point_required);
+  const std::string_view f(fixed);
+  const auto dot = f.find('.');
+  return finish(std::signbit(v), f.substr(0, dot), dot == std::string_view::npos ? std::string_view() : f.substr(dot + 1),
+                src, decimal_point_required);
 }
 
 std::string format_counts(std::int64_t counts, int decimals, const NumberStyle& src, bool decimal_point_required) {
@@ -108,31 +114,42 @@ std::string format_counts(std::int64_t counts, int decimals, const NumberStyle& 
   // Magnitude as unsigned so that INT64_MIN does not overflow.
   const std::uint64_t mag = negative ? std::uint64_t{0} - static_cast<std::uint64_t>(counts)
                                      : static_cast<std::uint64_t>(counts);
-  std::string digits = fmt::format("{}", mag);
+  char buf[24];
+  const auto written = std::to_chars(buf, buf + sizeof buf, mag);
+  std::string_view digits(buf, static_cast<std::size_t>(written.ptr - buf));
   const auto d = static_cast<std::size_t>(std::max(decimals, 0));
-  if (digits.size() <= d) digits.insert(0, d + 1 - digits.size(), '0');
-  std::string int_digits = digits.substr(0, digits.size() - d);
-  std::string frac = digits.substr(digits.size() - d);
-  return finish(negative, std::move(int_digits), std::move(frac), src, decimal_point_required);
+  std::string padded;
+  if (digits.size() <= d) {
+    padded.assign(d + 1 - digits.size(), '0');
+    padded += digits;
+    digits = padded;
+  }
+  return finish(negative, digits.substr(0, digits.size() - d), digits.substr(digits.size() - d), src,
+                decimal_point_required);
 }
 
 bool literal_counts(std::string_view literal, int decimals, std::int64_t& out) {
   Parts p;
   if (decimals < 0 || !split(literal, p)) return false;
   const auto d = static_cast<std::size_t>(decimals);
-  std::string frac = p.frac_digits;
+  std::string_view frac = p.frac_digits;
   // Digits beyond the requested precision must be zeros, or the value is not a whole count.
   if (frac.size() > d) {
-    if (frac.find_first_not_of('0', d) != std::string::npos) return false;
-    frac.resize(d);
+    if (frac.find_first_not_of('0', d) != std::string_view::npos) return false;
+    frac = frac.substr(0, d);
   }
-  frac.append(d - frac.size(), '0');
-  std::string all = p.int_digits + frac;
-  const auto first = all.find_first_not_of('0');
-  all = first == std::string::npos ? "0" : all.substr(first);
-  if (all.size() > 18) return false;
+  // The integer digits, the fraction digits and zeros up to `decimals` places: at most 18
+  // significant digits (leading zeros do not count).
   std::int64_t v = 0;
-  for (char c : all) v = v * 10 + (c - '0');
+  std::size_t significant = 0;
+  const auto digit = [&](char c) {
+    if (significant == 0 && c == '0') return;
+    if (++significant <= 18) v = v * 10 + (c - '0');
+  };
+  for (char c : p.int_digits) digit(c);
+  for (char c : frac) digit(c);
+  for (std::size_t k = frac.size(); k < d && significant <= 18; ++k) digit('0');
+  if (significant > 18) return false;
   out = p.negative ? -v : v;
   return true;
 }

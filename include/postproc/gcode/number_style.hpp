@@ -5,6 +5,7 @@
 /// rewritten word looks like its neighbours and keeps its meaning on the control (Fanuc reads a
 /// whole number without a point as increments: X10 = 10 µm, X10. = 10 mm).
 
+#include <cmath>
 #include <cstdint>
 #include <string>
 #include <string_view>
@@ -48,5 +49,13 @@ struct NumberStyle {
 /// True when `text` (a literal, optionally after an address letter) reads as a value within `tol`
 /// of `v`. For tests and checks.
 [[nodiscard]] bool represents(std::string_view text, double v, double tol);
+
+/// 10^n, the scale of n output decimals: exact table values for 0 ≤ n ≤ 22 (what std::pow gives
+/// there, without its cost in the per-word paths), std::pow otherwise.
+[[nodiscard]] inline double decimal_scale(int n) {
+  static constexpr double kPowers[] = {1e0,  1e1,  1e2,  1e3,  1e4,  1e5,  1e6,  1e7,  1e8,  1e9,  1e10, 1e11,
+                                       1e12, 1e13, 1e14, 1e15, 1e16, 1e17, 1e18, 1e19, 1e20, 1e21, 1e22};
+  return n >= 0 && n <= 22 ? kPowers[n] : std::pow(10.0, n);
+}
 
 }  // namespace postproc::gcode
