@@ -135,17 +135,21 @@ const Reference::RunFit* Reference::run_of(std::size_t i) const {
 }
 
 ContourError Reference::error(const kin::Pose& actual, std::size_t hint) const {
+  return error(actual, hint, hint, 0.0);
+}
+
+ContourError Reference::error(const kin::Pose& actual, std::size_t hint, std::size_t toward, double fraction) const {
   const RunFit* span = run_of(hint);
-  ContourError e = error_in(*span, actual, hint);
+  ContourError e = error_in(*span, actual, hint, toward, fraction);
   // At a corner the neighbouring span of the same run (which shares the corner point) may hold
   // the nearer foot.
   const auto si = static_cast<std::size_t>(span - runs_.data());
   if (e.point + 1 == span->end && si + 1 < runs_.size() && runs_[si + 1].begin + 1 == span->end) {
-    const ContourError f = error_in(runs_[si + 1], actual, span->end - 1);
+    const ContourError f = error_in(runs_[si + 1], actual, span->end - 1, span->end - 1, 0.0);
     if (f.distance < e.distance) e = f;
   }
   if (e.point == span->begin && si > 0 && runs_[si - 1].end == span->begin + 1) {
-    const ContourError f = error_in(runs_[si - 1], actual, span->begin);
+    const ContourError f = error_in(runs_[si - 1], actual, span->begin, span->begin, 0.0);
     if (f.distance < e.distance) e = f;
   }
   return e;
@@ -246,7 +250,7 @@ ContourError Reference::error_within(const kin::Pose& actual, const Place& aroun
   }
   // The fitted curve from there (its foot is continuous; the chords are the controller's moves
   // between the points, the curve the contour meant).
-  ContourError e = error(actual, t <= 0.5 ? k : k + 1);
+  ContourError e = t <= 0.5 ? error(actual, k, k + 1, t) : error(actual, k + 1, k, 1 - t);
   // The curve's local foot must stay at that chord (its points or their neighbours) and in the
   // stretch; if it slid elsewhere (a farther local minimum, a neighbouring pass nearer in space
   // but not where the tool is), the chord's foot stands.
@@ -262,7 +266,8 @@ ContourError Reference::error_within(const kin::Pose& actual, const Place& aroun
   return e;
 }
 
-ContourError Reference::error_in(const RunFit& run, const kin::Pose& actual, std::size_t hint) const {
+ContourError Reference::error_in(const RunFit& run, const kin::Pose& actual, std::size_t hint, std::size_t toward,
+                                  double fraction) const {
   const Eigen::Vector3d o_act = actual.axis();
   ContourError e;
   if (!run.curve) {  // a single pose: plain distances
@@ -285,6 +290,10 @@ ContourError Reference::error_in(const RunFit& run, const kin::Pose& actual, std
   const FitPiece* piece = &tip.piece_for(local);
   const FitPiece* previous = nullptr;
   double u0 = piece->param(local);
+  if (fraction > 0 && toward != hint && toward >= run.begin) {
+    const std::size_t other = toward - run.begin;
+    if (other >= piece->begin && other < piece->end) u0 += fraction * (piece->param(other) - u0);
+  }
   ProjectResult foot;
   const FitPiece* foot_piece = nullptr;
   for (int attempt = 0; attempt < 4; ++attempt) {

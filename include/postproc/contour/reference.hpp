@@ -79,6 +79,11 @@ class Reference {
   /// P′ + L·O′ is projected on the marker curve instead of mapping the tip parameter. No
   /// allocation; thread-safe. Throws postproc::Error (usage) when `hint` is not on a run.
   [[nodiscard]] ContourError error(const kin::Pose& actual, std::size_t hint) const;
+  /// error() with the local search started `fraction` (0 … 1) of the way from the hint's curve
+  /// parameter to that of path point `toward` (a neighbour of the hint): where the actual pose is
+  /// known to lie between the two (its chord foot), the search starts next to the answer.
+  [[nodiscard]] ContourError error(const kin::Pose& actual, std::size_t hint, std::size_t toward,
+                                   double fraction) const;
   /// The contour error with the foot searched along the path, not by the nearest point in space:
   /// only the stretch of `around`'s run whose arc measure lies in [lo, hi] (extended to the points
   /// just outside) is searched — its chords for the nearest (tool tip; on orientation-only chords
@@ -114,7 +119,8 @@ class Reference {
     WindowedFit tip, marker;          ///< same windows: tip.pieces[j] and marker.pieces[j] hold the same points
   };
   [[nodiscard]] const RunFit* run_of(std::size_t i) const;
-  [[nodiscard]] ContourError error_in(const RunFit& span, const kin::Pose& actual, std::size_t hint) const;
+  [[nodiscard]] ContourError error_in(const RunFit& span, const kin::Pose& actual, std::size_t hint,
+                                      std::size_t toward, double fraction) const;
   /// Whether the path turns by more than kCornerDeg at point k (tip or marker path).
   [[nodiscard]] static bool corner(const std::vector<kin::Pose>& poses, std::size_t k, double l, double dup);
   void fit_span(std::size_t begin, std::size_t end, double l, double dup, std::vector<Eigen::Vector3d>& tips,
