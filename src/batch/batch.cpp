@@ -472,7 +472,13 @@ BatchResult run_batch(const BatchOptions& opt, const FileDone& on_file) {
   const std::string own = opt.shard.count > 1 ? shard_manifest_name(opt.shard.index, opt.shard.count) : kManifestName;
   std::map<std::string, nlohmann::json> prev;
   if (!opt.force) prev = previous_entries(opt.out_dir, own, result.notes);
-  const Runner runner(opt, prev, machine_of);
+  // Fewer programs than jobs: the cores left over go to each program's own threads (the output
+  // of compensate is the same for any number, CompensateOptions::jobs).
+  const unsigned workers =
+      std::max(1u, std::min<unsigned>(opt.jobs, static_cast<unsigned>(std::max<std::size_t>(mine.size(), 1))));
+  BatchOptions run_opt = opt;
+  if (run_opt.compensate.jobs <= 1) run_opt.compensate.jobs = std::max(1u, opt.jobs / workers);
+  const Runner runner(run_opt, prev, machine_of);
 
   result.files.resize(mine.size());
   std::atomic<std::size_t> next{0};
@@ -489,7 +495,7 @@ BatchResult run_batch(const BatchOptions& opt, const FileDone& on_file) {
       if (on_file) on_file(result.files[i], done, mine.size());
     }
   };
-  const unsigned n = std::max(1u, std::min<unsigned>(opt.jobs, static_cast<unsigned>(std::max<std::size_t>(mine.size(), 1))));
+  const unsigned n = workers;
   if (n == 1) {
     worker();
   } else {
