@@ -166,6 +166,33 @@ TEST(Hexapod, PointAndAxisKeepsTheRotationAboutTheAxisOfStart) {
   }
 }
 
+TEST(Hexapod, ReachedPoseIsWhereTheStrutsOfInversePutTheTool) {
+  // The remap takes the intended pose of a tool-vector block from reached_pose() instead of
+  // solving forward kinematics for the nominal struts: both spin rules, point + axis targets.
+  std::mt19937 rng(kSeed + 5);
+  for (const kin::HexapodSpin spin : {kin::HexapodSpin::minimal_from_home, kin::HexapodSpin::previous}) {
+    kin::HexapodConfig cfg = kin::hexapod_design();
+    cfg.spin = spin;
+    const Hexapod h(cfg);
+    JointVector start = zeros();
+    for (int n = 0; n < 50; ++n) {
+      const Pose target = random_pose(rng, home_tool(h));
+      const Pose reached = h.reached_pose(target, start, kin::PoseMatch::point_and_axis);
+      EXPECT_LE((reached.p - target.p).norm(), 1e-12);
+      EXPECT_LE((reached.axis() - target.axis()).norm(), 1e-12);
+      JointVector q, q_full;
+      ASSERT_TRUE(h.inverse(target, start, q).ok());
+      ASSERT_TRUE(h.inverse(reached, start, q_full, full_match()).ok());
+      EXPECT_EQ(q, q_full);  // the same struts, bit for bit
+      Pose back;
+      ASSERT_TRUE(h.forward(q, back).ok());
+      EXPECT_LE((back.p - reached.p).norm(), 1e-9);
+      EXPECT_LE(kin::rotation_difference(back.r, reached.r).norm(), 1e-9);
+      start = q;
+    }
+  }
+}
+
 TEST(Hexapod, JacobianMatchesFiniteDifferences) {
   std::mt19937 rng(kSeed + 5);
   kin::HexapodConfig cfg = kin::hexapod_design();

@@ -502,7 +502,7 @@ class Compensator final : public gcode::BlockVisitor {
     const kin::Pose& want = map.last_intended_cut();
     kin::Pose before, after, written_nominal;
     kin::JointVector qa;
-    if (!map.actual().forward(map.last_nominal_joints(), before).ok()) return;
+    if (!map.actual_forward(map.last_nominal_joints(), map.last_intended(), before).ok()) return;
     before = map.as_cut(map.actual(), map.last_nominal_joints(), before);
     // The tool-axis correction on every machine kind: the tool axis the nominal machine would
     // have for the written block against the intended one (rotary words, tool vectors or struts).

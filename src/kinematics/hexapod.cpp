@@ -323,14 +323,19 @@ double Hexapod::spin_of(const Pose& pose, const Eigen::Matrix3d& origin) {
   return std::atan2(rel(1, 0) - rel(0, 1), rel(0, 0) + rel(1, 1));
 }
 
-Solve Hexapod::inverse(const Pose& target, const JointVector& start, JointVector& q, const IkOptions& opt) const {
+Pose Hexapod::reached_pose(const Pose& target, const JointVector& start, PoseMatch match) const {
   Pose full = target;
-  if (opt.match == PoseMatch::point_and_axis) {
+  if (match == PoseMatch::point_and_axis) {
     Pose near;  // seeds FK of start: the target point, the home orientation swung onto its axis
     near.p = target.p;
     near.r = swing(tool_pose(home_).r, target.axis());
     full.r = swing(spin_origin(start, near), target.axis());
   }
+  return full;
+}
+
+Solve Hexapod::inverse(const Pose& target, const JointVector& start, JointVector& q, const IkOptions& opt) const {
+  const Pose full = reached_pose(target, start, opt.match);
   const PlatformPose x = platform_pose(full);
   const StrutMatrix d = strut_vectors(x, base_, platform_);
   q.resize(kHexapodStruts);

@@ -111,6 +111,8 @@ ProgramMap::ProgramMap(const machine::Machine& m, kin::ModelPtr nominal, kin::Mo
     }
   }
   if (length_on_z) length_z_ = tool_length;
+  hex_nominal_ = dynamic_cast<const kin::Hexapod*>(nominal_.get());
+  hex_actual_ = dynamic_cast<const kin::Hexapod*>(actual_.get());
   if (form == Form::turning) spindle_joint_ = joint_of_axis_[static_cast<std::size_t>(m.turning_spindle_axis)];
 }
 
@@ -225,6 +227,7 @@ kin::Pose ProgramMap::target_of(const Command& cmd) const {
 kin::Solve ProgramMap::joints(const Command& cmd, const kin::JointVector& start, kin::JointVector& q) const {
   const int n = nominal_->joint_count();
   q = start;
+  last_reached_valid_ = false;
   if (form_ == Form::axes || form_ == Form::turning) {
     for (int j = 0; j < n; ++j) {
       const int a = axis_of_joint_[static_cast<std::size_t>(j)];
@@ -264,10 +267,28 @@ kin::Solve ProgramMap::joints(const Command& cmd, const kin::JointVector& start,
   opt.check_limits = false;
   opt.tolerance_mm = kToleranceMm;
   opt.tolerance_rad = kToleranceRad;
+  if (hex_nominal_ != nullptr) {
+    // The struts of the whole pose the spin rule gives (the same struts as from the target).
+    last_reached_ = hex_nominal_->reached_pose(target, seed, opt.match);
+    last_reached_valid_ = true;
+    opt.match = kin::PoseMatch::full;
+    return nominal_->inverse(last_reached_, seed, q, opt);
+  }
   return nominal_->inverse(target, seed, q, opt);
 }
 
 kin::Solve ProgramMap::command(const kin::JointVector& q, const Command& like, Command& out) const {
+  return command_near(q, like, out, nullptr);
+}
+
+kin::Solve ProgramMap::actual_forward(const kin::JointVector& q, const kin::Pose& near, kin::Pose& p) const {
+  if (hex_actual_ != nullptr)
+    if (kin::Solve s = hex_actual_->forward(q, p, near); s.ok()) return s;
+  return actual_->forward(q, p);
+}
+
+kin::Solve ProgramMap::command_near(const kin::JointVector& q, const Command& like, Command& out,
+                                    const kin::Pose* near) const {
   out = like;
   if (form_ == Form::axes || form_ == Form::turning) {
     for (int j = 0; j < nominal_->joint_count(); ++j) {
@@ -277,7 +298,10 @@ kin::Solve ProgramMap::command(const kin::JointVector& q, const Command& like, C
     return {};
   }
   kin::Pose p;
-  if (auto s = nominal_->forward(q, p); !s.ok()) return s;
+  kin::Solve fk;
+  if (near != nullptr && hex_nominal_ != nullptr) fk = hex_nominal_->forward(q, p, *near);
+  if (near == nullptr || hex_nominal_ == nullptr || !fk.ok()) fk = nominal_->forward(q, p);
+  if (!fk.ok()) return fk;
   out.c.head<3>() = p.p - offset_.head<3>();
   if (form_ == Form::tcp_rotary) {
     for (int j = 0; j < nominal_->joint_count(); ++j) {
@@ -297,11 +321,16 @@ kin::Solve ProgramMap::command(const kin::JointVector& q, const Command& like, C
 kin::Solve ProgramMap::intended(const Command& cmd, const kin::JointVector& start, kin::Pose& p,
                                 kin::JointVector& q) const {
   if (auto s = joints(cmd, start, q); !s.ok()) return s;
+  if (last_reached_valid_) {  // the nominal struts are those of this pose exactly
+    p = last_reached_;
+    return {};
+  }
   return nominal_->forward(q, p);
 }
 
 kin::Solve ProgramMap::real(const Command& cmd, const kin::JointVector& start, kin::Pose& p, kin::JointVector& q) const {
   if (auto s = joints(cmd, start, q); !s.ok()) return s;
+  if (last_reached_valid_) return actual_forward(q, last_reached_, p);
   return actual_->forward(q, p);
 }
 
@@ -361,7 +390,7 @@ kin::Solve ProgramMap::correct(const Command& cmd, const kin::JointVector& start
   opt.tolerance_rad = kToleranceRad;
   if (const auto* hex = dynamic_cast<const kin::Hexapod*>(nominal_.get()); hex != nullptr && form_ == Form::tcp_vector) {
     if (auto s = hexapod_spin_consistent(*hex, goal, start, q_nom, q_actual); !s.ok()) return s;
-    return command(q_actual, cmd, out);
+    return command_near(q_actual, cmd, out, &goal);
   }
   if (form_ == Form::turning) {
     // The spinning part sees the radius and Z of the tip: the linear axes set them, the rotary

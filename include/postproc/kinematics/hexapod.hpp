@@ -131,6 +131,11 @@ class Hexapod final : public Model {
   /// still returned) when a strut is outside its travel and opt.check_limits.
   [[nodiscard]] Solve inverse(const Pose& target, const JointVector& start, JointVector& q,
                               const IkOptions& opt = {}) const override;
+  /// The whole tool pose inverse() puts the tool at for `target`: `target` itself under
+  /// PoseMatch::full, else the target point and axis with the spin rule's rotation about the axis.
+  /// forward() of inverse()'s struts gives it back (within its tolerance): where it is needed, no
+  /// forward kinematics has to be solved for it.
+  [[nodiscard]] Pose reached_pose(const Pose& target, const JointVector& start, PoseMatch match) const;
   /// The orientation the controller's spin rule (config().spin) swings onto each new tool axis:
   /// the home tool orientation, or under HexapodSpin::previous the tool orientation at `start`
   /// (forward kinematics seeded with `near`; home when it fails). Workpiece frame.

@@ -69,6 +69,9 @@ class ProgramMap {
                                     kin::JointVector& q) const;
   [[nodiscard]] kin::Solve real(const Command& cmd, const kin::JointVector& start, kin::Pose& p,
                                 kin::JointVector& q) const;
+  /// Forward kinematics of the actual model at q, a pose known to be near `near` (the hexapod's
+  /// iterative solve starts there, from home when that fails; other models ignore it).
+  [[nodiscard]] kin::Solve actual_forward(const kin::JointVector& q, const kin::Pose& near, kin::Pose& p) const;
   [[nodiscard]] const kin::Model& nominal() const { return *nominal_; }
   [[nodiscard]] const kin::Model& actual() const { return *actual_; }
   /// Program axis of joint j (-1 for joints that are not program axes, e.g. hexapod struts).
@@ -93,6 +96,9 @@ class ProgramMap {
 
  private:
   [[nodiscard]] kin::Pose target_of(const Command& cmd) const;
+  /// command() with the nominal model's iterative forward kinematics (hexapod) started at `near`.
+  [[nodiscard]] kin::Solve command_near(const kin::JointVector& q, const Command& like, Command& out,
+                                        const kin::Pose* near) const;
   /// Turning: the linear joints of q (the rest held) so that the real tool tip has the radius and
   /// axial place of `want` (the intended pose as_cut; Gauss–Newton, least squares where the radius
   /// is below what the machine reaches).
@@ -110,6 +116,13 @@ class ProgramMap {
   double length_z_ = 0;  ///< added to the Z joint
   int spindle_joint_ = -1;  ///< turning: the joint of the workpiece spindle (held at 0)
   mutable double last_bounded_residual_rad_ = 0;
+  /// Hexapods: the models as such, and the whole pose the last joints() solved the nominal struts
+  /// for (the spin rule applied): the intended pose without forward kinematics, and where the
+  /// actual model's forward kinematics starts.
+  const kin::Hexapod* hex_nominal_ = nullptr;
+  const kin::Hexapod* hex_actual_ = nullptr;
+  mutable kin::Pose last_reached_;
+  mutable bool last_reached_valid_ = false;
   mutable kin::Pose last_goal_;
   mutable kin::Pose last_goal_cut_;
   mutable kin::JointVector last_q_nom_;
