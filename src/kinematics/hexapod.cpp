@@ -323,13 +323,16 @@ double Hexapod::spin_of(const Pose& pose, const Eigen::Matrix3d& origin) {
   return std::atan2(rel(1, 0) - rel(0, 1), rel(0, 0) + rel(1, 1));
 }
 
-Pose Hexapod::reached_pose(const Pose& target, const JointVector& start, PoseMatch match) const {
+Pose Hexapod::reached_pose(const Pose& target, const JointVector& start, PoseMatch match,
+                           Eigen::Matrix3d* origin) const {
   Pose full = target;
   if (match == PoseMatch::point_and_axis) {
     Pose near;  // seeds FK of start: the target point, the home orientation swung onto its axis
     near.p = target.p;
     near.r = swing(tool_pose(home_).r, target.axis());
-    full.r = swing(spin_origin(start, near), target.axis());
+    const Eigen::Matrix3d o = spin_origin(start, near);
+    if (origin != nullptr) *origin = o;
+    full.r = swing(o, target.axis());
   }
   return full;
 }

@@ -269,7 +269,7 @@ kin::Solve ProgramMap::joints(const Command& cmd, const kin::JointVector& start,
   opt.tolerance_rad = kToleranceRad;
   if (hex_nominal_ != nullptr) {
     // The struts of the whole pose the spin rule gives (the same struts as from the target).
-    last_reached_ = hex_nominal_->reached_pose(target, seed, opt.match);
+    last_reached_ = hex_nominal_->reached_pose(target, seed, opt.match, &last_origin_);
     last_reached_valid_ = true;
     opt.match = kin::PoseMatch::full;
     return nominal_->inverse(last_reached_, seed, q, opt);
@@ -348,7 +348,8 @@ kin::Solve ProgramMap::hexapod_spin_consistent(const kin::Hexapod& nominal, cons
   full.match = kin::PoseMatch::full;
   full.check_limits = false;
   kin::Pose seen = goal;
-  const Eigen::Matrix3d origin = nominal.spin_origin(start, goal);  // the controller's rule, once per block
+  // The controller's rule, once per block: intended() (correct() called it with this start) has it.
+  const Eigen::Matrix3d origin = last_reached_valid_ ? last_origin_ : nominal.spin_origin(start, goal);
   const auto spin_error = [&](double psi, kin::JointVector& qq, double& f) -> kin::Solve {
     kin::Pose want = goal;
     want.r = Eigen::AngleAxisd(psi, o).toRotationMatrix() * goal.r;

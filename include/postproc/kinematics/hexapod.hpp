@@ -135,7 +135,9 @@ class Hexapod final : public Model {
   /// PoseMatch::full, else the target point and axis with the spin rule's rotation about the axis.
   /// forward() of inverse()'s struts gives it back (within its tolerance): where it is needed, no
   /// forward kinematics has to be solved for it.
-  [[nodiscard]] Pose reached_pose(const Pose& target, const JointVector& start, PoseMatch match) const;
+  /// `origin`, when given, receives the spin rule's orientation (spin_origin) it swung.
+  [[nodiscard]] Pose reached_pose(const Pose& target, const JointVector& start, PoseMatch match,
+                                  Eigen::Matrix3d* origin = nullptr) const;
   /// The orientation the controller's spin rule (config().spin) swings onto each new tool axis:
   /// the home tool orientation, or under HexapodSpin::previous the tool orientation at `start`
   /// (forward kinematics seeded with `near`; home when it fails). Workpiece frame.

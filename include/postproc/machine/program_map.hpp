@@ -122,6 +122,7 @@ class ProgramMap {
   const kin::Hexapod* hex_nominal_ = nullptr;
   const kin::Hexapod* hex_actual_ = nullptr;
   mutable kin::Pose last_reached_;
+  mutable Eigen::Matrix3d last_origin_ = Eigen::Matrix3d::Identity();  ///< the spin rule's orientation it swung
   mutable bool last_reached_valid_ = false;
   mutable kin::Pose last_goal_;
   mutable kin::Pose last_goal_cut_;
