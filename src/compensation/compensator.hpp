@@ -346,6 +346,7 @@ class Compensator final : public gcode::BlockVisitor {
       map_held_ = true;
     }
     ProgramMap* map = &*map_;
+    map->new_block();
     mask_ = written_axes(form);
     if (form == Form::turning && ((m.programmed >> m_.turning_spindle_axis) & 1u)) {
       const char letter = gcode::kAxisLetters[static_cast<std::size_t>(m_.turning_spindle_axis)];

@@ -323,14 +323,18 @@ double Hexapod::spin_of(const Pose& pose, const Eigen::Matrix3d& origin) {
   return std::atan2(rel(1, 0) - rel(0, 1), rel(0, 0) + rel(1, 1));
 }
 
+Eigen::Matrix3d Hexapod::spin_origin_for(const Pose& target, const JointVector& start) const {
+  Pose near;  // seeds FK of start: the target point, the home orientation swung onto its axis
+  near.p = target.p;
+  near.r = swing(tool_pose(home_).r, target.axis());
+  return spin_origin(start, near);
+}
+
 Pose Hexapod::reached_pose(const Pose& target, const JointVector& start, PoseMatch match,
                            Eigen::Matrix3d* origin) const {
   Pose full = target;
   if (match == PoseMatch::point_and_axis) {
-    Pose near;  // seeds FK of start: the target point, the home orientation swung onto its axis
-    near.p = target.p;
-    near.r = swing(tool_pose(home_).r, target.axis());
-    const Eigen::Matrix3d o = spin_origin(start, near);
+    const Eigen::Matrix3d o = spin_origin_for(target, start);
     if (origin != nullptr) *origin = o;
     full.r = swing(o, target.axis());
   }

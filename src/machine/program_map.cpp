@@ -269,7 +269,15 @@ kin::Solve ProgramMap::joints(const Command& cmd, const kin::JointVector& start,
   opt.tolerance_rad = kToleranceRad;
   if (hex_nominal_ != nullptr) {
     // The struts of the whole pose the spin rule gives (the same struts as from the target).
-    last_reached_ = hex_nominal_->reached_pose(target, seed, opt.match, &last_origin_);
+    // Point + axis (the spin rule): the rule's orientation of the start struts, once per block.
+    if (!origin_known_ || origin_start_.size() != seed.size() || origin_start_ != seed) {
+      origin_ = hex_nominal_->spin_origin_for(target, seed);
+      origin_start_ = seed;
+      origin_known_ = true;
+    }
+    last_origin_ = origin_;
+    last_reached_ = target;
+    last_reached_.r = kin::Hexapod::swing(origin_, target.axis());
     last_reached_valid_ = true;
     opt.match = kin::PoseMatch::full;
     return nominal_->inverse(last_reached_, seed, q, opt);

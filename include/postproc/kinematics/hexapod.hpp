@@ -135,13 +135,16 @@ class Hexapod final : public Model {
   /// PoseMatch::full, else the target point and axis with the spin rule's rotation about the axis.
   /// forward() of inverse()'s struts gives it back (within its tolerance): where it is needed, no
   /// forward kinematics has to be solved for it.
-  /// `origin`, when given, receives the spin rule's orientation (spin_origin) it swung.
+  /// `origin`, when given, receives the spin rule's orientation (spin_origin_for) it swung.
   [[nodiscard]] Pose reached_pose(const Pose& target, const JointVector& start, PoseMatch match,
                                   Eigen::Matrix3d* origin = nullptr) const;
   /// The orientation the controller's spin rule (config().spin) swings onto each new tool axis:
   /// the home tool orientation, or under HexapodSpin::previous the tool orientation at `start`
   /// (forward kinematics seeded with `near`; home when it fails). Workpiece frame.
   [[nodiscard]] Eigen::Matrix3d spin_origin(const JointVector& start, const Pose& near) const;
+  /// spin_origin() for a move from struts `start` to `target`: the forward kinematics of start
+  /// seeded with the target point and the home orientation swung onto the target axis.
+  [[nodiscard]] Eigen::Matrix3d spin_origin_for(const Pose& target, const JointVector& start) const;
   /// `origin` turned by the smallest rotation taking its axis (column z) onto `axis`.
   [[nodiscard]] static Eigen::Matrix3d swing(const Eigen::Matrix3d& origin, const Eigen::Vector3d& axis);
   /// The signed rotation about the tool axis (rad) from swing(origin, pose's axis) to pose.

@@ -57,6 +57,10 @@ class ProgramMap {
              const gcode::AxisVector& offset, bool length_on_z, double tool_length);
 
   [[nodiscard]] Form form() const { return form_; }
+  /// A new block: what the map keeps for the remaps of one block is forgotten (hexapods: the spin
+  /// rule's orientation of the block's start struts), so that each block's results depend on that
+  /// block alone (the parallel run, compensate_parallel.cpp, relies on it).
+  void new_block() const { origin_known_ = false; }
   /// C(c): the joints the controller commands; `start` picks the branch / turn for tool-tip forms.
   [[nodiscard]] kin::Solve joints(const Command& cmd, const kin::JointVector& start, kin::JointVector& q) const;
   /// The inverse of C on the nominal model: the command whose controller joints are q.
@@ -124,6 +128,11 @@ class ProgramMap {
   mutable kin::Pose last_reached_;
   mutable Eigen::Matrix3d last_origin_ = Eigen::Matrix3d::Identity();  ///< the spin rule's orientation it swung
   mutable bool last_reached_valid_ = false;
+  /// The spin rule's orientation for struts origin_start_ (valid while origin_known_): every
+  /// remap of one block starts from the same struts (new_block() forgets it).
+  mutable kin::JointVector origin_start_;
+  mutable Eigen::Matrix3d origin_ = Eigen::Matrix3d::Identity();
+  mutable bool origin_known_ = false;
   mutable kin::Pose last_goal_;
   mutable kin::Pose last_goal_cut_;
   mutable kin::JointVector last_q_nom_;
