@@ -138,7 +138,9 @@ class ParallelRun final : public gcode::BlockVisitor {
       pending_.push_back(diag);
       tracker_.collector().report(diag);
     };
-    const unsigned n = std::max(1u, opt.jobs);
+    // jobs − 1 workers: this thread reads the program and, while it waits for the oldest chunk,
+    // corrects queued chunks itself.
+    const unsigned n = std::max(1u, opt.jobs - 1);
     for (unsigned i = 0; i < n; ++i) threads_.emplace_back([this] { work(); });
   }
   ~ParallelRun() override {
@@ -202,7 +204,7 @@ class ParallelRun final : public gcode::BlockVisitor {
     }
     job_cv_.notify_one();
     // Write what is done; hold the reader while too many chunks wait (bounded memory).
-    while (!in_flight_.empty() && merge_front(in_flight_.size() >= threads_.size() + 2)) {
+    while (!in_flight_.empty() && merge_front(in_flight_.size() >= std::max(1u, opt_.jobs) + 2)) {
     }
   }
 
@@ -214,7 +216,17 @@ class ParallelRun final : public gcode::BlockVisitor {
       if (in_flight_.empty()) return false;
       c = in_flight_.front().get();
       if (!c->done && !wait) return false;
-      done_cv_.wait(lock, [&] { return c->done; });
+      while (!c->done) {
+        if (!jobs_.empty()) {  // help: correct a queued chunk here instead of waiting idle
+          Chunk* job = jobs_.front();
+          jobs_.pop_front();
+          lock.unlock();
+          run_job(*job);
+          lock.lock();
+          continue;
+        }
+        done_cv_.wait(lock, [&] { return c->done || !jobs_.empty(); });
+      }
     }
     if (c->error) std::rethrow_exception(c->error);
     if (previous_end_ && !(*c->guess == *previous_end_)) {
@@ -242,23 +254,28 @@ class ParallelRun final : public gcode::BlockVisitor {
         c = jobs_.front();
         jobs_.pop_front();
       }
-      try {
-        gcode::DiagnosticSink discard(0);
-        CompensateResult scratch;
-        Compensator warm(file_, d_, m_, worker_opt_, nullptr, discard, scratch);
-        warm.restore(*c->start);
-        for (std::size_t i = 0; i < c->warm; ++i) c->replay(warm, i);
-        c->guess.emplace(warm.carry());
-        correct(*c, *c->guess);
-      } catch (...) {
-        c->error = std::current_exception();
-      }
-      {
-        std::lock_guard lock(mu_);
-        c->done = true;
-      }
-      done_cv_.notify_all();
+      run_job(*c);
     }
+  }
+
+  /// A chunk's warm-up and correction, on whichever thread took it from the queue.
+  void run_job(Chunk& c) {
+    try {
+      gcode::DiagnosticSink discard(0);
+      CompensateResult scratch;
+      Compensator warm(file_, d_, m_, worker_opt_, nullptr, discard, scratch);
+      warm.restore(*c.start);
+      for (std::size_t i = 0; i < c.warm; ++i) c.replay(warm, i);
+      c.guess.emplace(warm.carry());
+      correct(c, *c.guess);
+    } catch (...) {
+      c.error = std::current_exception();
+    }
+    {
+      std::lock_guard lock(mu_);
+      c.done = true;
+    }
+    done_cv_.notify_all();
   }
 
   /// Corrects the chunk's own blocks from state `from` into its output, report and diagnostics.
