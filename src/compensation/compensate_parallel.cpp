@@ -123,17 +123,22 @@ void add_result(CompensateResult& t, const CompensateResult& c) {
   t.max_residual_rad = std::max(t.max_residual_rad, c.max_residual_rad);
 }
 
+/// The options for the threads' own compensators: no progress reports, no line map.
+CompensateOptions without_outputs(const CompensateOptions& opt) {
+  CompensateOptions o = opt;
+  o.progress = nullptr;
+  o.line_map = nullptr;
+  return o;
+}
+
 class ParallelRun final : public gcode::BlockVisitor {
  public:
   ParallelRun(std::string_view file, const gcode::Dialect& d, const machine::Machine& m, const CompensateOptions& opt,
               io::OutputFile& out, gcode::DiagnosticSink& sink, CompensateResult& r)
-      : file_(file), d_(d), m_(m), opt_(opt), out_(out), sink_(sink), r_(r),
-        chunk_(std::max<std::size_t>(opt.chunk_blocks, 1)), warm_(std::min(opt.warmup_blocks, chunk_)),
-        tracker_(file, d, m, opt, nullptr, discard_, scratch_) {
+      : file_(file), d_(d), m_(m), opt_(opt), worker_opt_(without_outputs(opt)), out_(out), sink_(sink), r_(r),
+        chunk_(std::max<std::size_t>(opt.chunk_blocks, 1)),
+        warm_(std::min(opt.warmup_blocks, chunk_)), tracker_(file, d, m, worker_opt_, nullptr, discard_, scratch_) {
     tracker_.set_text_only(true);
-    worker_opt_ = opt;
-    worker_opt_.progress = nullptr;
-    worker_opt_.line_map = nullptr;
     reader_sink_.on_report = [this](const gcode::Diagnostic& diag) {
       pending_.push_back(diag);
       tracker_.collector().report(diag);

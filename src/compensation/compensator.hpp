@@ -123,7 +123,8 @@ class Compensator final : public gcode::BlockVisitor {
     map_.reset();  // rebuilt from map_key_ by the next motion
   }
   /// Reader-only mode: blocks update what comes from the text (carry()'s first part) and nothing
-  /// is corrected, reported or written.
+  /// is corrected (give it options without a line map and a sink and result that are discarded:
+  /// the header and a PP-E620 refusal still go there).
   void set_text_only(bool on) { text_only_ = on; }
   /// The lines written so far (out == nullptr).
   [[nodiscard]] std::string take_output() { return std::move(buffer_); }
@@ -131,10 +132,6 @@ class Compensator final : public gcode::BlockVisitor {
   void set_reader(const gcode::LineReader* in) { reader_ = in; }
 
   void block(const Block& b, std::span<const Motion> motions, bool lexed_ok) override {
-    if (text_only_) {
-      track_text(b, motions, lexed_ok);
-      return;
-    }
     ++r_.blocks;
     if (opt_.progress && reader_ != nullptr && (r_.blocks & 8191) == 0)
       opt_.progress("compensate", static_cast<double>(reader_->bytes_read()), static_cast<double>(opt_.input_bytes));
@@ -146,6 +143,12 @@ class Compensator final : public gcode::BlockVisitor {
     maybe_header(b);
     track_.update(b);
     note_arc_word(b);
+    if (text_only_) {  // the modal tool vector follows the motions a correction would see
+      if (lexed_ok && !block_error_ && !track_.has(gcode::GMeaning::home_return))
+        for (const Motion& m : motions) (void)vector_.apply(m);
+      block_error_ = false;
+      return;
+    }
     after_.clear();
     gcode::BlockEditor ed(b, d_.decimal_point_required);
     if (lexed_ok && !block_error_ && track_.has(gcode::GMeaning::home_return)) {
@@ -201,21 +204,6 @@ class Compensator final : public gcode::BlockVisitor {
     if (const auto* g = track_.block_motion())
       if (g->def->meaning == gcode::GMeaning::arc_cw || g->def->meaning == gcode::GMeaning::arc_ccw)
         arc_word_ = std::string(b.text(b.words[g->word].span));
-  }
-  /// block() in reader-only mode: the text-derived state, as block() updates it.
-  void track_text(const Block& b, std::span<const Motion> motions, bool lexed_ok) {
-    if (!b.eol.empty()) eol_ = std::string(b.eol);
-    if (!recompensation_checked_ && !opt_.allow_recompensation &&
-        compensation_header_offset(b.raw) != std::string_view::npos) {
-      recompensation_checked_ = true;
-      block_error_ = true;
-    }
-    if (!header_done_ && opt_.header && !header_waits(b)) header_done_ = true;
-    track_.update(b);
-    note_arc_word(b);
-    if (lexed_ok && !block_error_ && !track_.has(gcode::GMeaning::home_return))
-      for (const Motion& m : motions) (void)vector_.apply(m);
-    block_error_ = false;
   }
 
   /// False for blocks that change what the program's coordinates mean (G28/G30, a work offset,
@@ -331,7 +319,7 @@ class Compensator final : public gcode::BlockVisitor {
     // The controller map depends on the modal context only: reuse it while that stays the same.
     const MapKey key{form, m.frame, m.work_offset.code10, m.work_offset.p, m.tool_length_active, m.tool_length_h,
                      m.local_offset + m.position_offset};
-    if (!map_ || !map_held_ || !(key == map_key_)) {
+    if (!map_ || !(key == map_key_)) {  // map_ is empty whenever !map_held_
       // The held corrected position is in the old context's coordinates unless only the tool
       // length changed (the program still names the same points).
       if (map_held_ && !(key.form == map_key_.form && key.frame == map_key_.frame && key.code10 == map_key_.code10 &&
