@@ -1,0 +1,211 @@
+#pragma once
+// The LinuxCNC (rs274ngc) resolver's compiled lines and its interpreter class (linuxcnc.cpp: compiling
+// lines and the block structure, the run; linuxcnc_statements.cpp: parameters, expressions, control
+// flow and calls). Internal to src/gcode/resolve.
+#include <algorithm>
+#include <array>
+#include <cctype>
+#include <cmath>
+#include <map>
+#include <memory>
+#include <optional>
+#include <set>
+#include <string>
+#include <unordered_map>
+#include <vector>
+
+#include <fmt/format.h>
+
+#include "linuxcnc_expr.hpp"
+#include "support.hpp"
+
+namespace postproc::gcode::resolver::lcnc_run {
+
+using namespace lcnc;
+
+constexpr int kNumbered = 5603;  // #0 … #5602
+
+inline std::string lower(std::string_view s) {
+  std::string r(s);
+  for (char& c : r) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return r;
+}
+
+/// Numbered parameters the controller fills at run time (or keeps in its var file).
+inline const char* runtime_numbered(int n) {
+  if (n >= 5061 && n <= 5070) return "the probe result (G38)";
+  if (n >= 5161 && n <= 5169) return "the G28 home position (var file)";
+  if (n >= 5181 && n <= 5189) return "the G30 position (var file)";
+  if (n >= 5210 && n <= 5219) return "the G92 offset (var file)";
+  if (n >= 5220 && n <= 5390) return "a coordinate-system offset (var file)";
+  if (n == 5399) return "the M66 input result";
+  if (n >= 5400 && n <= 5413) return "tool data";
+  if (n >= 5420 && n <= 5428) return "the current position";
+  if (n >= 5599) return "a controller setting";
+  return nullptr;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Compiled lines
+
+enum class Kw : std::uint8_t { none, sub, endsub, call, ret, if_, elseif, else_, endif, while_, endwhile, do_, repeat, endrepeat, break_, continue_ };
+
+struct Assign {
+  Span span;  // the assignment token
+  bool named = false;
+  int name_id = 0;
+  Code index;  // numbered: the parameter number
+  Code value;
+};
+
+struct WordValue {
+  Span span;  // the value text
+  char letter;
+  Code code;
+};
+
+struct Line {
+  bool compiled = false;
+  bool ok = true;          // compiled without error (the error was reported)
+  bool plain = true;       // nothing to evaluate: emitted as written
+  // control
+  Kw kw = Kw::none;
+  std::string oname;       // lower case, "o100" or "o<name>"
+  Span control_span;
+  std::vector<Code> args;  // call arguments / condition / return value / repeat count
+  // ordinary block
+  std::vector<WordValue> words;
+  std::vector<Assign> assigns;
+  std::vector<Span> deletions;  // assignment tokens
+  bool ends_program = false;    // M2 / M30
+  // Probing (G38.2–G38.5, modal group 1): a line that probes leaves #5061–#5070 to the run.
+  enum class Probe : std::uint8_t { none, starts, ends } probe = Probe::none;  ///< G38.x / another group-1 G
+  bool axis_words = false;
+  bool abort = false;           // (abort, …)
+  bool cycle_profile = false;   // G70–G72: profile in a subroutine
+  Span cycle_span;
+  bool cycle_q_literal = false; // the Q word is a plain number (cycle_q)
+  double cycle_q = 0;
+  std::string abort_text;
+  std::size_t match = 0;        // structure: see Structure
+};
+
+struct Sub {
+  SourceFile* file = nullptr;
+  std::size_t begin = 0;  // the sub line
+  std::size_t end = 0;    // the endsub line
+};
+
+struct Frame {
+  std::array<double, 31> saved{};  // #1–#30 of the caller
+  std::unordered_map<int, double> locals;  // named locals
+  std::map<std::size_t, long> repeats;     // remaining passes by repeat line
+};
+
+class Machine {
+ public:
+  Machine(FileSet& files, Emitter& out, const ResolveOptions& opt, DiagnosticSink& sink, ResolvedProgram& r)
+      : files_(files), out_(out), opt_(opt), sink_(sink), r_(r), numbered_(kNumbered, 0.0) {
+    const std::vector<std::pair<std::string, double>> fixed = {{"_vmajor", 2}, {"_vminor", 9}, {"_value", 0},
+                                                               {"_value_returned", 0}, {"_call_level", 0}, {"_task", 1}};
+    for (const auto& [n, v] : fixed) globals_[names_.id(n)] = v;
+  }
+
+  void run();
+
+ private:
+  struct Stop {};  // program end (M2/M30) or a refusal: unwinds everything
+
+  struct FileInfo {
+    std::vector<Line> lines;
+    // structure: for each control line, the line it pairs with (see prepare)
+    std::map<std::size_t, std::size_t> end_of;    // sub → endsub, if → endif, while → endwhile, do → while, repeat → endrepeat
+    std::map<std::size_t, std::size_t> start_of;  // the reverse, for closers
+    std::map<std::size_t, std::vector<std::size_t>> branches;  // if → [elseif…, else…, endif]
+  };
+
+  // -- compile -------------------------------------------------------------------------------
+  Line& line(SourceFile& f, std::size_t i);
+  FileInfo& info(SourceFile& f);
+  void parse_error(SourceFile& f, std::size_t i, Span within, const ParseError& e);
+  void compile(SourceFile& f, std::size_t i, Line& l);
+  void compile_control(SourceFile& f, std::size_t i, const Block& b, const Token& t, Line& l);
+
+  /// Finds the block structure of a file: subs, if/elseif/else/endif, while, do/while, repeat.
+  void prepare(SourceFile& f);
+  template <class OpenVec>
+  void close(SourceFile& f, FileInfo& fi, OpenVec& open, Line& l, std::size_t i, Kw opener) {
+    if (open.empty() || open.back().oname != l.oname || open.back().kw != opener)
+      mismatch(f, i, l, opener == Kw::sub ? "sub" : opener == Kw::if_ ? "if" : opener == Kw::while_ ? "while"
+                                                  : opener == Kw::do_ ? "do" : "repeat");
+    fi.end_of[open.back().line] = i;
+    fi.start_of[i] = open.back().line;
+    if (opener == Kw::if_) fi.branches[open.back().line].push_back(i);
+    open.pop_back();
+  }
+  [[noreturn]] void mismatch(SourceFile& f, std::size_t i, const Line& l, const char* opener);
+
+  // -- evaluate ------------------------------------------------------------------------------
+  std::string context() const;
+  double numbered(double index);
+  std::optional<double> named(int id);
+  double eval(const Code& c);
+
+  /// Evaluates, reporting an error located at `span` of line i and stopping the run.
+  double value(SourceFile& f, std::size_t i, Span span, const Code& c);
+
+  /// Sets a named parameter; a new value (or a new name) is progress for the loop guard.
+  void store(std::unordered_map<int, double>& m, int id, double v);
+  void assign(const Assign& a, double v, SourceFile& f, std::size_t i, Span span);
+
+  /// A line that probes (G38.x, or axis words while G38.x is the modal motion) fills #5061–#5070
+  /// when it runs (LinuxCNC G-code "G38.x Straight Probe"): values the program set before are gone,
+  /// so a later read is refused (PP-E701) unless --set gives it.
+  void probe_results(const Line& l);
+
+  // -- execute -------------------------------------------------------------------------------
+  enum class Flow { next, jump, ret };
+
+  /// Runs lines [from, to) of f; `in_sub`: an endsub/return ends it. Returns on return/endsub.
+  void execute(SourceFile& f, std::size_t from, std::size_t to, bool in_sub);
+  static constexpr std::size_t kReturn = static_cast<std::size_t>(-1);
+
+  /// The program ended (M2/M30) before its closing '%': a file that opens with '%' must close with
+  /// one, so the closing line is written too (LinuxCNC ignores what lies between).
+  void close_tape(SourceFile& main);
+  [[noreturn]] void endless(SourceFile& f, std::size_t i, const std::string& why);
+  [[noreturn]] void runaway(SourceFile& f, std::size_t i);
+
+  bool truth(SourceFile& f, std::size_t i, const Line& l) { return value(f, i, l.control_span, l.args[0]) != 0; }
+
+  /// Carries out an O-word line; returns the next line, or kReturn.
+  std::size_t control(SourceFile& f, FileInfo& fi, std::size_t i, Line& l, bool in_sub);
+
+  /// G70–G72 read their profile from the subroutine numbered Q (LinuxCNC docs, G70 and G71-G72):
+  /// its lines are passed on, values substituted, as "oN sub" … "oN endsub" right before the
+  /// cycle's line, where the interpreter reads them as the profile. rs274 reads those lines
+  /// without executing them, so statements inside the profile are refused.
+  void cycle_profile(SourceFile& f, std::size_t pc, const Line& l);
+  std::size_t enclosing_loop(SourceFile& f, FileInfo& fi, std::size_t i, const Line& l);
+  void call(SourceFile& f, std::size_t i, Line& l);
+
+  FileSet& files_;
+  Emitter& out_;
+  const ResolveOptions& opt_;
+  DiagnosticSink& sink_;
+  ResolvedProgram& r_;
+  LoopGuard guard_{opt_};
+  Names names_;
+  std::vector<double> numbered_;
+  std::set<int> set_numbered_;
+  bool probing_ = false;  ///< G38.x is the modal motion
+  std::unordered_map<int, double> globals_;
+  std::vector<Frame> frames_;
+  std::map<std::string, Sub> subs_;
+  std::map<const SourceFile*, std::unique_ptr<FileInfo>> info_;
+
+ public:
+  using StopT = Stop;
+};
+
+}  // namespace postproc::gcode::resolver::lcnc_run

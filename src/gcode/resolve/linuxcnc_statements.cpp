@@ -1,0 +1,365 @@
+// The LinuxCNC resolver at run time: numbered and named parameters, expression evaluation,
+// assignments, the line loop, O-word control flow and subroutine calls (linuxcnc_runner.hpp).
+#include "linuxcnc_runner.hpp"
+
+namespace postproc::gcode::resolver::lcnc_run {
+
+std::string Machine::context() const {
+  const std::string w = out_.where();
+  return w.empty() ? std::string() : "; " + w;
+}
+
+double Machine::numbered(double index) {
+  const double r = std::round(index);
+  if (std::fabs(index - r) > 1e-4 || r < 0 || r >= kNumbered)
+    throw EvalError{"PP-E703", fmt::format("parameter #{} does not exist (LinuxCNC has #1 … #{})", index, kNumbered - 1)};
+  const int n = static_cast<int>(r);
+  if (const char* what = runtime_numbered(n)) {
+    const std::string key = fmt::format("#{}", n);
+    if (const auto it = opt_.set.find(key); it != opt_.set.end()) {
+      r_.used_settings[key] = it->second;
+      return set_numbered_.count(n) ? numbered_[static_cast<std::size_t>(n)] : it->second;
+    }
+    if (!set_numbered_.count(n))
+      throw EvalError{"PP-E701", fmt::format("#{} is {}, known only when the program runs; give its value with "
+                                             "--set '#{}=…'", n, what, n)};
+  }
+  return numbered_[static_cast<std::size_t>(n)];
+}
+
+std::optional<double> Machine::named(int id) {
+  const std::string& n = names_.name(id);
+  if (!n.empty() && n[0] == '_') {
+    if (const auto it = globals_.find(id); it != globals_.end()) return it->second;
+    const std::string key = "#<" + std::string(n) + ">";
+    std::string upper = key;
+    for (char& c : upper) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+    if (const auto it = opt_.set.find(upper); it != opt_.set.end()) {
+      r_.used_settings[upper] = it->second;
+      return it->second;
+    }
+    return std::nullopt;
+  }
+  auto& loc = frames_.back().locals;
+  if (const auto it = loc.find(id); it != loc.end()) return it->second;
+  return std::nullopt;
+}
+
+double Machine::eval(const Code& c) {
+  double st[64];
+  int sp = 0;
+  for (const Instr& in : c.ops) {
+    if (sp >= 62) throw EvalError{"PP-E702", "the expression nests too deeply"};
+    switch (in.op) {
+      case Op::num: st[sp++] = in.value; break;
+      case Op::param: st[sp++] = numbered(in.value); break;
+      case Op::param_ind: st[sp - 1] = numbered(st[sp - 1]); break;
+      case Op::named: {
+        const auto v = named(static_cast<int>(in.value));
+        if (!v) {
+          const std::string& n = names_.name(static_cast<int>(in.value));
+          throw EvalError{n[0] == '_' ? "PP-E701" : "PP-E703",
+                          n[0] == '_' ? fmt::format("#<{}> is not set by the program (a controller value, known only "
+                                                    "when it runs?); set it first or give --set '#<{}>=…'", n, n)
+                                      : fmt::format("#<{}> is read before it is set (LinuxCNC refuses this)", n)};
+        }
+        st[sp++] = *v;
+        break;
+      }
+      case Op::exists: st[sp++] = named(static_cast<int>(in.value)) ? 1.0 : 0.0; break;
+      case Op::neg: st[sp - 1] = -st[sp - 1]; break;
+      default: apply_operator(in.op, st, sp); break;
+    }
+  }
+  return st[0];
+}
+
+double Machine::value(SourceFile& f, std::size_t i, Span span, const Code& c) {
+  try {
+    return eval(c);
+  } catch (const EvalError& e) {
+    f.report(i, span, Severity::error, e.code, e.what + context());
+    throw Stop{};
+  }
+}
+
+void Machine::store(std::unordered_map<int, double>& m, int id, double v) {
+  const auto [it, fresh] = m.try_emplace(id, v);
+  if (!fresh && it->second == v) return;
+  it->second = v;
+  guard_.changed();
+}
+
+void Machine::assign(const Assign& a, double v, SourceFile& f, std::size_t i, Span span) {
+  if (a.named) {
+    const std::string& n = names_.name(a.name_id);
+    store(n[0] == '_' ? globals_ : frames_.back().locals, a.name_id, v);
+    return;
+  }
+  const double idx = value(f, i, span, a.index);
+  const double r = std::round(idx);
+  if (r < 1 || r >= kNumbered || std::fabs(idx - r) > 1e-4) {
+    f.report(i, span, Severity::error, "PP-E703", fmt::format("parameter #{} does not exist{}", idx, context()));
+    throw Stop{};
+  }
+  const int n = static_cast<int>(r);
+  if (numbered_[static_cast<std::size_t>(n)] != v) guard_.changed();
+  numbered_[static_cast<std::size_t>(n)] = v;
+  if (runtime_numbered(n)) set_numbered_.insert(n);
+}
+
+void Machine::probe_results(const Line& l) {
+  const bool was = probing_;
+  if (l.probe == Line::Probe::starts) probing_ = true;
+  if (l.probe == Line::Probe::ends) probing_ = false;
+  if (probing_ != was) guard_.changed();
+  if (!probing_ || (l.probe != Line::Probe::starts && !l.axis_words)) return;
+  for (int n = 5061; n <= 5070; ++n) set_numbered_.erase(n);
+  guard_.changed();
+}
+
+void Machine::execute(SourceFile& f, std::size_t from, std::size_t to, bool in_sub) {
+  FileInfo& fi = info(f);
+  std::size_t pc = from;
+  std::vector<Edit> edits;
+  std::vector<double> pending;
+  while (pc < to) {
+    Line& l = line(f, pc);
+    if (!l.ok) throw Stop{};
+    if (!guard_.step(out_.emitted())) endless(f, pc, guard_.silent_message());
+    if (l.plain) {
+      if (!out_.emit(f, pc, {})) runaway(f, pc);
+      probe_results(l);
+      if (l.ends_program) throw Stop{};
+      ++pc;
+      continue;
+    }
+    if (l.kw != Kw::none) {
+      const std::size_t next = control(f, fi, pc, l, in_sub);
+      if (next == kReturn) return;
+      // The control line's comments stay (the O-word statement is removed).
+      Edit del{l.control_span, ""};
+      if (f.raw(pc).find('(') != std::string_view::npos && !out_.emit(f, pc, std::span<const Edit>(&del, 1)))
+        runaway(f, pc);
+      if (next <= pc && !guard_.back_jump(f.index(), frames_.size(), next))
+        endless(f, pc, LoopGuard::no_progress_message());
+      pc = next;
+      continue;
+    }
+    if (l.cycle_profile) cycle_profile(f, pc, l);
+    if (l.abort) {
+      f.report(pc, Span{0, static_cast<std::uint32_t>(f.raw(pc).size())}, Severity::error, "PP-E710",
+               fmt::format("the program aborts here: {}{}", l.abort_text, context()));
+      throw Stop{};
+    }
+    // Values on the line use the parameters as they were before it; its assignments take
+    // effect after the line (rs274ngc).
+    edits.clear();
+    pending.clear();
+    for (const Assign& as : l.assigns) pending.push_back(value(f, pc, as.span, as.value));
+    for (const WordValue& v : l.words) edits.push_back({v.span, format_value(value(f, pc, v.span, v.code), v.letter)});
+    for (const Span& d : l.deletions) edits.push_back({d, ""});
+    std::sort(edits.begin(), edits.end(), [](const Edit& x, const Edit& y) { return x.span.begin < y.span.begin; });
+    if (!out_.emit(f, pc, edits)) runaway(f, pc);
+    probe_results(l);
+    for (std::size_t k = 0; k < l.assigns.size(); ++k) assign(l.assigns[k], pending[k], f, pc, l.assigns[k].span);
+    if (l.ends_program) throw Stop{};
+    ++pc;
+  }
+}
+
+void Machine::close_tape(SourceFile& main) {
+  const auto percent = [&](std::size_t i) {
+    const std::string_view l = main.raw(i);
+    const std::size_t q = l.find_first_not_of(" \t");
+    return q != std::string_view::npos && l[q] == '%';
+  };
+  const auto blank = [&](std::size_t i) { return main.raw(i).find_first_not_of(" \t") == std::string_view::npos; };
+  std::size_t first = 0, last = main.lines();
+  while (first < main.lines() && blank(first)) ++first;
+  while (last > first + 1 && blank(last - 1)) --last;
+  if (first >= main.lines() || last <= first + 1 || !percent(first) || !percent(last - 1)) return;
+  const bool written = !r_.source_line.empty() && r_.source_file.back() == main.index() && r_.source_line.back() == last;
+  if (!written) (void)out_.emit(main, last - 1, {});
+}
+
+void Machine::endless(SourceFile& f, std::size_t i, const std::string& why) {
+  f.report(i, Span{0, static_cast<std::uint32_t>(std::max<std::size_t>(1, f.raw(i).size()))}, Severity::error, "PP-E705",
+           why + context());
+  throw Stop{};
+}
+
+void Machine::runaway(SourceFile& f, std::size_t i) {
+  f.report(i, Span{0, static_cast<std::uint32_t>(f.raw(i).size())}, Severity::error, "PP-E705",
+           fmt::format("the program executes {}: a loop that does not end?{}", runaway_limits(opt_), context()));
+  throw Stop{};
+}
+
+std::size_t Machine::control(SourceFile& f, FileInfo& fi, std::size_t i, Line& l, bool in_sub) {
+  switch (l.kw) {
+    case Kw::sub: return fi.end_of.at(i) + 1;  // a definition: skipped
+    case Kw::endsub:
+    case Kw::ret:
+      if (!in_sub) {
+        f.report(i, l.control_span, Severity::error, "PP-E708",
+                 fmt::format("'{}' outside a subroutine", f.raw(i).substr(l.control_span.begin, l.control_span.size())));
+        throw Stop{};
+      }
+      if (!l.args.empty()) {
+        globals_[names_.id("_value")] = value(f, i, l.control_span, l.args[0]);
+        globals_[names_.id("_value_returned")] = 1;
+        guard_.changed();
+      }
+      return kReturn;
+    case Kw::call: call(f, i, l); return i + 1;
+    case Kw::if_: {
+      if (truth(f, i, l)) return i + 1;
+      for (std::size_t b : fi.branches.at(i)) {
+        Line& bl = line(f, b);
+        if (bl.kw == Kw::elseif && truth(f, b, bl)) return b + 1;
+        if (bl.kw == Kw::else_) return b + 1;
+        if (bl.kw == Kw::endif) return b + 1;
+      }
+      return fi.end_of.at(i) + 1;
+    }
+    case Kw::elseif:
+    case Kw::else_:  // reached from the end of a taken branch: leave the if
+      return fi.end_of.at(fi.start_of.at(i)) + 1;
+    case Kw::endif: return i + 1;
+    case Kw::while_:
+      if (auto s = fi.start_of.find(i); s != fi.start_of.end()) {  // the end of a do … while
+        return truth(f, i, l) ? s->second + 1 : i + 1;
+      }
+      return truth(f, i, l) ? i + 1 : fi.end_of.at(i) + 1;
+    case Kw::endwhile: return fi.start_of.at(i);
+    case Kw::do_: return i + 1;
+    case Kw::repeat: {
+      const double n = std::floor(value(f, i, l.control_span, l.args[0]));
+      if (n < 1) return fi.end_of.at(i) + 1;
+      frames_.back().repeats[i] = saturate<long>(n) - 1;
+      guard_.changed();
+      return i + 1;
+    }
+    case Kw::endrepeat: {
+      const std::size_t s = fi.start_of.at(i);
+      long& left = frames_.back().repeats[s];
+      if (left > 0) {
+        --left;
+        guard_.changed();  // the pass count is state: a repeat with an empty body still ends
+        return s + 1;
+      }
+      return i + 1;
+    }
+    case Kw::break_:
+    case Kw::continue_: {
+      const std::size_t loop = enclosing_loop(f, fi, i, l);
+      const Line& ll = line(f, loop);
+      const std::size_t end = fi.end_of.at(loop);
+      if (l.kw == Kw::break_) {
+        if (ll.kw == Kw::repeat) frames_.back().repeats.erase(loop);
+        return end + 1;
+      }
+      if (ll.kw == Kw::while_) return loop;  // evaluate the condition again
+      return end;                            // do: its while line; repeat: its endrepeat
+    }
+    default: return i + 1;
+  }
+}
+
+void Machine::cycle_profile(SourceFile& f, std::size_t pc, const Line& l) {
+  double q = l.cycle_q;
+  bool have_q = l.cycle_q_literal;
+  for (const WordValue& v : l.words)
+    if (v.letter == 'Q') {
+      q = value(f, pc, v.span, v.code);
+      have_q = true;
+    }
+  if (!have_q) return;  // the interpreter refuses the cycle without Q
+  const auto it = subs_.find(fmt::format("o{}", std::lround(q)));
+  if (it == subs_.end()) return;  // … and without its subroutine
+  const Sub s = it->second;
+  SourceFile& sf = *s.file;
+  out_.push_call(CallFrame{f.name(), pc + 1, fmt::format("o{} profile", std::lround(q))});
+  if (!out_.emit(sf, s.begin, {})) runaway(sf, s.begin);
+  std::vector<Edit> edits;
+  for (std::size_t i = s.begin + 1; i < s.end; ++i) {
+    Line& bl = line(sf, i);
+    if (!bl.ok) throw Stop{};
+    if (bl.kw != Kw::none || !bl.assigns.empty() || bl.abort || bl.cycle_profile || bl.ends_program) {
+      const Span at = bl.kw != Kw::none ? bl.control_span
+                      : !bl.assigns.empty() ? bl.assigns.front().span
+                      : bl.cycle_profile ? bl.cycle_span
+                                         : Span{0, static_cast<std::uint32_t>(sf.raw(i).size())};
+      sf.report(i, at, Severity::error, "PP-E251",
+                fmt::format("the profile of a lathe cycle (o{} sub, used by the G7x at line {}) holds a statement "
+                            "or cycle; rs274 reads the profile's moves without executing statements, so this "
+                            "cannot be followed: keep only G0/G1/G2/G3 moves in the profile{}",
+                            std::lround(q), pc + 1, context()));
+      throw Stop{};
+    }
+    edits.clear();
+    for (const WordValue& v : bl.words) edits.push_back({v.span, format_value(value(sf, i, v.span, v.code), v.letter)});
+    if (!out_.emit(sf, i, edits)) runaway(sf, i);
+  }
+  if (!out_.emit(sf, s.end, {})) runaway(sf, s.end);
+  out_.pop_call();
+}
+
+std::size_t Machine::enclosing_loop(SourceFile& f, FileInfo& fi, std::size_t i, const Line& l) {
+  for (const auto& [start, end] : fi.end_of) {
+    if (start > i || end < i) continue;
+    const Line& s = line(f, start);
+    if (s.oname == l.oname && (s.kw == Kw::while_ || s.kw == Kw::do_ || s.kw == Kw::repeat)) return start;
+  }
+  f.report(i, l.control_span, Severity::error, "PP-E708",
+           fmt::format("'{}' is not inside a loop named {}", f.raw(i).substr(l.control_span.begin, l.control_span.size()),
+                       l.oname));
+  throw Stop{};
+}
+
+void Machine::call(SourceFile& f, std::size_t i, Line& l) {
+  std::vector<double> args;
+  for (const Code& c : l.args) args.push_back(value(f, i, l.control_span, c));
+  if (args.size() > 30) {
+    f.report(i, l.control_span, Severity::error, "PP-E702", "a call takes at most 30 arguments" + context());
+    throw Stop{};
+  }
+  auto it = subs_.find(l.oname);
+  if (it == subs_.end() && l.oname.size() > 2 && l.oname[1] == '<') {
+    const std::string name = l.oname.substr(2, l.oname.size() - 3);
+    if (SourceFile* sf = files_.find({name + ".ngc", name + ".NGC", name})) {
+      prepare(*sf);
+      it = subs_.find(l.oname);
+    }
+  }
+  if (it == subs_.end()) {
+    f.report(i, l.control_span, Severity::error, "PP-E704",
+             fmt::format("no subroutine '{} sub' in this file{}{}", l.oname,
+                         l.oname[1] == '<' ? fmt::format(" and no file {}.ngc in the search folders",
+                                                         l.oname.substr(2, l.oname.size() - 3))
+                                           : std::string(),
+                         context()));
+    throw Stop{};
+  }
+  if (static_cast<int>(frames_.size()) > opt_.max_call_depth) {
+    f.report(i, l.control_span, Severity::error, "PP-E706",
+             fmt::format("calls nest deeper than {} levels (endless recursion?){}", opt_.max_call_depth, context()));
+    throw Stop{};
+  }
+  const Sub s = it->second;
+  Frame fr;
+  std::copy(numbered_.begin() + 1, numbered_.begin() + 31, fr.saved.begin() + 1);
+  for (int k = 1; k <= 30; ++k) numbered_[static_cast<std::size_t>(k)] = k <= static_cast<int>(args.size()) ? args[static_cast<std::size_t>(k - 1)] : 0;
+  frames_.push_back(std::move(fr));
+  guard_.changed();
+  globals_[names_.id("_value_returned")] = 0;
+  globals_[names_.id("_call_level")] = static_cast<double>(frames_.size() - 1);
+  out_.push_call(CallFrame{f.name(), i + 1, l.oname + " call"});
+  execute(*s.file, s.begin + 1, s.end + 1, true);
+  out_.pop_call();
+  std::copy(frames_.back().saved.begin() + 1, frames_.back().saved.end(), numbered_.begin() + 1);
+  frames_.pop_back();
+  globals_[names_.id("_call_level")] = static_cast<double>(frames_.size() - 1);
+}
+
+}  // namespace postproc::gcode::resolver::lcnc_run
