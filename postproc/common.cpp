@@ -24,9 +24,9 @@ unsigned usable_cores() {
 
 void add_dialect_options(CLI::App& cmd, DialectArgs& a, bool required) {
   auto* opt = cmd.add_option("--dialect", a.dialect,
-                             "controller dialect: fanuc|siemens|linuxcnc|heidenhain-iso (G70/G71, comments, G7 and "
+                             "controller dialect: fanuc|siemens|linuxcnc|heidenhain-iso|heidenhain (Klartext) (G70/G71, comments, G7 and "
                              "assignment timing differ)")
-                  ->check(CLI::IsMember({"fanuc", "siemens", "linuxcnc", "heidenhain-iso"}));
+                  ->check(CLI::IsMember({"fanuc", "siemens", "linuxcnc", "heidenhain-iso", "heidenhain"}));
   if (required) opt->required();
   cmd.add_flag("--lathe", a.lathe,
                "lathe programs: Fanuc G-code system A (G98/G99 feed modes, U/W incremental, G70–G76 cycles), X "

@@ -42,6 +42,7 @@ inline constexpr std::string_view kToolLengthZ = "PP-U219";    // Z after a tool
 inline constexpr std::string_view kCutterComp = "PP-U220";     // cutter radius compensation with a non-zero / unknown radius
 inline constexpr std::string_view kToolOffsetAxis = "PP-U221"; // G43.1 offset along an axis other than Z
 inline constexpr std::string_view kModalRestore = "PP-U222";   // LinuxCNC M72/M73 restore this version cannot follow
+inline constexpr std::string_view kKlartextUnresolved = "PP-U260";  // Heidenhain Klartext construct not followed
 // Lathe cycles (docs/lathe-cycles.md): PP-E250…259, PP-U250…259.
 inline constexpr std::string_view kLatheCycleRejected = "PP-E250";  ///< the controller rejects the cycle
 inline constexpr std::string_view kLatheProfileStatement = "PP-E251";  ///< statement inside a cycle's profile

@@ -33,7 +33,7 @@ constexpr std::array<Marker, 22> kMarkers = {{
     {"G43.4", DialectId::fanuc, false},        {"G05.1", DialectId::fanuc, false},
     {"G54.1", DialectId::fanuc, false},        {"WHILE [", DialectId::fanuc, false},
     {"GOTO", DialectId::fanuc, false},         {"M128", DialectId::heidenhain_iso, false},
-    {"BEGIN PGM", DialectId::heidenhain_iso, true}, {"G65 P", DialectId::fanuc, false},
+    {"BEGIN PGM", DialectId::heidenhain, true}, {"G65 P", DialectId::fanuc, false},
 }};
 
 
@@ -42,6 +42,18 @@ bool match_at(std::string_view line, std::size_t pos, std::string_view pat) {
   for (std::size_t i = 1; i < pat.size(); ++i)
     if (upper(line[pos + i]) != pat[i]) return false;
   return true;
+}
+
+/// Heidenhain Klartext: a numbered (or unnumbered) block whose verb only Klartext has.
+std::optional<std::string_view> klartext_verb(std::string_view line) {
+  std::size_t p = line.find_first_not_of(" \t");
+  if (p == std::string_view::npos) return std::nullopt;
+  while (p < line.size() && line[p] >= '0' && line[p] <= '9') ++p;
+  p = line.find_first_not_of(" \t", p);
+  if (p == std::string_view::npos) return std::nullopt;
+  for (const std::string_view v : {"BEGIN PGM", "TOOL CALL", "CYCL DEF", "CALL LBL", "BLK FORM"})
+    if (match_at(line, p, v)) return v;
+  return std::nullopt;
 }
 
 /// LinuxCNC writes its loops as o-words ("o101 while [...]"): a Fanuc marker that follows one is
@@ -63,6 +75,9 @@ std::optional<DialectGuess> guess_dialect(std::string_view text, std::size_t max
     if (end == std::string_view::npos) end = text.size();
     const std::string_view line = text.substr(start, end - start);
     if (end + 1 < text.size() && text[end] == '\r' && text[end + 1] == '\n') ++end;
+    if (const auto v = klartext_verb(line))
+      return DialectGuess{DialectId::heidenhain, std::string(*v), ln,
+                          static_cast<std::uint32_t>(line.find(v->substr(0, 1)) + 1)};
     for (const Marker& m : kMarkers) {
       // Markers inside ( ) comments say nothing about the dialect: "(ROUGH SUB-PROGRAM)".
       const std::size_t last = m.at_line_start ? 0 : line.size();

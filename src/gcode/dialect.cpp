@@ -250,6 +250,14 @@ Dialect make_dialect(DialectId id, const DialectOptions& opt) {
       d.decimal_point_required = false;
       heidenhain_iso(d.gcodes);
       break;
+    case DialectId::heidenhain:
+      // Klartext: its own lexer and interpreter (src/gcode/klartext*.cpp); no G-code table.
+      d.name = "heidenhain";
+      d.paren_comments = false;
+      d.semicolon_comments = true;
+      d.hash_parameters = false;
+      d.decimal_point_required = false;
+      break;
   }
   if (opt.diameter_axis != 0) d.diameter_axis = opt.diameter_axis;
   d.tool_lengths = opt.tool_lengths;
@@ -271,9 +279,10 @@ std::optional<Dialect> make_dialect(std::string_view name, const DialectOptions&
   if (name == "siemens") return make_dialect(DialectId::siemens, opt);
   if (name == "linuxcnc") return make_dialect(DialectId::linuxcnc, opt);
   if (name == "heidenhain-iso") return make_dialect(DialectId::heidenhain_iso, opt);
+  if (name == "heidenhain") return make_dialect(DialectId::heidenhain, opt);
   return std::nullopt;
 }
 
-std::string_view dialect_names() { return "fanuc|siemens|linuxcnc|heidenhain-iso"; }
+std::string_view dialect_names() { return "fanuc|siemens|linuxcnc|heidenhain-iso|heidenhain"; }
 
 }  // namespace postproc::gcode

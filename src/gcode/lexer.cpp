@@ -7,6 +7,7 @@
 
 #include <fmt/format.h>
 
+#include "src/gcode/klartext.hpp"
 #include "src/gcode/number_text.hpp"
 #include "src/gcode/text.hpp"
 
@@ -699,6 +700,7 @@ bool lex_block(const Dialect& dialect, Block& block, const LexContext& ctx) {
   block.has_n = false;
   block.block_delete = false;
   block.block_delete_level = 0;
+  if (dialect.id == DialectId::heidenhain) return klartext::lex(dialect, block, ctx);
   return Lexer(dialect, block, ctx).run();
 }
 

@@ -11,6 +11,7 @@
 
 #include "postproc/gcode/lexer.hpp"
 #include "src/gcode/codes.hpp"
+#include "src/gcode/klartext.hpp"
 
 namespace postproc::gcode {
 namespace {
@@ -95,6 +96,7 @@ ProgramStats run_program(LineReader& reader, const Dialect& given, std::string_v
   // A Fanuc lathe program whose G-code system is not stated: read it off the program first.
   const Dialect settled = given.gcode_system == '?' ? settle_gcode_system(given, reader, file, sink) : Dialect{};
   const Dialect& dialect = given.gcode_system == '?' ? settled : given;
+  if (dialect.id == DialectId::heidenhain) return klartext::run(reader, dialect, file, sink, visitor);
   Interpreter interp(dialect, std::string(file), sink, opt);
   const LexContext ctx{file, &sink};
   Block b;

@@ -16,7 +16,7 @@
 namespace postproc::machine {
 namespace {
 
-constexpr std::string_view kDialects[] = {"fanuc", "siemens", "linuxcnc", "heidenhain-iso"};
+constexpr std::string_view kDialects[] = {"fanuc", "siemens", "linuxcnc", "heidenhain-iso", "heidenhain"};
 constexpr std::string_view kModels[] = {"serial", "prs-hybrid", "hexapod"};
 constexpr std::string_view kCoordinates[] = {"axes", "tool-tip"};
 constexpr std::string_view kOrientations[] = {"rotary-axes", "vector", "virtual-ab"};

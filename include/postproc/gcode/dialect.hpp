@@ -16,7 +16,8 @@
 
 namespace postproc::gcode {
 
-enum class DialectId : std::uint8_t { fanuc, siemens, linuxcnc, heidenhain_iso };
+/// heidenhain = Heidenhain conversational (Klartext) programs, heidenhain_iso = the TNC/MillPlus ISO mode.
+enum class DialectId : std::uint8_t { fanuc, siemens, linuxcnc, heidenhain_iso, heidenhain };
 
 /// What a G code does. Codes that move the machine in ways this version does not resolve carry
 /// their own meaning so that each gets a stable diagnostic.
@@ -164,7 +165,7 @@ struct DialectOptions {
   char reset_motion = 0;
 };
 
-/// Builds the dialect named `name` (fanuc, siemens, linuxcnc, heidenhain-iso); nullopt if unknown.
+/// Builds the dialect named `name` (fanuc, siemens, linuxcnc, heidenhain-iso, heidenhain); nullopt if unknown.
 [[nodiscard]] std::optional<Dialect> make_dialect(std::string_view name, const DialectOptions& opt = {});
 [[nodiscard]] Dialect make_dialect(DialectId id, const DialectOptions& opt = {});
 [[nodiscard]] std::string_view dialect_names();
