@@ -33,6 +33,10 @@ enum class Verb : std::uint8_t {
 [[nodiscard]] Verb verb_of(const Block& b);
 [[nodiscard]] std::string_view to_string(Verb v);
 
+/// True when the line continues on the next one: its text ends with '~' (after a comment too:
+/// "Q200=+2 ;SET-UP CLEARANCE ~").
+[[nodiscard]] bool continued(std::string_view raw);
+
 /// Lexes `block.raw` as Klartext; see lex_block.
 bool lex(const Dialect& d, Block& block, const LexContext& ctx);
 

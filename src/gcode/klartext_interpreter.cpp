@@ -147,9 +147,7 @@ class Interp {
   void error(const Block& b, Span at, std::string msg) {
     report(b, at, Severity::error, codes::kArcGeometry, std::move(msg));
   }
-  static bool ends_continued(const Block& b) {
-    return !b.tokens.empty() && b.tokens.back().kind == TokenKind::keyword && b.text(b.tokens.back().span) == "~";
-  }
+  static bool ends_continued(const Block& b) { return continued(b.raw); }
 
   // ---- units and planes ----
   double len(double v) const { return inch_ ? v * 25.4 : v; }

@@ -203,7 +203,16 @@ class Lexer {
         continue;
       }
       if (is_alpha(c)) {
-        const std::size_t le = letters_end(s);
+        std::size_t le = letters_end(s);
+        // An address followed directly by a Q parameter: FQ50, X-Q1 has a sign, IXQ… is not Klartext.
+        for (std::size_t k = s + 1; k < le; ++k)
+          if ((raw_[k] == 'Q' || raw_[k] == 'q') &&
+              ((k + 1 < raw_.size() && is_digit(raw_[k + 1])) ||
+               (k + 2 < raw_.size() && (raw_[k + 1] == 'L' || raw_[k + 1] == 'R' || raw_[k + 1] == 'l' ||
+                                        raw_[k + 1] == 'r') && is_digit(raw_[k + 2])))) {
+            le = k;
+            break;
+          }
         std::size_t p = le;
         // A value: sign, then digits or a Q parameter.
         std::size_t v = p;
@@ -352,6 +361,12 @@ std::string_view to_string(Verb v) {
     case Verb::other: return "unknown";
   }
   return "unknown";
+}
+
+bool continued(std::string_view raw) {
+  std::size_t e = raw.size();
+  while (e > 0 && is_blank(raw[e - 1])) --e;
+  return e > 0 && raw[e - 1] == '~';
 }
 
 int find_keyword(const Block& b, std::string_view name) {

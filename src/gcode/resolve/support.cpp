@@ -286,6 +286,8 @@ bool at(std::string_view raw, std::size_t i, std::string_view w) {
 /// Cheap pre-filter: can this line hold anything resolve() evaluates? One pass over the line
 /// looking for the dialect's statement characters and words (the lexer then decides).
 bool may_need(std::string_view raw, const Dialect& d) {
+  if (d.id == DialectId::heidenhain)  // Q parameters, FN, LBL, CALL: the lexer decides
+    return raw.find_first_of("QqLlFf") != std::string_view::npos;
   if (d.id == DialectId::linuxcnc) {
     if (raw.find_first_of("#[") != std::string_view::npos) return true;
     const auto p = raw.find_first_not_of(" \t/");
@@ -359,6 +361,7 @@ bool line_needs(std::string_view raw, std::uint64_t line, const Dialect& d, Bloc
   b.raw = raw;
   b.line = line;
   lex_block(d, b, ctx);
+  if (d.id == DialectId::heidenhain) return resolver::klartext_needs(b);
   if (resolver::block_has_statements(b)) return true;
   if (d.id == DialectId::fanuc)
     for (const Word& w : b.words)
@@ -421,6 +424,7 @@ ResolvedProgram resolve(std::string_view text, std::string_view file, const Dial
     case DialectId::linuxcnc: resolver::resolve_linuxcnc(files, out, opt, sink, r); break;
     case DialectId::fanuc: resolver::resolve_fanuc(files, out, opt, sink, r); break;
     case DialectId::siemens: resolver::resolve_siemens(files, out, opt, sink, r); break;
+    case DialectId::heidenhain: resolver::resolve_heidenhain(files, out, opt, sink, r); break;
     default: {
       Diagnostic diag;
       diag.severity = Severity::error;

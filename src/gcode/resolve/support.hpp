@@ -192,5 +192,9 @@ class FileSet {
 void resolve_linuxcnc(FileSet& files, Emitter& out, const ResolveOptions& opt, DiagnosticSink& sink, ResolvedProgram& r);
 void resolve_fanuc(FileSet& files, Emitter& out, const ResolveOptions& opt, DiagnosticSink& sink, ResolvedProgram& r);
 void resolve_siemens(FileSet& files, Emitter& out, const ResolveOptions& opt, DiagnosticSink& sink, ResolvedProgram& r);
+void resolve_heidenhain(FileSet& files, Emitter& out, const ResolveOptions& opt, DiagnosticSink& sink,
+                        ResolvedProgram& r);
+/// True when a lexed Klartext block holds anything the resolver evaluates (Q parameters, FN, labels, calls).
+[[nodiscard]] bool klartext_needs(const Block& b);
 
 }  // namespace postproc::gcode::resolver
