@@ -17,14 +17,14 @@ GMeaning meaning(const gc::Dialect& d, double g) {
 }
 
 TEST(Dialect, NamesRoundTrip) {
-  EXPECT_EQ(gc::dialect_names(), "fanuc|siemens|linuxcnc|heidenhain-iso");
-  for (const char* name : {"fanuc", "siemens", "linuxcnc", "heidenhain-iso"}) {
+  EXPECT_EQ(gc::dialect_names(), "fanuc|siemens|linuxcnc|heidenhain-iso|heidenhain");
+  for (const char* name : {"fanuc", "siemens", "linuxcnc", "heidenhain-iso", "heidenhain"}) {
     const auto d = gc::make_dialect(name);
     ASSERT_TRUE(d.has_value()) << name;
     EXPECT_EQ(d->name, name);
     EXPECT_EQ(gc::make_dialect(d->id).name, name);
   }
-  EXPECT_FALSE(gc::make_dialect("heidenhain").has_value());
+  EXPECT_FALSE(gc::make_dialect("klartext").has_value());
   EXPECT_FALSE(gc::make_dialect("Fanuc").has_value());
   EXPECT_FALSE(gc::make_dialect("").has_value());
 }

@@ -6,6 +6,7 @@
 #include <fmt/format.h>
 
 #include "postproc/gcode/number_style.hpp"
+#include "src/gcode/text.hpp"
 
 namespace postproc::comp {
 using gcode::AxisVector;
@@ -47,22 +48,34 @@ void MotionCollector::block(const gcode::Block& b, std::span<const gcode::Motion
 
 bool WordWriter::vector_form(const Motion& m) const {
   if (m_.coordinates == machine::ProgramCoordinates::tool_tip) return m_.orientation == machine::Orientation::vector;
-  return m.tcp == gcode::TcpMode::fanuc_g43_5 || (m.tcp == gcode::TcpMode::siemens_traori && m.tool_vector_known);
+  return m.tcp == gcode::TcpMode::fanuc_g43_5 || (m.tcp == gcode::TcpMode::siemens_traori && m.tool_vector_known) ||
+         (m.tcp == gcode::TcpMode::heidenhain_m128 && m.tool_vector_known);  // Klartext LN … TX TY TZ
 }
 
 namespace {
 
 /// The word carrying vector component k (0..2) of the tool vector: Siemens A3/B3/C3, else I/J/K.
-int vector_word(const Block& b, int k, bool siemens) {
+int vector_word(const Block& b, int k, bool siemens, bool klartext = false) {
   for (std::size_t i = 0; i < b.words.size(); ++i) {
     const Word& w = b.words[i];
-    if (siemens ? (w.letter == "ABC"[k] && w.index == 3) : (gcode::plain_letter(w) && w.letter == "IJK"[k]))
+    if (klartext && w.letter == 'T' && w.name_len == 2 && b.text(w.name).size() == 2 &&
+        gcode::text::upper(b.text(w.name)[1]) == "XYZ"[k])  // Klartext LN … TX TY TZ
+      return static_cast<int>(i);
+    if (!klartext && (siemens ? (w.letter == "ABC"[k] && w.index == 3) : (gcode::plain_letter(w) && w.letter == "IJK"[k])))
       return static_cast<int>(i);
   }
   return -1;
 }
 
 std::uint32_t column_of(const Word& w) { return w.span.begin + 1; }
+
+/// A literal with ',' as its decimal separator (Klartext files often carry one) read with '.'.
+std::string comma_to_point(std::string_view t) {
+  std::string s(t);
+  for (char& c : s)
+    if (c == ',') c = '.';
+  return s;
+}
 
 }  // namespace
 
@@ -128,7 +141,8 @@ WordWriter::Outcome WordWriter::rewrite(const Block& b, const Motion& m, gcode::
         v = *rw;
       }
       ed.insert_after(anchor, sep + std::string(1, gcode::kAxisLetters[static_cast<std::size_t>(a)]) +
-                                  gcode::format_counts(std::llround(v * s), dm, default_style(), d_.decimal_point_required));
+                                  decimal_mark(b, gcode::format_counts(std::llround(v * s), dm, insert_style(),
+                                                                       d_.decimal_point_required)));
       ++o.inserted;
       continue;
     }
@@ -150,7 +164,8 @@ WordWriter::Outcome WordWriter::rewrite(const Block& b, const Motion& m, gcode::
                                 "must be resolved first (issue: expressions are written back in a later version)", 0, 0};
       return o;
     }
-    const std::string_view text = b.text(*lit);
+    const std::string point_text = comma_to_point(b.text(*lit));
+    const std::string_view text = point_text;
     const int implied = gcode::implied_decimals(d_, w, text, m.inch_source);
     gcode::NumberStyle st = gcode::detect_style(text);
     if (implied > 0) st = gcode::NumberStyle{st.plus_sign, true, implied, false, false};
@@ -175,7 +190,7 @@ WordWriter::Outcome WordWriter::rewrite(const Block& b, const Motion& m, gcode::
                                 "pass --integer-input", 0, 0};
       return o;
     }
-    ed.replace(*lit, gcode::format_counts(want, dec, st, d_.decimal_point_required));
+    ed.replace(*lit, decimal_mark(b, gcode::format_counts(want, dec, st, d_.decimal_point_required)));
     ++o.changed;
   }
   if (vector_form(m)) {
@@ -183,13 +198,13 @@ WordWriter::Outcome WordWriter::rewrite(const Block& b, const Motion& m, gcode::
     // A block that writes any component writes all three: a missing one reads as 0.
     bool any = false;
     for (int k = 0; k < 3; ++k)
-      any = any || vector_word(b, k, siemens) >= 0 || std::abs(target.vector[k] - m.tool_vector[k]) >= 5e-7;
+      any = any || vector_word(b, k, siemens, d_.id == gcode::DialectId::heidenhain) >= 0 || std::abs(target.vector[k] - m.tool_vector[k]) >= 5e-7;
     for (int k = 0; k < 3 && any; ++k) {
-      const int wi = vector_word(b, k, siemens);
+      const int wi = vector_word(b, k, siemens, d_.id == gcode::DialectId::heidenhain);
       const double v = target.vector[k];
       if (wi < 0) {
-        ed.insert_after(anchor, sep + (siemens ? fmt::format("{}3=", "ABC"[k]) : std::string(1, "IJK"[k])) +
-                                    gcode::format_number(v, default_style(), 6, d_.decimal_point_required));
+        ed.insert_after(anchor, sep + vector_name(k) +
+                                    decimal_mark(b, gcode::format_number(v, insert_style(), 6, d_.decimal_point_required)));
         ++o.inserted;
         continue;
       }
@@ -199,12 +214,13 @@ WordWriter::Outcome WordWriter::rewrite(const Block& b, const Motion& m, gcode::
         o = {false, column_of(w), "the tool-vector word is an expression and needs a correction", 0, 0};
         return o;
       }
-      const gcode::NumberStyle st = gcode::detect_style(b.text(*lit));
+      const std::string vtext = comma_to_point(b.text(*lit));
+      const gcode::NumberStyle st = gcode::detect_style(vtext);
       const int dec = std::max(st.decimals, 6);
       std::int64_t old = 0;
       const std::int64_t want = std::llround(v * gcode::decimal_scale(dec));
-      if (gcode::literal_counts(b.text(*lit), dec, old) && old == want) continue;
-      ed.replace(*lit, gcode::format_counts(want, dec, st, d_.decimal_point_required));
+      if (gcode::literal_counts(vtext, dec, old) && old == want) continue;
+      ed.replace(*lit, decimal_mark(b, gcode::format_counts(want, dec, st, d_.decimal_point_required)));
       ++o.changed;
     }
   }
@@ -235,6 +251,11 @@ std::optional<std::string> WordWriter::segment_line(const Block& b, const Motion
   std::string line;
   if (b.block_delete) line = std::string(b.text(b.block_delete_span)) + sep;
   bool first = true;
+  // Klartext: a new block is a line of its own kind (L, or LN with the tool vector), no number.
+  if (d_.id == gcode::DialectId::heidenhain) {
+    line += vector_form(m) ? "LN" : "L";
+    first = false;
+  }
   auto add = [&](std::string word) {
     line += (first ? "" : sep) + word;
     first = false;
@@ -253,13 +274,12 @@ std::optional<std::string> WordWriter::segment_line(const Block& b, const Motion
       v = *rw;
     }
     add(std::string(1, gcode::kAxisLetters[static_cast<std::size_t>(a)]) +
-        gcode::format_counts(std::llround(v * s), dm, default_style(), d_.decimal_point_required));
+        decimal_mark(b, gcode::format_counts(std::llround(v * s), dm, insert_style(), d_.decimal_point_required)));
   }
   if (vector_form(m)) {
-    const bool siemens = d_.id == gcode::DialectId::siemens;
     for (int k = 0; k < 3; ++k)
-      add((siemens ? fmt::format("{}3=", "ABC"[k]) : std::string(1, "IJK"[k])) +
-          gcode::format_number(to.vector[k], default_style(), 6, d_.decimal_point_required));
+      add(vector_name(k) +
+          decimal_mark(b, gcode::format_number(to.vector[k], insert_style(), 6, d_.decimal_point_required)));
   }
   if (g93_segments > 1)
     add("F" + gcode::format_number(m.feed * static_cast<double>(g93_segments), default_style(), 3,

@@ -93,6 +93,28 @@ class WordWriter {
  private:
   /// The style of inserted words and new lines: plain, leading zero, trimmed trailing zeros.
   [[nodiscard]] static gcode::NumberStyle default_style() { return gcode::NumberStyle{false, true, 3, false, false}; }
+  /// The style of inserted words: Klartext writes a sign on every coordinate (X+10).
+  [[nodiscard]] gcode::NumberStyle insert_style() const {
+    gcode::NumberStyle s = default_style();
+    s.plus_sign = d_.id == gcode::DialectId::heidenhain;
+    return s;
+  }
+  /// Tool-vector word names: Fanuc I J K, Sinumerik A3= B3= C3=, Klartext TX TY TZ.
+  [[nodiscard]] std::string vector_name(int k) const {
+    if (d_.id == gcode::DialectId::siemens) return std::string(1, "ABC"[k]) + "3=";
+    if (d_.id == gcode::DialectId::heidenhain) return std::string("T") + "XYZ"[k];
+    return std::string(1, "IJK"[k]);
+  }
+  /// `number` with the block's decimal separator: ',' where the block writes its numbers with one.
+  [[nodiscard]] static std::string decimal_mark(const gcode::Block& b, std::string number) {
+    for (const gcode::Word& w : b.words)
+      if (b.text(w.value).find(',') != std::string_view::npos) {
+        for (char& c : number)
+          if (c == '.') c = ',';
+        break;
+      }
+    return number;
+  }
   [[nodiscard]] bool vector_form(const gcode::Motion& m) const;
   /// The value of an absolute word of axis `a` that moves it from `from` to `target` (program
   /// units): `target`, or under a rotary roll-over rule the word nearest `like` that gets there;

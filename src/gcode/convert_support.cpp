@@ -152,6 +152,10 @@ const ModalTrack::G* ModalTrack::axis_consumer() const {
 }
 
 int ModalTrack::axis_of(const Word& w) const {
+  // Heidenhain Klartext: X+10 absolute, IX+10 incremental (TNC 640 "Path functions").
+  // The Klartext lexer stores the axis of IX…IC as index = 1 + axis.
+  if (dialect->id == DialectId::heidenhain && w.name_len == 2 && w.letter == 'I')
+    return w.index >= 1 && w.index <= kAxisCount ? w.index - 1 : -1;
   if (!plain_letter(w)) return -1;
   if (dialect->lathe && dialect->id == DialectId::fanuc && dialect->gcode_system == 'A' &&
       (w.letter == 'U' || w.letter == 'W' || w.letter == 'H'))
@@ -160,6 +164,7 @@ int ModalTrack::axis_of(const Word& w) const {
 }
 
 bool ModalTrack::incremental(const Word& w) const {
+  if (dialect->id == DialectId::heidenhain) return w.name_len == 2 && w.letter == 'I';
   if (w.kind == ValueKind::incremental_fn) return true;
   if (w.kind == ValueKind::absolute_fn) return false;
   if (dialect->lathe && dialect->id == DialectId::fanuc && dialect->gcode_system == 'A' &&

@@ -262,6 +262,12 @@ class Lexer {
     w.kind = kind;
     w.letter = static_cast<char>(std::toupper(static_cast<unsigned char>(raw_[s])));
     w.name_len = static_cast<std::uint8_t>(std::min<std::size_t>(255, name_end - s));
+    // IX IY IZ IA IB IC IU IV IW (incremental axis words): index = 1 + the axis, for writers
+    // that have the word but not the line (ModalTrack::axis_of).
+    if (w.name_len == 2 && w.letter == 'I') {
+      const int a = axis_index(static_cast<char>(std::toupper(static_cast<unsigned char>(raw_[s + 1]))));
+      if (a >= 0) w.index = static_cast<std::uint8_t>(a + 1);
+    }
     if (kind == ValueKind::number) {
       const std::string_view v = raw_.substr(value_begin, e - value_begin);
       w.whole = v.find_first_of(".,") == std::string_view::npos;

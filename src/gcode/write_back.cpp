@@ -9,6 +9,7 @@
 #include <fmt/format.h>
 
 #include "postproc/gcode/lexer.hpp"
+#include "src/gcode/klartext.hpp"
 #include "src/gcode/text.hpp"
 
 namespace postproc::gcode {
@@ -217,6 +218,10 @@ std::string shorten(std::string_view s) {
 }  // namespace
 
 bool header_waits(const Block& b) {
+  // Klartext: BEGIN PGM must stay the program's first block.
+  if (b.line <= 3 && !b.tokens.empty() && b.tokens.front().kind == TokenKind::keyword &&
+      klartext::verb_of(b) == klartext::Verb::begin_pgm)
+    return true;
   bool leading = b.leader || b.raw.empty();
   for (const Token& t : b.tokens)
     leading = leading || t.kind == TokenKind::percent || t.kind == TokenKind::program_number;
