@@ -152,6 +152,8 @@ class Interp {
   // ---- units and planes ----
   double len(double v) const { return inch_ ? v * 25.4 : v; }
   PlaneAxes axes() const { return plane_axes(plane_); }
+  /// The plane of the block's contour geometry: CC's plane for C, CP and LP, else the working plane.
+  PlaneAxes gaxes() const { return plane_axes(geo_plane_); }
 
   // ---- words ----
   bool collect(const Block& b, Verb v, Words& w) {
@@ -269,33 +271,34 @@ class Interp {
   }
 
   void circle_centre(const Block& b) {
-    // CC X Y (absolute or IX IY from the current point); CC alone: the current point.
+    // CC X Y (absolute, or IX IY from the current point); CC alone: the current point. The two
+    // axes of CC also choose the plane of the arcs about it (C, CP, LP): "CC Y… Z…" makes the
+    // following CP an arc in the Y/Z plane whatever the tool axis (TNC 640 User's Manual, "Circle
+    // centre CC"; CAM posts write every arc of a ramp this way).
     Words w;
     if (!collect(b, Verb::cc, w)) {
       cc_known_ = false;
       return;
     }
-    const PlaneAxes p = axes();
-    const AxisMask plane = static_cast<AxisMask>((1u << p.u) | (1u << p.v));
-    if ((w.present & ~plane) != 0) {
+    const AxisMask xy = bit(Axis::x) | bit(Axis::y), yz = bit(Axis::y) | bit(Axis::z), zx = bit(Axis::z) | bit(Axis::x);
+    Plane pl = plane_;
+    if (w.present == xy) pl = Plane::xy;
+    else if (w.present == yz) pl = Plane::yz;
+    else if (w.present == zx) pl = Plane::zx;
+    else if (w.present != 0) {
       warn(b, b.tokens.front().span, codes::kKlartextUnresolved,
-           "CC names an axis outside the working plane; the pole is not followed");
+           "CC needs both coordinates of its plane (or none: the current point); the pole is not followed");
       cc_known_ = false;
       return;
     }
+    const PlaneAxes p = plane_axes(pl);
     for (const int a : {p.u, p.v}) {
       const auto k = static_cast<std::size_t>(a);
-      const double cur = cc_known_ ? cc_[a == p.u ? 0 : 1] : 0.0;
       double v = 0;
       bool kn = true;
-      if (!(w.present & (1u << a))) {
-        if (w.present == 0) {  // CC alone: the last programmed position
-          v = pos_[a];
-          kn = (known_ & (1u << a)) != 0;
-        } else {
-          v = cur;  // not programmed: the last value of the pole coordinate
-          kn = cc_known_;
-        }
+      if (w.present == 0) {  // CC alone: the last programmed position
+        v = pos_[a];
+        kn = (known_ & (1u << a)) != 0;
       } else if (w.incremental & (1u << a)) {
         v = pos_[a] + len(w.value[k]);
         kn = (known_ & (1u << a)) != 0;
@@ -306,13 +309,12 @@ class Interp {
       cc_part_known_[a == p.u ? 0 : 1] = kn;
     }
     cc_known_ = cc_part_known_[0] && cc_part_known_[1];
-    cc_plane_ = plane_;
+    cc_plane_ = pl;
   }
 
   void motion(const Block& b, Verb v, MotionSink& out) {
     Words w;
     const bool ok = collect(b, v, w);
-    const PlaneAxes p = axes();
     if (w.unread >= 0)
       warn(b, b.words[static_cast<std::size_t>(w.unread)].span, codes::kKlartextUnresolved,
            fmt::format("'{}' is not read by this version in a {} block; the block is not followed",
@@ -337,6 +339,7 @@ class Interp {
     for (const auto& [m, at] : w.m) before_motion_m(b, m, at);
 
     const bool plane_motion = v == Verb::c || v == Verb::cr || v == Verb::ct || v == Verb::cp || v == Verb::lp;
+    geo_plane_ = (v == Verb::c || v == Verb::cp || v == Verb::lp) && cc_known_ ? cc_plane_ : plane_;
     if (v == Verb::m_only || (w.present == 0 && !plane_motion && w.pr < 0 && w.pa < 0)) {
       after_motion_m(b, w, out);
       return;
@@ -387,7 +390,7 @@ class Interp {
       default: break;
     }
     if (!geometry_ok) {
-      known_ &= static_cast<AxisMask>(~(w.present | (1u << p.u) | (1u << p.v)));
+      known_ &= static_cast<AxisMask>(~(w.present | (1u << gaxes().u) | (1u << gaxes().v)));
       after_motion_m(b, w, out);
       return;
     }
@@ -577,15 +580,14 @@ class Interp {
   }
 
   bool centre_ready(const Block& b) {
-    if (cc_known_ && cc_plane_ == plane_) return true;
+    if (cc_known_) return true;
     warn(b, b.tokens.front().span, codes::kKlartextUnresolved,
-         cc_known_ ? "the circle centre CC was set in another working plane"
-                   : "the circle centre / pole CC is not known here (not programmed, or relative to an unknown position)");
+         "the circle centre / pole CC is not known here (not programmed, or relative to an unknown position)");
     return false;
   }
 
   bool start_known_in_plane(const Block& b) {
-    const PlaneAxes p = axes();
+    const PlaneAxes p = gaxes();
     if ((known_ & (1u << p.u)) && (known_ & (1u << p.v))) return true;
     warn(b, b.tokens.front().span, codes::kUnknownPosition,
          "the arc starts at a position that is not known here; program an absolute position before it");
@@ -593,8 +595,9 @@ class Interp {
   }
 
   void set_arc(Motion& m, const Eigen::Vector2d& c, double sweep, bool full) {
-    const PlaneAxes p = axes();
+    const PlaneAxes p = gaxes();
     m.type = sweep >= 0 ? MotionType::arc_ccw : MotionType::arc_cw;
+    m.plane = geo_plane_;
     m.arc.centre = m.start.head<3>();
     m.arc.centre[p.u] = c[0];
     m.arc.centre[p.v] = c[1];
@@ -605,7 +608,7 @@ class Interp {
   }
 
   bool arc_about_centre(const Block& b, const Words& w, Motion& m, AxisMask& end_known) {
-    const PlaneAxes p = axes();
+    const PlaneAxes p = gaxes();
     if (!centre_ready(b) || !start_known_in_plane(b)) return false;
     if (w.dr == 0) {
       report(b, b.tokens.front().span, Severity::error, codes::kMissingWord, "C needs DR+ or DR- (the direction)");
@@ -636,7 +639,7 @@ class Interp {
   }
 
   bool arc_by_radius(const Block& b, const Words& w, Motion& m, AxisMask& end_known) {
-    const PlaneAxes p = axes();
+    const PlaneAxes p = gaxes();
     if (!start_known_in_plane(b)) return false;
     if (w.r < 0 || w.dr == 0 || w.r_v == 0) {
       report(b, b.tokens.front().span, Severity::error, codes::kMissingWord, "CR needs R (not 0) and DR+ or DR-");
@@ -671,7 +674,7 @@ class Interp {
 
   bool arc_tangent(const Block& b, const Words& w, Motion& m, AxisMask& end_known) {
     (void)w;
-    const PlaneAxes p = axes();
+    const PlaneAxes p = gaxes();
     if (!start_known_in_plane(b)) return false;
     if (!tangent_known_) {
       warn(b, b.tokens.front().span, codes::kKlartextUnresolved,
@@ -706,7 +709,7 @@ class Interp {
   }
 
   bool polar_line(const Block& b, const Words& w, Motion& m, AxisMask& end_known) {
-    const PlaneAxes p = axes();
+    const PlaneAxes p = gaxes();
     if (!centre_ready(b)) return false;
     if ((w.present & ((1u << p.u) | (1u << p.v))) != 0) {
       report(b, b.tokens.front().span, Severity::error, codes::kWordNotAllowed,
@@ -725,7 +728,7 @@ class Interp {
   /// The end point of PR/PA words about the pole: absolute or incremental to the current point's
   /// polar coordinates (an omitted PR or PA keeps the current one).
   bool polar_end(const Block& b, const Words& w, Eigen::Vector2d& e) {
-    const PlaneAxes p = axes();
+    const PlaneAxes p = gaxes();
     const bool need_current = w.pr < 0 || w.pa < 0 || w.ipr || w.ipa;
     double r = 0, a = 0;
     if (need_current) {
@@ -747,7 +750,7 @@ class Interp {
   bool polar_arc(const Block& b, const Words& w, Motion& m, AxisMask& end_known) {
     // CP PA|IPA [IZ] DR±: an arc about the pole from the current point; the radius is the current
     // distance to the pole. An incremental angle of more than a turn is a helix (with the tool axis).
-    const PlaneAxes p = axes();
+    const PlaneAxes p = gaxes();
     if (!centre_ready(b) || !start_known_in_plane(b)) return false;
     if (w.pa < 0 || w.dr == 0 || w.pr >= 0 || (w.present & ((1u << p.u) | (1u << p.v)))) {
       report(b, b.tokens.front().span, Severity::error, codes::kMissingWord,
@@ -967,6 +970,7 @@ class Interp {
   std::array<bool, 2> cc_part_known_{false, false};
   bool cc_known_ = false;
   Plane cc_plane_ = Plane::xy;
+  Plane geo_plane_ = Plane::xy;
   Eigen::Vector3d tangent_ = Eigen::Vector3d::UnitX();
   bool tangent_known_ = false;
   bool polar_words_ = false;
