@@ -117,6 +117,7 @@ TEST_P(Samples, MachineWithoutErrorsLeavesTheProgramByteForByte) {
 INSTANTIATE_TEST_SUITE_P(Compensate, Samples,
                          ::testing::Values(SampleCase{"trunnion_bc_fanuc.toml", "blade_5axis_g43_4.nc"},
                                            SampleCase{"trunnion_bc_fanuc.toml", "impeller_axes_bc.nc"},
+                                           SampleCase{"trunnion_bc_heidenhain.toml", "impeller_axes_bc.h"},
                                            SampleCase{"trunnion_ac_siemens.toml", "housing_traori.mpf"},
                                            SampleCase{"hybrid_3prs_doc001.toml", "tilted_pocket_3prs.nc"},
                                            SampleCase{"hexapod_doc003.toml", "freeform_hexapod_g43_5.nc"},

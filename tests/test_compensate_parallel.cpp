@@ -122,6 +122,7 @@ TEST_P(ParallelSample, SameAsOneThread) {
 INSTANTIATE_TEST_SUITE_P(
     Samples, ParallelSample,
     ::testing::Values(Sample{"impeller_axes_bc.nc", "trunnion_bc_fanuc.toml"},
+                      Sample{"impeller_axes_bc.h", "trunnion_bc_heidenhain.toml"},
                       Sample{"blade_5axis_g43_4.nc", "trunnion_bc_fanuc.toml"},
                       Sample{"cone_frustum_nas979.nc", "trunnion_ac_fanuc.toml"},
                       Sample{"housing_traori.mpf", "trunnion_ac_siemens.toml"},

@@ -54,6 +54,7 @@ Compensator::ArcCheck Compensator::arc_check(const Block& b, const Motion& m, co
 }
 
 void Compensator::restore_arc_mode(const Block& b, gcode::BlockEditor& ed) {
+  if (d_.id == gcode::DialectId::heidenhain) return;  // Klartext: every block names its path function
   if (track_.block_motion() != nullptr) {  // the block names its motion (arc_word_ is its G word if an arc)
     arc_mode_broken_ = false;
     return;
@@ -100,6 +101,29 @@ bool Compensator::linearize_arc(const Block& b, const Motion& m, const ProgramMa
   // The block becomes the first chord: G2/G3 → G1 (inserted when the arc was modal), centre,
   // radius and turn words go; the other chords follow as new lines.
   const std::string sep = b.raw.find_first_of(" \t") == std::string_view::npos ? "" : " ";
+  if (d_.id == gcode::DialectId::heidenhain) {
+    // Klartext: the arc block (C, CR, CT) becomes a straight line L; DR±, the radius word R and
+    // the arc verb go (the CC block before it stays: it only sets the centre).
+    if (b.tokens.empty() || b.tokens.front().kind != gcode::TokenKind::keyword) {
+      refuse(b, m.column, kRefused, "the arc needs linearising but its block has no path function to replace");
+      return false;
+    }
+    ed.replace(b.tokens.front().span, "L");
+    for (std::size_t i = 1; i < b.tokens.size(); ++i) {
+      const std::string_view t = b.text(b.tokens[i].span);
+      if (gcode::text::iequals(t, "DR+") || gcode::text::iequals(t, "DR-")) {
+        // the blank before it goes too
+        std::uint32_t from = b.tokens[i].span.begin;
+        while (from > 0 && (b.raw[from - 1] == ' ' || b.raw[from - 1] == '\t')) --from;
+        ed.remove({from, b.tokens[i].span.end});
+      }
+    }
+    for (std::size_t i = 0; i < b.words.size(); ++i)
+      if (gcode::plain_letter(b.words[i]) && b.words[i].letter == 'R') ed.remove_word(i);
+    ++r_.arcs_linearized;
+    write_segments(b, m, ed, pts, out);
+    return !block_error_;
+  }
   if (const auto* g = track_.block_motion()) {
     const Word& w = b.words[g->word];
     std::string v(b.text(w.value));

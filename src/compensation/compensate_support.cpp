@@ -169,6 +169,7 @@ WordWriter::Outcome WordWriter::rewrite(const Block& b, const Motion& m, gcode::
     const int implied = gcode::implied_decimals(d_, w, text, m.inch_source);
     gcode::NumberStyle st = gcode::detect_style(text);
     if (implied > 0) st = gcode::NumberStyle{st.plus_sign, true, implied, false, false};
+    if (d_.id == gcode::DialectId::heidenhain) st.plus_sign = true;  // Klartext signs every coordinate
     const int dec = std::max(st.decimals, dm);
     const double s = gcode::decimal_scale(dec);
     if (inc && !have_start) {
@@ -215,7 +216,8 @@ WordWriter::Outcome WordWriter::rewrite(const Block& b, const Motion& m, gcode::
         return o;
       }
       const std::string vtext = comma_to_point(b.text(*lit));
-      const gcode::NumberStyle st = gcode::detect_style(vtext);
+      gcode::NumberStyle st = gcode::detect_style(vtext);
+      if (d_.id == gcode::DialectId::heidenhain) st.plus_sign = true;
       const int dec = std::max(st.decimals, 6);
       std::int64_t old = 0;
       const std::int64_t want = std::llround(v * gcode::decimal_scale(dec));

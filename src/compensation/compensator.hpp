@@ -170,7 +170,7 @@ class Compensator final : public gcode::BlockVisitor {
     // Axis words that produced no motion (a move the reader refused or does not resolve: an arc from
     // an unknown start, a Fanuc ,R corner, a Sinumerik TURN=.5 helix): what the controller holds on
     // those axes is not the last written value.
-    if (motions.empty() && track_.axis_consumer() == nullptr)
+    if (motions.empty() && track_.axis_consumer() == nullptr && !track_.axis_words_data)
       for (const gcode::Word& w : b.words)
         if (const int a = track_.axis_of(w); a >= 0) written_known_ &= static_cast<gcode::AxisMask>(~(1u << a));
     if (ed.empty()) {

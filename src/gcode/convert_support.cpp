@@ -5,6 +5,7 @@
 #include <string>
 
 #include "src/gcode/number_text.hpp"
+#include "src/gcode/klartext.hpp"
 #include "src/gcode/text.hpp"
 
 namespace postproc::gcode {
@@ -42,6 +43,15 @@ std::optional<Span> literal_span(const Block& b, const Word& w) {
 void ModalTrack::update(const Block& b) {
   block_g.clear();
   units_in_block = false;
+  if (dialect->id == DialectId::heidenhain) {
+    // Klartext has no G words; only the path blocks' axis words are positions (CC X Y is a centre,
+    // CYCL DEF 7.1 X a shift, BLK FORM X a blank corner).
+    using klartext::Verb;
+    const Verb v = klartext::verb_of(b);
+    axis_words_data = !(v == Verb::l || v == Verb::ln || v == Verb::lp || v == Verb::c || v == Verb::cr ||
+                        v == Verb::ct || v == Verb::cp || v == Verb::m_only);
+    return;
+  }
   for (std::size_t i = 0; i < b.words.size(); ++i) {
     const int c = g_code10(b.words[i]);
     if (c < 0) continue;

@@ -82,6 +82,7 @@ struct ModalTrack {
   bool tcp_vector = false;  ///< Fanuc G43.5: I J K are a tool direction
   bool polar_command = false;  ///< Fanuc G16: X/Y are radius/angle
   bool units_in_block = false;  ///< the block has a units word
+  bool axis_words_data = false;  ///< Klartext: the block's axis words are data (CC, cycle 7, BLK FORM), not a move
   [[nodiscard]] bool operator==(const ModalTrack&) const = default;
 };
 
