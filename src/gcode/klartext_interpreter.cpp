@@ -5,7 +5,9 @@
 // "Miscellaneous functions"); docs/dialect-heidenhain.md lists them. What this version does not
 // follow is reported at its word with a PP-U code and leaves the affected axes unknown, so nothing
 // is read differently from the control in silence.
+#include <algorithm>
 #include <cmath>
+#include <map>
 #include <numbers>
 #include <optional>
 
@@ -60,9 +62,15 @@ class Interp {
     const Verb v = verb_of(b);
     if (continuation_) {  // a line of a block continued with '~' (cycle parameters)
       continuation_ = ends_continued(b);
+      if (v == Verb::q_assign) cycle_parameter(b);
       return;
     }
     continuation_ = ends_continued(b);
+    if (v == Verb::q_assign && cycle_params_open_) {  // a parameter line of the cycle just defined
+      cycle_parameter(b);
+      return;
+    }
+    cycle_params_open_ = false;
     switch (v) {
       case Verb::none:
       case Verb::comment:
@@ -91,7 +99,7 @@ class Interp {
       case Verb::m_only: return motion(b, v, out);
       case Verb::cc: return circle_centre(b);
       case Verb::cycl_def: return cycle_def(b);
-      case Verb::cycl_call: return cycle_call(b, b.tokens.front().span);
+      case Verb::cycl_call: return cycle_call(b, b.tokens.front().span, out);
       case Verb::plane: return plane(b);
       case Verb::function: return function(b);
       case Verb::rnd:
@@ -514,7 +522,7 @@ class Interp {
       switch (m) {
         case 2:
         case 30: ended_ = true; spindle_ = false; break;
-        case 99: cycle_call(b, at); break;
+        case 99: cycle_call(b, at, out); break;
         case 94: {  // reduce the display of the rotary axes below 360°
           for (int a = 3; a < 6; ++a) {
             double r = std::fmod(pos_[a], 360.0);
@@ -871,7 +879,11 @@ class Interp {
         return;
       }
       default:
-        if (sub <= 0) cycle_ = n;  // a machining cycle: runs at CYCL CALL / M99
+        if (sub <= 0) {  // a machining cycle: runs at CYCL CALL / M99; its Q parameters follow
+          cycle_ = n;
+          cycle_params_.clear();
+          cycle_params_open_ = true;
+        }
         return;
     }
   }
@@ -945,8 +957,82 @@ class Interp {
     known_ = 0;
   }
 
-  void cycle_call(const Block& b, Span at) {
+  /// "Q200=+2 ;SET-UP CLEARANCE": a parameter of the cycle being defined (a literal; the resolver
+  /// writes the value of a formula there).
+  void cycle_parameter(const Block& b) {
+    const Token& t = b.tokens.front();
+    const std::string_view s = b.text(t.span);
+    const std::string_view name = b.text(t.name);
+    const std::size_t eq = s.find('=');
+    if (name.size() < 2 || !(name[0] == 'Q' || name[0] == 'q') || eq == std::string_view::npos) return;
+    double n = 0, v = 0;
+    std::string_view rhs = s.substr(eq + 1);
+    rhs = rhs.substr(0, std::min(rhs.find(';'), rhs.find('~')));
+    while (!rhs.empty() && (rhs.front() == ' ' || rhs.front() == '\t')) rhs.remove_prefix(1);
+    while (!rhs.empty() && (rhs.back() == ' ' || rhs.back() == '\t')) rhs.remove_suffix(1);
+    if (!parse_number(name.substr(1), n)) return;
+    if (parse_number(rhs, v)) cycle_params_[static_cast<int>(n)] = v;
+    else cycle_params_.erase(static_cast<int>(n));
+  }
+
+  /// Drilling cycles that stay on the hole axis, as one drill_cycle motion per call (TNC 640 User's
+  /// Manual, "Cycles: drilling" / "tapping"): to the set-up clearance Q200 above the surface Q203 at
+  /// FMAX, down to the depth Q201 (pecks, dwells and chip breaking stay on the axis), back to the
+  /// set-up clearance and on to the 2nd set-up clearance Q204.
+  bool drill_call(const Block& b, Span at, MotionSink& out) {
+    static constexpr int kOnAxis[] = {200, 201, 203, 205, 206, 207, 209, 240, 241};
+    if (std::find(std::begin(kOnAxis), std::end(kOnAxis), cycle_) == std::end(kOnAxis)) return false;
+    const auto q = [&](int k) -> std::optional<double> {
+      if (auto it = cycle_params_.find(k); it != cycle_params_.end()) return it->second;
+      return std::nullopt;
+    };
+    const PlaneAxes p = axes();
+    std::string why;
+    const auto clearance = q(200), depth = q(201), surface = q(203), second = q(204);
+    if (!clearance || !depth || !surface || !second) why = "its Q200, Q201, Q203 or Q204 is not a literal value here";
+    else if (*depth >= 0) why = "its depth Q201 is not negative (the control's sign check)";
+    else if (cycle_ == 240 && q(343).value_or(0) != 0) why = "Q343=1 centres to a diameter, which depends on the tool's point angle";
+    else if (cycle_ == 200 && q(395).value_or(0) != 0) why = "Q395=1 refers the depth to the tool's cylinder, which depends on its point angle";
+    else if (cycle_ == 241 && q(379).value_or(0) != 0) why = "Q379 (deepened starting point) is not followed";
+    else if ((known_ & ((1u << p.u) | (1u << p.v))) != ((1u << p.u) | (1u << p.v))) why = "the hole position is not known";
+    else if (tcp_ || mirror_ || rotation_ || scaling_) why = "a transformation or M128 is active";
+    if (!why.empty()) {
+      warn(b, at, codes::kVendorCycle,
+           fmt::format("machining cycle {} is called here but not expanded: {}; positions after it are unknown", cycle_,
+                       why));
+      known_ &= static_cast<AxisMask>(~(1u << p.n));
+      return true;
+    }
+    Motion m;
+    m.line = b.line;
+    m.column = at.begin + 1;
+    m.type = MotionType::drill_cycle;
+    m.cycle_code10 = static_cast<std::uint16_t>(cycle_ >= 206 && cycle_ <= 209 ? 840 : q(202) && *q(202) < -*depth ? 830 : 810);
+    m.plane = plane_;
+    m.start = pos_;
+    m.cycle_r = len(*surface + *clearance);
+    m.cycle_bottom = len(*surface + *depth);
+    pos_[p.n] = len(*surface + std::max(*clearance, *second));
+    m.end = pos_;
+    known_ |= static_cast<AxisMask>(1u << p.n);
+    m.known = known_;
+    m.word_index.fill(-1);
+    m.feed = q(206) ? len(*q(206)) : feed_;
+    m.feed_known = !inch_ && (q(206).has_value() || feed_known_);
+    m.local_offset = datum_;
+    m.tool_length_active = tool_active_;
+    m.tool_length_h = static_cast<std::uint16_t>(std::max(0, tool_number_));
+    m.tilted_plane = tilted_;
+    m.spindle_turning = spindle_;
+    m.inch_source = inch_;
+    m.words_transformed = true;  // the cycle's levels are Q parameters of CYCL DEF, not words of this block
+    out.motion(m, b);
+    return true;
+  }
+
+  void cycle_call(const Block& b, Span at, MotionSink& out) {
     if (cycle_ < 0 || cycle_ == 9 || cycle_ == 32 || cycle_ == 13) return;
+    if (find_keyword(b, "PAT") < 0 && find_keyword(b, "POS") < 0 && drill_call(b, at, out)) return;
     warn(b, at, codes::kVendorCycle,
          fmt::format("machining cycle {} is called here; its moves are not expanded by this version, so positions "
                      "after it are unknown (the tool axis at least) until the program states them",
@@ -982,6 +1068,8 @@ class Interp {
   bool tool_active_ = false;
   int tool_number_ = -1;
   int cycle_ = -1;
+  std::map<int, double> cycle_params_;  ///< Q number → value of the cycle defined last
+  bool cycle_params_open_ = false;
   std::array<RotaryRollover, 9> rollover_{};
 };
 

@@ -325,8 +325,16 @@ class Runner {
     const bool ok = file_->lexed_ok(pc_);
     if (continuation_) {
       continuation_ = continued(b);
-      if (klartext::verb_of(b) == Verb::q_assign) assign(b);
-      emit({});
+      try {
+        if (klartext::verb_of(b) == Verb::q_assign) {
+          assign(b);
+          emit(parameter_value(b));
+        } else {
+          emit({});
+        }
+      } catch (const Failure& f) {
+        stop(f);
+      }
       ++pc_;
       return true;
     }
@@ -336,6 +344,8 @@ class Runner {
       return true;
     }
     continuation_ = continued(b);
+    const bool params_open = cycle_open_;
+    cycle_open_ = klartext::verb_of(b) == Verb::cycl_def || (params_open && klartext::verb_of(b) == Verb::q_assign);
     try {
       switch (klartext::verb_of(b)) {
         case Verb::end_pgm:
@@ -352,6 +362,9 @@ class Runner {
           return true;
         case Verb::q_assign:
           assign(b);
+          // A parameter line of the cycle just defined is part of its definition: written (with the
+          // value of a formula) so that the interpreter sees the cycle's parameters.
+          if (params_open) emit(parameter_value(b));
           ++pc_;
           return true;
         case Verb::fn: return fn(b);
@@ -381,6 +394,24 @@ class Runner {
   }
 
   static bool continued(const Block& b) { return klartext::continued(b.raw); }
+
+  /// The edit that writes a parameter line's value as a literal when it is a formula.
+  std::vector<Edit> parameter_value(const Block& b) {
+    const Token& t = b.tokens.front();
+    const std::string_view s = b.text(t.span);
+    const std::size_t eq = s.find('=');
+    std::string_view rhs = s.substr(eq + 1);
+    std::size_t end = std::min(rhs.find(';'), rhs.find('~'));
+    if (end == std::string_view::npos) end = rhs.size();
+    std::size_t begin = 0;
+    while (begin < end && (rhs[begin] == ' ' || rhs[begin] == '\t')) ++begin;
+    while (end > begin && (rhs[end - 1] == ' ' || rhs[end - 1] == '\t')) --end;
+    double v = 0;
+    if (klartext::parse_number(rhs.substr(begin, end - begin), v)) return {};
+    const auto at = static_cast<std::uint32_t>(t.span.begin + eq + 1);
+    return {Edit{{at + static_cast<std::uint32_t>(begin), at + static_cast<std::uint32_t>(end)},
+                 klartext_value(q_.at(upper_name(b.text(t.name))), true)}};
+  }
 
   bool leave_file() {
     if (stack_.empty()) return false;
@@ -579,6 +610,7 @@ class Runner {
   SourceFile* file_ = nullptr;
   std::size_t pc_ = 0;
   bool continuation_ = false;
+  bool cycle_open_ = false;  ///< the lines just read define a cycle (its Q parameters follow)
   std::vector<Frame> stack_;
   std::map<std::string, double> q_;
   std::set<std::string> unknown_;
