@@ -989,7 +989,7 @@ class Interp {
     const PlaneAxes p = axes();
     std::string why;
     const auto clearance = q(200), depth = q(201), surface = q(203), second = q(204);
-    if (!clearance || !depth || !surface || !second) why = "its Q200, Q201, Q203 or Q204 is not a literal value here";
+    if (!clearance || !depth || !surface || !second) why = "its Q200, Q201, Q203 or Q204 is not defined with a number";
     else if (*depth >= 0) why = "its depth Q201 is not negative (the control's sign check)";
     else if (cycle_ == 240 && q(343).value_or(0) != 0) why = "Q343=1 centres to a diameter, which depends on the tool's point angle";
     else if (cycle_ == 200 && q(395).value_or(0) != 0) why = "Q395=1 refers the depth to the tool's cylinder, which depends on its point angle";
