@@ -428,9 +428,6 @@ class Interp {
         m.tool_vector = w.t_v.normalized();
         m.tool_vector_known = true;
       }
-      // The control computes the rotary axes for the vector (kinematics, preferred solution).
-      m.known &= static_cast<AxisMask>(~(kRotary & ~w.present));
-      end_known = m.known;
     }
     // Radius compensation: the controller offsets the tool centre by the tool radius (tool table).
     if (comp_ != 0 && m.type != MotionType::rapid && !cutter_radius_known_ && !comp_reported_) {
@@ -500,6 +497,7 @@ class Interp {
     else if (scaling_) why = "a scaling (cycle 11/26) is active";
     else if (kinematic_m_) why = "M114/M144 (kinematic correction of positions) is active";
     else if (turning_mode_) why = "FUNCTION MODE TURN (turning: X in diameters, turning cycles) is active";
+    else if (tcp_ && tcp_refpnt_) why = "FUNCTION TCPM with REFPNT other than TIP-TIP is active";
     if (m92_ != 0 && why.empty()) {
       m92_ = 0;
       return false;
@@ -934,7 +932,10 @@ class Interp {
     const bool reset = find_keyword(b, "RESET") >= 0;
     set_tilt(!reset);
     const bool moves = find_keyword(b, "MOVE") >= 0 || find_keyword(b, "TURN") >= 0;
-    if (moves) known_ &= static_cast<AxisMask>(find_keyword(b, "MOVE") >= 0 ? ~(kRotary | kLinear) : ~kRotary);
+    // MOVE compensates with the linear axes; TURN with MB retracts along the tool axis first.
+    bool linear = find_keyword(b, "MOVE") >= 0 || find_keyword(b, "MB") >= 0;
+    for (const Word& w : b.words) linear = linear || text::iequals(b.text(w.name), "MB");
+    if (moves) known_ &= static_cast<AxisMask>(linear ? ~(kRotary | kLinear) : ~kRotary);
     if (find_keyword(b, "MOVE") < 0 && find_keyword(b, "TURN") < 0 && find_keyword(b, "STAY") < 0)
       warn(b, b.tokens.front().span, codes::kKlartextUnresolved,
            "PLANE without MOVE, TURN or STAY: how the rotary axes move is not stated; positions after it are unknown");
@@ -943,6 +944,16 @@ class Interp {
   void function(const Block& b) {
     if (find_keyword(b, "TCPM") >= 0) {
       tcp_ = find_keyword(b, "RESET") < 0;
+      // REFPNT TIP-CENTER / CENTER-CENTER: the programmed point is the tool's centre, offset from
+      // the tip by the tool radius R2 of the tool table, which the program does not state.
+      if (const int r = find_keyword(b, "REFPNT"); tcp_ && r >= 0 && !b.raw.substr(b.tokens[static_cast<std::size_t>(r)].span.begin).starts_with("REFPNT TIP-TIP")) {
+        warn(b, b.tokens[static_cast<std::size_t>(r)].span, codes::kKlartextUnresolved,
+             "REFPNT other than TIP-TIP refers the programmed point to the tool's centre (tool radius R2 of the tool "
+             "table, not in the program); positions are not followed while it is active");
+        tcp_refpnt_ = true;
+      } else {
+        tcp_refpnt_ = false;
+      }
       return;
     }
     if (find_keyword(b, "MODE") >= 0) {
@@ -1062,7 +1073,7 @@ class Interp {
   bool polar_words_ = false;
   AxisVector datum_ = AxisVector::Zero();
   bool mirror_ = false, rotation_ = false, scaling_ = false, tilted_ = false, tcp_ = false;
-  bool frame_machine_ = false, kinematic_m_ = false, turning_mode_ = false, spindle_ = false;
+  bool frame_machine_ = false, kinematic_m_ = false, turning_mode_ = false, spindle_ = false, tcp_refpnt_ = false;
   int m92_ = 0;
   Span m92_at_;
   bool tool_active_ = false;
