@@ -7,6 +7,7 @@
 //
 // Rules followed and where they come from are listed in docs/dialect-heidenhain.md.
 
+#include <optional>
 #include <string>
 #include <string_view>
 
@@ -47,6 +48,12 @@ bool lex(const Dialect& d, Block& block, const LexContext& ctx);
 [[nodiscard]] int find_keyword(const Block& b, std::string_view name);
 /// The text of token `i`'s name (for numbers: the number).
 [[nodiscard]] std::string_view token_text(const Block& b, int i);
+
+/// The rounding (RND, `rounding`, radius `size`) or chamfer (CHF, length `size`) between the
+/// straight moves `a` and `c`: shortens both (their words then no longer name their ends:
+/// words_transformed) and returns the element; nullopt with the reason when the control's rule
+/// cannot be followed here (arcs next to it, moves out of the plane, an element too large).
+[[nodiscard]] std::optional<Motion> corner_element(Motion& a, Motion& c, bool rounding, double size, std::string& why);
 
 /// Runs a whole Klartext program (streaming), the counterpart of run_program for the `heidenhain`
 /// dialect.

@@ -7,6 +7,7 @@
 // is read differently from the control in silence.
 #include <algorithm>
 #include <cmath>
+#include <deque>
 #include <map>
 #include <numbers>
 #include <optional>
@@ -56,6 +57,8 @@ class Interp {
   Interp(const Dialect& d, std::string_view file, DiagnosticSink& sink) : d_(d), file_(file), sink_(sink) {
     for (int a = 0; a < kAxisCount; ++a) rollover_[static_cast<std::size_t>(a)] = d.rollover[static_cast<std::size_t>(a)];
   }
+
+  [[nodiscard]] bool inch() const { return inch_; }
 
   void execute(const Block& b, MotionSink& out) {
     if (ended_) return;
@@ -1094,21 +1097,122 @@ class Collect final : public MotionSink {
 
 ProgramStats run(LineReader& reader, const Dialect& d, std::string_view file, DiagnosticSink& sink,
                  BlockVisitor& visitor) {
+  // A path block followed by RND / CHF is held until the block after the corner is read: the
+  // element shortens both (klartext_corners.cpp). Only then are the lines copied; every other
+  // line streams from the reader's buffer.
   Interp interp(d, file, sink);
   const LexContext ctx{file, &sink};
-  Block b;
-  Collect collect;
-  ProgramStats st;
+  struct Line {
+    std::string text, eol;
+    std::uint64_t number = 0;
+  };
+  std::deque<Line> ahead;
   std::string_view line, eol;
-  while (reader.next(line, eol)) {
-    b.raw = line;
-    b.eol = eol;
-    b.line = reader.line_number();
-    collect.motions.clear();
-    const bool ok = lex_block(d, b, ctx);
-    interp.execute(b, collect);
-    visitor.block(b, collect.motions, ok);
+  const auto fetch = [&](Line& out) {
+    if (!ahead.empty()) {
+      out = std::move(ahead.front());
+      ahead.pop_front();
+      return true;
+    }
+    if (!reader.next(line, eol)) return false;
+    out.text.assign(line);
+    out.eol.assign(eol);
+    out.number = reader.line_number();
+    return true;
+  };
+  Block b, bn, bc;
+  Collect ca, cn, cc;
+  ProgramStats st;
+  Line cur, nx, third;
+  const auto set = [](Block& blk, const Line& l) {
+    blk.raw = l.text;
+    blk.eol = l.eol;
+    blk.line = l.number;
+  };
+  DiagnosticSink quiet(0);
+  bool carried = false;  // `cur` is the block after a corner: lexed, executed, its motions in `ca`
+  bool ok = true;
+  while (carried || fetch(cur)) {
+    Verb v;
+    if (carried) {
+      set(b, cur);
+      (void)lex_block(d, b, LexContext{file, &quiet});  // reported when it was first lexed
+      v = verb_of(b);
+      carried = false;
+    } else {
+      set(b, cur);
+      ok = lex_block(d, b, ctx);
+      v = verb_of(b);
+      ca.motions.clear();
+      interp.execute(b, ca);
+      ++st.blocks;
+    }
+    const bool path = v == Verb::l || v == Verb::lp || v == Verb::c || v == Verb::cr || v == Verb::ct || v == Verb::cp;
+    if (!path || ca.motions.empty() || !fetch(nx)) {
+      visitor.block(b, ca.motions, ok);
+      continue;
+    }
+    set(bn, nx);
+    const bool okn = lex_block(d, bn, ctx);
+    const Verb vn = verb_of(bn);
+    if (vn != Verb::rnd && vn != Verb::chf) {
+      visitor.block(b, ca.motions, ok);
+      ahead.push_front(std::move(nx));
+      continue;
+    }
+    // RND R… / CHF … between this block and the next.
+    const bool rounding = vn == Verb::rnd;
+    double size = 0, feed = -1;
+    bool size_ok = false;
+    for (const Word& w : bn.words) {
+      const std::string_view n = bn.text(w.name);
+      if (rounding && text::iequals(n, "R") && w.kind == ValueKind::number) size = w.number, size_ok = true;
+      if (text::iequals(n, "F") && w.kind == ValueKind::number) feed = w.number;
+    }
+    if (!rounding)
+      for (std::size_t i = 1; i < bn.tokens.size() && !size_ok; ++i)
+        size_ok = parse_number(bn.text(bn.tokens[i].span), size);
+    if (interp.inch()) size *= 25.4, feed = feed > 0 ? feed * 25.4 : feed;
+    const bool have3 = fetch(third);
+    cc.motions.clear();
+    bool okc = true;
+    if (have3) {
+      set(bc, third);
+      okc = lex_block(d, bc, ctx);
+      interp.execute(bc, cc);
+      ++st.blocks;
+    }
+    std::string why = size_ok ? "" : "its size is not a number";
+    std::optional<Motion> element;
+    if (size_ok && have3 && !cc.motions.empty() && okc)
+      element = corner_element(ca.motions.back(), cc.motions.front(), rounding, size, why);
+    else if (why.empty())
+      why = !have3 ? "no block follows it"
+                   : "the block after it makes no move (this version builds the corner only between two straight "
+                     "moves written next to it)";
+    cn.motions.clear();
+    if (element) {
+      element->line = bn.line;
+      element->column = bn.tokens.empty() ? 1 : bn.tokens.front().span.begin + 1;
+      if (feed > 0) element->feed = feed, element->feed_known = !interp.inch();
+      cn.motions.push_back(*element);
+    } else {
+      report_at(ctx, bn, bn.tokens.empty() ? Span{0, 1} : bn.tokens.front().span, Severity::warning,
+                codes::kKlartextUnresolved,
+                fmt::format("{} is not built here: {}; the moves next to it are read up to the corner and not corrected",
+                            rounding ? "RND" : "CHF", why));
+      if (!ca.motions.empty()) ca.motions.back().words_transformed = true;
+      if (!cc.motions.empty()) cc.motions.front().words_transformed = true;
+    }
+    visitor.block(b, ca.motions, ok);
+    visitor.block(bn, cn.motions, okn);
     ++st.blocks;
+    if (have3) {  // the block after the corner may start the next corner: it becomes the current one
+      std::swap(cur, third);
+      ca.motions.swap(cc.motions);
+      ok = okc;
+      carried = true;
+    }
   }
   st.bytes = reader.bytes_read();
   return st;
