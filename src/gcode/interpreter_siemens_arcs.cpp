@@ -18,19 +18,7 @@ void Interpreter::emit(Motion& m, const Block& b, MotionSink& out) {
     return;
   }
   // Direction at the end of the motion, for a following CT (tangential arc).
-  const Eigen::Vector3d start = m.start.head<3>(), end = m.end.head<3>();
-  Eigen::Vector3d dir = end - start;
-  if (m.type == MotionType::arc_cw || m.type == MotionType::arc_ccw) {
-    const PlaneAxes p = plane_axes(m.plane);
-    Eigen::Vector3d radial = end - m.arc.centre;
-    radial[p.n] = 0;
-    Eigen::Vector3d normal = Eigen::Vector3d::Zero();
-    normal[p.n] = m.arc.sweep >= 0 ? 1.0 : -1.0;
-    // Helix: the in-plane tangent plus the climb per radian along the normal.
-    Eigen::Vector3d t = normal.cross(radial);
-    if (std::abs(m.arc.sweep) > 0) t[p.n] = (end[p.n] - start[p.n]) / std::abs(m.arc.sweep);
-    dir = t;
-  }
+  const Eigen::Vector3d dir = end_direction(m);
   const AxisMask xyz = bit(Axis::x) | bit(Axis::y) | bit(Axis::z);
   // An axis not written in the block does not move, known or not.
   const AxisMask moved = static_cast<AxisMask>(m.programmed & xyz);

@@ -450,16 +450,7 @@ bool Interp::polar_arc(const Block& b, const Words& w, Motion& m, AxisMask& end_
 }
 
 void Interp::tangent_from(const Motion& m) {
-  const Eigen::Vector3d s = m.start.head<3>(), e = m.end.head<3>();
-  Eigen::Vector3d dir = e - s;
-  if (m.type == MotionType::arc_cw || m.type == MotionType::arc_ccw) {
-    const PlaneAxes p = plane_axes(m.plane);
-    Eigen::Vector3d radial = e - m.arc.centre;
-    radial[p.n] = 0;
-    Eigen::Vector3d normal = Eigen::Vector3d::Zero();
-    normal[p.n] = m.arc.sweep >= 0 ? 1.0 : -1.0;
-    dir = normal.cross(radial);
-  }
+  const Eigen::Vector3d dir = end_direction(m);
   tangent_known_ = (m.known & kLinear) == kLinear && dir.norm() > 1e-12;
   if (tangent_known_) tangent_ = dir.normalized();
 }

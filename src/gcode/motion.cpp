@@ -1,5 +1,9 @@
 #include "postproc/gcode/motion.hpp"
 
+#include <cmath>
+
+#include <Eigen/Geometry>
+
 namespace postproc::gcode {
 
 namespace {
@@ -52,6 +56,19 @@ std::string_view to_string(TcpMode t) {
     case TcpMode::heidenhain_m128: return "M128";
   }
   return "?";
+}
+
+Eigen::Vector3d end_direction(const Motion& m) {
+  const Eigen::Vector3d start = m.start.head<3>(), end = m.end.head<3>();
+  if (m.type != MotionType::arc_cw && m.type != MotionType::arc_ccw) return end - start;
+  const PlaneAxes p = plane_axes(m.plane);
+  Eigen::Vector3d radial = end - m.arc.centre;
+  radial[p.n] = 0;
+  Eigen::Vector3d normal = Eigen::Vector3d::Zero();
+  normal[p.n] = m.arc.sweep >= 0 ? 1.0 : -1.0;
+  Eigen::Vector3d t = normal.cross(radial);
+  if (std::abs(m.arc.sweep) > 0) t[p.n] = (end[p.n] - start[p.n]) / std::abs(m.arc.sweep);
+  return t;
 }
 
 }  // namespace postproc::gcode

@@ -114,4 +114,9 @@ struct Motion {
   bool words_transformed = false;
 };
 
+/// The direction of motion `m` at its end in X Y Z (not normalised): the chord of a straight move;
+/// for an arc the in-plane tangent plus its climb per radian along the plane normal (helix). What a
+/// following tangential arc (Sinumerik CT, Klartext CT) continues.
+[[nodiscard]] Eigen::Vector3d end_direction(const Motion& m);
+
 }  // namespace postproc::gcode
