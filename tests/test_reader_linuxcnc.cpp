@@ -108,9 +108,81 @@ TEST(ReaderLinuxcnc, ModalStateSaveAndRestore) {
   EXPECT_NEAR(r.motions[3].end[2], 1, kTol);  // G99 restored: the hole ends at R
   const Program bad(dialect("linuxcnc"), "G0 X0\nM70\nM71\nM72\n");
   expect_diag_at(bad, "PP-E207", 4, 1);
-  const Program auto_restore(dialect("linuxcnc"), "G0 X0\nM73\n");
-  expect_diag_at(auto_restore, "PP-U222", 2, 1);
+  // M73 in the main program saves as M70 does (rs274: M73 G20 G91 M72 G0 X1 → X1 mm absolute);
+  // nothing restores it at M2.
+  const Program main_m73(dialect("linuxcnc"), "G21 G90\nG0 X0\nM73\nG20 G91\nM72\nG0 X1\nG0 X1\n");
+  ASSERT_EQ(main_m73.motions.size(), 3u) << main_m73.all_codes();
+  EXPECT_TRUE(main_m73.sink.stored().empty()) << main_m73.all_codes();
+  EXPECT_NEAR(main_m73.motions[2].end[0], 1, kTol);
 }
+
+// LinuxCNC M-code reference "M73 Save and Autorestore Modal State" (and M70–M72), checked with rs274
+// (tests/resolve/linuxcnc/reader_m73.ngc runs the same traps through rs274): the state M73 saves in a
+// subroutine is restored when that call returns, by endsub or by return; units, distance mode,
+// plane and F come back; the motion mode does not.
+TEST(ReaderLinuxcnc, M73RestoresAtTheReturn) {
+  const ResolvedProgram r(dialect("linuxcnc"),
+                          "o<s> sub\nM73\nG20 G91 G18 F5\nG1 X1\no1 if [#1 GT 0]\no<s> return\no1 endif\nG1 X1\n"
+                          "o<s> endsub\nG21 G90 G17 F100\nG0 X0 Y0 Z0\no<s> call [0]\nG1 X10\no<s> call [1]\n"
+                          "G1 X20\nG2 X30 I5 J0\n");
+  ASSERT_EQ(r.motions.size(), 7u) << r.all_codes();
+  EXPECT_TRUE(r.sink.stored().empty()) << r.all_codes();
+  EXPECT_NEAR(r.motions[1].end[0], 25.4, kTol);   // G20 G91 inside
+  EXPECT_NEAR(r.motions[2].end[0], 50.8, kTol);
+  EXPECT_NEAR(r.motions[3].end[0], 10, kTol);     // endsub: mm, absolute again
+  EXPECT_NEAR(r.motions[3].feed, 100, kTol);
+  EXPECT_NEAR(r.motions[4].end[0], 35.4, kTol);   // the second call returns early
+  EXPECT_NEAR(r.motions[5].end[0], 20, kTol);     // return: mm, absolute again
+  EXPECT_EQ(r.motions[6].plane, gc::Plane::xy);   // G17 again
+  EXPECT_EQ(r.motions[6].type, MotionType::arc_cw);
+}
+
+// rs274: each call level has its own saved state — nested M73 restore their own; an M71 in the call
+// cancels the restore; an M70 after M73 in the same call saves again and keeps the restore.
+TEST(ReaderLinuxcnc, M73PerCallLevel) {
+  const ResolvedProgram nested(dialect("linuxcnc"),
+                               "o<inner> sub\nM73\nG21 G91\nG0 X1\no<inner> endsub\n"
+                               "o<outer> sub\nM73\nG20\no<inner> call\nG0 X1\nG91\no<outer> endsub\n"
+                               "G21 G90\nG0 X0 Y0 Z0\no<outer> call\nG0 X5\nG0 X5\n");
+  ASSERT_EQ(nested.motions.size(), 5u) << nested.all_codes();
+  EXPECT_NEAR(nested.motions[1].end[0], 1, kTol);      // inner: mm, incremental
+  EXPECT_NEAR(nested.motions[2].end[0], 25.4, kTol);   // back in outer: inch, absolute
+  EXPECT_NEAR(nested.motions[3].end[0], 5, kTol);      // back in main: mm, absolute
+  EXPECT_NEAR(nested.motions[4].end[0], 5, kTol);
+  const ResolvedProgram cancelled(dialect("linuxcnc"),
+                                  "o<s> sub\nM73\nG91\nM71\no<s> endsub\nG21 G90\nG0 X0\no<s> call\nG0 X1\nG0 X1\n");
+  ASSERT_EQ(cancelled.motions.size(), 3u) << cancelled.all_codes();
+  EXPECT_NEAR(cancelled.motions[2].end[0], 2, kTol);   // still G91
+  const ResolvedProgram resaved(dialect("linuxcnc"),
+                                "o<s> sub\nM73\nG20\nM70\nG91\no<s> endsub\nG21 G90\nG0 X0\no<s> call\nG0 X1\nG0 X1\n");
+  ASSERT_EQ(resaved.motions.size(), 3u) << resaved.all_codes();
+  EXPECT_NEAR(resaved.motions[1].end[0], 25.4, kTol);  // G20 (the M70's state) and G90 restored
+  EXPECT_NEAR(resaved.motions[2].end[0], 25.4, kTol);
+  // An M72 in a call whose level saved nothing stops LinuxCNC, even after an M70 of the caller.
+  const ResolvedProgram other_level(dialect("linuxcnc"),
+                                    "o<t> sub\n  M72\no<t> endsub\nG21 G90\nM70\no<t> call\nG0 X1\n");
+  expect_diag_at(other_level, "PP-E207", 2, 3);
+  EXPECT_TRUE(other_level.motions.empty());
+}
+
+// A LinuxCNC main program has one saved state: where a restore finds another level's save in it
+// (the caller's M70 … a subroutine's M73 … the caller's M72), the program is read per call level
+// but --flatten cannot write it as one program (PP-E709 at the M72).
+TEST(ReaderLinuxcnc, M73WithACallerSaveIsNotFlat) {
+  const std::string text = "o<s> sub\nM73\nG20\no<s> endsub\nG21 G90\nG91\nM70\nG90\no<s> call\nM72\nG0 X1\nG0 X1\n";
+  const ResolvedProgram r(dialect("linuxcnc"), text);
+  ASSERT_EQ(r.motions.size(), 2u) << r.all_codes();
+  EXPECT_TRUE(r.sink.stored().empty()) << r.all_codes();
+  EXPECT_NEAR(r.motions[1].end[0], 2, kTol);  // the main program's save: mm, G91
+  gc::DiagnosticSink sink;
+  const gc::ResolvedProgram resolved = gc::resolve(text, "t.nc", dialect("linuxcnc"), {}, sink);
+  ASSERT_EQ(resolved.not_flat.size(), 1u);
+  EXPECT_EQ(resolved.not_flat.front().code, "PP-E709");
+  EXPECT_EQ(resolved.not_flat.front().where.line, 10u);
+  EXPECT_NE(resolved.text.find("M73 (postproc: call level 1)"), std::string::npos) << resolved.text;
+  EXPECT_NE(resolved.text.find("M72 (postproc: call level 1)"), std::string::npos) << resolved.text;
+}
+
 
 // rs274: G92 X10 at X0 then G52 X5 gives a G92 offset of 5 (G52 replaces it), G92.1 clears both.
 TEST(ReaderLinuxcnc, G52AndG92ShareOneOffset) {

@@ -216,6 +216,9 @@ class Interpreter {
   ModalState s_;
   ModalState saved_;           ///< LinuxCNC M70 saved state, valid when saved_valid_
   bool saved_valid_ = false;
+  /// LinuxCNC: the states saved (M70/M73) at subroutine call levels 1, 2, … of a resolved program,
+  /// whose M70–M73 lines the resolver marks "(postproc: call level N)"; level 0 is saved_.
+  std::vector<std::pair<ModalState, bool>> level_saved_;
   bool warned_integer_input_ = false;
   /// A chamfer or rounding at the end of this block's straight move, waiting for the next block.
   struct Corner {

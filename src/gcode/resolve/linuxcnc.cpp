@@ -104,6 +104,11 @@ void Machine::compile(SourceFile& f, std::size_t i, Line& l) {
   }
   for (const Word& w : b.words) {
     if (w.letter == 'M' && w.kind == ValueKind::number && (w.number == 2 || w.number == 30)) l.ends_program = true;
+    if (w.letter == 'M' && w.kind == ValueKind::number && w.number >= 70 && w.number <= 73 &&
+        w.number == std::floor(w.number)) {
+      if (l.context == 0) l.context_span = w.span;
+      l.context = static_cast<std::uint8_t>(l.context | (1u << (static_cast<int>(w.number) - 70)));
+    }
     if (w.letter == 'G' && w.kind == ValueKind::number) {
       const long g10 = std::lround(w.number * 10);
       if (g10 >= 382 && g10 <= 385) l.probe = Line::Probe::starts;

@@ -128,7 +128,13 @@ void Machine::execute(SourceFile& f, std::size_t from, std::size_t to, bool in_s
     if (!l.ok) throw Stop{};
     if (!guard_.step(out_.emitted())) endless(f, pc, guard_.silent_message());
     if (l.plain) {
-      if (!out_.emit(f, pc, {})) runaway(f, pc);
+      if (l.context) {
+        edits.clear();
+        modal_context(f, pc, l.context, l.context_span, edits);
+        if (!out_.emit(f, pc, edits)) runaway(f, pc);
+      } else if (!out_.emit(f, pc, {})) {
+        runaway(f, pc);
+      }
       probe_results(l);
       if (l.ends_program) throw Stop{};
       ++pc;
@@ -157,7 +163,17 @@ void Machine::execute(SourceFile& f, std::size_t from, std::size_t to, bool in_s
     edits.clear();
     pending.clear();
     for (const Assign& as : l.assigns) pending.push_back(value(f, pc, as.span, as.value));
-    for (const WordValue& v : l.words) edits.push_back({v.span, format_value(value(f, pc, v.span, v.code), v.letter)});
+    unsigned context = l.context;
+    Span context_at = l.context_span;
+    for (const WordValue& v : l.words) {
+      const double x = value(f, pc, v.span, v.code);
+      if (v.letter == 'M' && x >= 70 && x <= 73 && x == std::floor(x)) {  // M[…] computed to M70–M73
+        if (context == 0) context_at = v.span;
+        context |= 1u << (static_cast<int>(x) - 70);
+      }
+      edits.push_back({v.span, format_value(x, v.letter)});
+    }
+    if (context) modal_context(f, pc, context, context_at, edits);
     for (const Span& d : l.deletions) edits.push_back({d, ""});
     std::sort(edits.begin(), edits.end(), [](const Edit& x, const Edit& y) { return x.span.begin < y.span.begin; });
     if (!out_.emit(f, pc, edits)) runaway(f, pc);
@@ -209,6 +225,13 @@ std::size_t Machine::control(SourceFile& f, FileInfo& fi, std::size_t i, Line& l
         globals_[names_.id("_value")] = value(f, i, l.control_span, l.args[0]);
         globals_[names_.id("_value_returned")] = 1;
         guard_.changed();
+      }
+      if (const SavedState& st = frames_.back().state; st.valid && st.restore) {
+        // M73: LinuxCNC restores the state saved at this level as the subroutine returns; the
+        // resolved program does it with an M72 written on the return line.
+        check_restore(f, i, l.control_span, st, true);
+        const Edit m72{l.control_span, "M72" + level_mark()};
+        if (!out_.emit(f, i, std::span<const Edit>(&m72, 1))) runaway(f, i);
       }
       return kReturn;
     case Kw::call: call(f, i, l); return i + 1;
@@ -303,6 +326,63 @@ void Machine::cycle_profile(SourceFile& f, std::size_t pc, const Line& l) {
   }
   if (!out_.emit(sf, s.end, {})) runaway(sf, s.end);
   out_.pop_call();
+}
+
+std::string Machine::where(const SourceFile& in, const SourceFile* f, std::size_t line) {
+  if (f == nullptr || f == &in) return fmt::format("line {}", line + 1);
+  return fmt::format("{}:{}", f->name(), line + 1);
+}
+
+void Machine::modal_context(SourceFile& f, std::size_t i, unsigned bits, Span at, std::vector<Edit>& mark) {
+  SavedState& level = frames_.back().state;
+  if (frames_.size() > 1) mark.push_back({Span{at.end, at.end}, level_mark()});
+  if (bits & (1u | 8u)) {  // M70, M73: save at this call level (M73 also asks for the restore at the return)
+    level.valid = true;
+    level.restore = level.restore || (bits & 8u) != 0;
+    level.id = ++saves_;
+    level.file = &f;
+    level.line = i;
+    flat_ = level;
+    guard_.changed();
+  }
+  if (bits & 2u) {  // M71: this level's state is invalid (and, in a single-state program, the one state)
+    level.valid = false;
+    flat_.valid = false;
+    flat_.file = &f;
+    flat_.line = i;
+  }
+  if (bits & 4u) check_restore(f, i, at, level, false);
+}
+
+void Machine::check_restore(SourceFile& f, std::size_t i, Span at, const SavedState& s, bool on_return) {
+  if (!s.valid) {
+    f.report(i, at, Severity::error, "PP-E207",
+             fmt::format("M72 restores the modal state saved at this call level, but none is valid here (never saved "
+                         "with M70/M73 in this {}, or invalidated by M71): LinuxCNC stops here (\"Cannot restore "
+                         "context from invalid stack frame\"); save with M70 at this level first{}",
+                         frames_.size() > 1 ? "subroutine call — a save of the caller does not count" : "program",
+                         context()));
+    throw Stop{};
+  }
+  if ((flat_.valid && flat_.id == s.id) || !r_.not_flat.empty()) return;
+  // Right for postproc's interpreter (a state per call level), but not as one program: noted for
+  // --flatten, which refuses then.
+  const std::string what =
+      on_return ? fmt::format("the subroutine returns here and LinuxCNC restores the modal state that the M73 at {} saved",
+                              where(f, s.file, s.line))
+                : fmt::format("this M72 restores the modal state saved at {} at this call level", where(f, s.file, s.line));
+  const std::string between =
+      flat_.valid ? fmt::format("the save at {} (another call level) came after it", where(f, flat_.file, flat_.line))
+                  : fmt::format("the M71 at {} (another call level) invalidated it", where(f, flat_.file, flat_.line));
+  DiagnosticSink capture;
+  LexContext ctx = f.context();
+  ctx.sink = &capture;
+  report_at(ctx, f.block(i), at, Severity::error, "PP-E709",
+            fmt::format("--flatten: {}, but {}; a LinuxCNC main program keeps one saved state, so the resolved program "
+                        "cannot restore it as one program; convert or compensate without --flatten (the program is "
+                        "written back into itself, subroutines kept), or save and restore at one call level{}",
+                        what, between, context()));
+  if (!capture.stored().empty()) r_.not_flat.push_back(capture.stored().front());
 }
 
 std::size_t Machine::enclosing_loop(SourceFile& f, FileInfo& fi, std::size_t i, const Line& l) {
