@@ -83,6 +83,7 @@ struct Line {
   bool axis_words = false;
   bool abort = false;           // (abort, …)
   std::uint8_t context = 0;     // literal M70 (1), M71 (2), M72 (4), M73 (8): saved modal state
+  std::uint8_t modes = 0;       // literal G90 (1), G91 (2), G7 (4), G8 (8): the modes a G7x profile reads by
   Span context_span;            // the first of them
   bool cycle_profile = false;   // G70–G72: profile in a subroutine
   Span cycle_span;
@@ -105,6 +106,7 @@ struct SavedState {
   bool valid = false;
   bool restore = false;          ///< M73 at this level: the return restores it
   std::uint64_t id = 0;          ///< the n-th save of the run
+  bool absolute = true, diameter = false;  ///< G90/G91 and G7/G8 as saved (Machine::absolute_)
   const SourceFile* file = nullptr;
   std::size_t line = 0;          ///< of the M70/M73 (or, in the resolved program's slot, of an M71)
 };
@@ -197,9 +199,21 @@ class Machine {
 
   /// G70–G72 read their profile from the subroutine numbered Q (LinuxCNC docs, G70 and G71-G72):
   /// its lines are passed on, values substituted, as "oN sub" … "oN endsub" right before the
-  /// cycle's line, where the interpreter reads them as the profile. rs274 reads those lines
-  /// without executing them, so statements inside the profile are refused.
+  /// cycle's line, where the interpreter reads them as the profile. rs274 (convert_g7x) runs the
+  /// subroutine as a call: O-word control flow, calls and assignments are executed, the lines it
+  /// reaches are passed on in that order (a cycle inside a profile is refused, PP-E251).
   void cycle_profile(SourceFile& f, std::size_t pc, const Line& l);
+  /// One ordinary line of a G7x profile (`profile_` set): rs274's convert_g7x applies its
+  /// assignments and reads its X Z U W (values substituted) for the profile; nothing else of it is
+  /// executed (M2, comments, other G codes). The point it reaches is #<_x> / #<_z> afterwards.
+  void profile_line(SourceFile& f, std::size_t i, const Line& l);
+  /// G90/G91, G7/G8 (bits of Line::modes) executed outside a profile.
+  void apply_modes(unsigned bits) {
+    if (bits & 1u) absolute_ = true;
+    if (bits & 2u) absolute_ = false;
+    if (bits & 4u) diameter_ = true;
+    if (bits & 8u) diameter_ = false;
+  }
   std::size_t enclosing_loop(SourceFile& f, FileInfo& fi, std::size_t i, const Line& l);
   void call(SourceFile& f, std::size_t i, Line& l);
 
@@ -229,6 +243,22 @@ class Machine {
   std::vector<Frame> frames_;
   std::map<std::string, Sub> subs_;
   SavedState flat_;            ///< the resolved program's one saved state (M70/M73, M71 of any level)
+  // The modes a G7x profile's #<_x> / #<_z> depend on, followed through the run (rs274 starts in G90, G8).
+  bool absolute_ = true, diameter_ = false;
+  /// While a G7x profile is read: the point it has reached (rs274 sets the current position to each
+  /// profile point), per axis when known; X as a radius.
+  struct Profile {
+    bool absolute = true, diameter = false;
+    bool x_known = false, z_known = false;
+    double x = 0, z = 0;
+    std::size_t cycle_line = 0;
+    long q = 0;
+  };
+  Profile* profile_ = nullptr;
+  int x_id_ = names_.id("_x"), z_id_ = names_.id("_z");
+  /// The current point inside a profile for #<_x> (axis 0) / #<_z> (2), #5420 / #5422; throws
+  /// PP-E701 where it is not known.
+  double profile_position(int axis) const;
   std::uint64_t saves_ = 0;
   std::map<const SourceFile*, std::unique_ptr<FileInfo>> info_;
 
