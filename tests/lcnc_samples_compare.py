@@ -9,7 +9,8 @@ axes postproc reports as unknown are not compared; a program with G53 moves is n
 code 1 or 2 with a located PP-U/PP-E code). A program read differently without a word fails the
 test. rs274 also prints a zero-length move for a block holding only G0 or G1 (no axis words),
 where postproc has no motion: straight moves that end where the previous move ended are dropped
-from both lists before comparing.
+from both lists before comparing. Drilling rows (one per hole) of G81/G82 in the G17 plane are
+expanded into the moves rs274 prints for them (expand_drilling); other cycles are not compared.
 Prints the counts and every disagreement; exit 1 when a program disagrees silently.
 """
 import csv, io, os, re, subprocess, sys
@@ -53,6 +54,52 @@ def without_zero_length(moves, start):
         last = [b if a is None else a for a, b in zip(p, last)]
     return out
 
+def expand_drilling(rows):
+    """postproc's rows with G81/G82 holes (one row each) replaced by the moves rs274's
+    convert_cycle_xy prints: at the first hole of a block a rise to R when the cycle's initial level
+    is below it, then per hole a traverse in the plane at the clear level (the initial level for
+    the block's first hole, the last retract after that), down to R, a feed to the bottom and the
+    retract. The initial level is the Z before the first of a chain of cycle rows. Returns None when
+    a row is another cycle (pecking, boring) or not in G17. Rows of one block are consecutive rows
+    of the same source line."""
+    out, last, initial, prev, frame = [], {"x": 0.0, "y": 0.0, "z": 0.0}, None, None, None
+    def offsets(r):  # the program origin's shift from the work origin (G52 + G92), and the work system
+        return r.get("work_offset"), [float(r.get(f"g52_{a}") or 0) + float(r.get(f"g92_{a}") or 0) for a in "xyz"]
+    for r in rows:
+        if r["motion"] != "drill":
+            out.append(r)
+            initial, prev = None, None
+            for a in "xyz":
+                if r.get(a) not in (None, "") and r.get("frame") != "machine": last[a] = float(r[a])
+            frame = offsets(r)
+            continue
+        if frame is not None and offsets(r) != frame:
+            # The position before the cycle in the new program origin (rs274 prints program coordinates).
+            if offsets(r)[0] != frame[0]: return None
+            for k, a in enumerate("xyz"): last[a] += frame[1][k] - offsets(r)[1][k]
+        frame = offsets(r)
+        if r.get("cycle") not in ("G81", "G82") or r.get("plane") != "xy" or r.get("frame") == "machine" or \
+                any(r.get(k) in (None, "") for k in ("x", "y", "z", "cycle_r", "cycle_bottom")):
+            return None
+        x, y, z = float(r["x"]), float(r["y"]), float(r["z"])
+        rr, bottom = float(r["cycle_r"]), float(r["cycle_bottom"])
+        if initial is None: initial = last["z"]
+        moves = []
+        if prev is None or prev[0] != r["line"]:
+            old = initial
+            if old < rr:
+                moves.append((last["x"], last["y"], rr)); old = rr
+        else:
+            old = prev[1]
+        moves.append((x, y, old))
+        if old != rr: moves.append((x, y, rr))
+        moves += [(x, y, bottom), (x, y, z)]
+        for mx, my, mz in moves:
+            out.append({**r, "motion": "linear", "x": repr(mx), "y": repr(my), "z": repr(mz)})
+        last = {"x": x, "y": y, "z": z}
+        prev = (r["line"], z)
+    return out
+
 def dump(postproc, path):
     out = subprocess.run([postproc, "dump", os.path.basename(path), "--dialect", "linuxcnc", "--format", "csv"],
                          cwd=os.path.dirname(path) or ".", capture_output=True, text=True, timeout=120)
@@ -73,10 +120,11 @@ def main():
             # G53 rows are machine coordinates in postproc, program coordinates in rs274's output.
             counts["not compared (G53)"] = counts.get("not compared (G53)", 0) + 1
             continue
-        got = []
-        for r in rows:
+        expanded = expand_drilling(rows)
+        got = [] if expanded is not None else None  # other cycles: rs274 prints each move
+        for r in expanded or []:
             if r["motion"] not in ("rapid", "linear", "cw", "ccw"):
-                got = None; break  # drilling rows are one per hole; rs274 prints each move
+                got = None; break
             p = [float(r[a]) if r.get(a) not in (None, "") and r.get("frame") != "machine" else None for a in "xyzabc"]
             got.append(("A" if r["motion"] in ("cw", "ccw") else "L", p))
         if got is not None: got = without_zero_length(got, [0.0] * 6)

@@ -14,27 +14,40 @@ trap 'rm -rf "$T"' EXIT
 fails=0
 # lathe_*: LinuxCNC G70/G71/G72 turning cycles and G33 (docs/lathe-cycles.md); their arcs (G18: ARC_FEED
 # first axis Z, second X) are compared too: end point, centre and direction.
-for prog in control_flow expressions subroutines lathe_g70 lathe_g70_entry lathe_rough_levels lathe_g71 lathe_g72 lathe_pocket lathe_g33 reader_dwell reader_modal_state; do
+# reader_*: constructs of the LinuxCNC reader (issue 16), each checked against rs274 on traps; drilling
+# rows (one per hole) are expanded into rs274's moves (lcnc_samples_compare.expand_drilling); inch
+# output of rs274 is converted to mm.
+for prog in control_flow expressions subroutines lathe_g70 lathe_g70_entry lathe_rough_levels lathe_g71 lathe_g72 lathe_pocket lathe_g33 reader_dwell reader_modal_state reader_polar_cycles reader_m73 reader_g7x_statements; do
   (cd "$D" && timeout 60 rs274 -g "$prog.ngc") > "$T/$prog.rs274" 2>&1
   (cd "$D" && "$P" dump "$prog.ngc" --dialect linuxcnc --format csv) > "$T/$prog.csv" 2> "$T/$prog.err" ||
     { echo "FAIL: $prog: dump failed: $(cat "$T/$prog.err")"; fails=$((fails + 1)); continue; }
-  python3 - "$T/$prog.rs274" "$T/$prog.csv" "$prog" <<'PY' || fails=$((fails + 1))
+  python3 - "$T/$prog.rs274" "$T/$prog.csv" "$prog" "$SRC/tests" <<'PY' || fails=$((fails + 1))
 import csv, re, sys
+sys.path.insert(0, sys.argv[4])
+from lcnc_samples_compare import expand_drilling
 name = sys.argv[3]
 arcs = name.startswith("lathe_")
-ref = []
+ref, units, tol = [], 1.0, []
 for line in open(sys.argv[1]):
+    m = re.search(r"USE_LENGTH_UNITS\(CANON_UNITS_(\w+)\)", line)
+    if m:
+        units = 25.4 if m.group(1) == "INCHES" else 1.0
     m = re.search(r"STRAIGHT_(FEED|TRAVERSE)\(([^)]*)\)", line)
     if m:
-        ref.append([float(v) for v in m.group(2).split(",")[:6]])
+        v = [float(x) for x in m.group(2).split(",")[:6]]
+        ref.append([x * units for x in v[:3]] + v[3:])
+        tol.append(6e-5 * units)  # rs274 prints 4 decimals of its units
         continue
     m = re.search(r"ARC_FEED\(([^)]*)\)", line)
     if m and arcs:
         v = [float(x) for x in m.group(1).split(",")]
         pos = list(ref[-1][:6]) if ref else [0.0] * 6
-        pos[0], pos[2] = v[1], v[0]
-        ref.append(pos + [v[3], v[2], 1.0 if v[4] > 0 else -1.0])
-rows = list(csv.DictReader(open(sys.argv[2])))
+        pos[0], pos[2] = v[1] * units, v[0] * units
+        ref.append(pos + [v[3] * units, v[2] * units, 1.0 if v[4] > 0 else -1.0])
+        tol.append(6e-5 * units)
+rows = expand_drilling(list(csv.DictReader(open(sys.argv[2]))))
+if rows is None:
+    print(f"FAIL: {name}: a drilling cycle other than G81/G82 in G17 cannot be compared"); sys.exit(1)
 got, last = [], [0.0] * 6
 for r in rows:
     arc = r["motion"] in ("cw", "ccw")
@@ -50,7 +63,7 @@ if not ref:
 if len(ref) != len(got):
     print(f"FAIL: {name}: rs274 {len(ref)} moves, postproc {len(got)}"); sys.exit(1)
 for i, (a, (line, b)) in enumerate(zip(ref, got)):
-    if len(a) != len(b) or any(abs(x - y) > 6e-5 for x, y in zip(a, b)):
+    if len(a) != len(b) or any(abs(x - y) > tol[i] for x, y in zip(a, b)):
         print(f"FAIL: {name}: move {i + 1} (source line {line}): rs274 {a}, postproc {b}"); sys.exit(1)
 print(f"{name}: {len(ref)} moves agree with rs274")
 PY

@@ -177,23 +177,54 @@ TEST(LatheCyclesLinuxcnc, RefusedWhereRs274RefusesIt) {
   }
 }
 
-TEST(LatheCyclesLinuxcnc, StatementsInsideTheProfileAreRefusedAtTheirLine) {
-  // rs274 reads the profile's blocks for the cycle without executing them.
-  LatheRun r("G18 G21 G90 G7\nG0 X40 Z5\nF200\nO100 sub\n#1 = 5\nG1 X10 Z0\nG1 Z-10\nO100 endsub\nG71 Q100\nM2\n");
-  const gc::Diagnostic* d = r.find("PP-E251");
-  ASSERT_NE(d, nullptr);
-  EXPECT_EQ(d->where.line, 5u);
+TEST(LatheCyclesLinuxcnc, StatementsInsideTheProfileAreExecuted) {
+  // rs274 (convert_g7x) runs the profile subroutine as a call: its assignments take effect (here
+  // #1 = 5 makes the first point X5 under G7, a radius of 2.5) and its O-word control flow runs; only
+  // a lathe cycle inside the profile is refused (PP-E251, at that line).
+  LatheRun r("G18 G21 G90 G7\nG0 X40 Z5\nF200\nO100 sub\n#1 = 5\nG1 X#1 Z0\nO1 repeat [2]\nG1 Z[#<_z> - 5]\n"
+             "O1 endrepeat\nO100 endsub\nG70 Q100\nM2\n");
+  ASSERT_EQ(r.sink.count(gc::Severity::error), 0u) << r.all_codes();
+  const auto ms = r.of_line(11);
+  ASSERT_EQ(ms.size(), 5u) << r.all_codes();
+  EXPECT_NEAR(ms[2]->end[0], 2.5, kEps);
+  EXPECT_NEAR(ms[3]->end[2], -5, kEps);
+  EXPECT_NEAR(ms[4]->end[2], -10, kEps);
+  LatheRun nested("G18 G21 G90 G7\nG0 X40 Z5\nF200\nO100 sub\nG1 X10 Z0\nG70 Q100\nO100 endsub\nG71 Q100\nM2\n");
+  const gc::Diagnostic* d = nested.find("PP-E251");
+  ASSERT_NE(d, nullptr) << nested.all_codes();
+  EXPECT_EQ(d->where.line, 6u);
 }
 
 TEST(LatheCyclesLinuxcnc, ProfileValuesFromParametersAreSubstituted) {
-  // The profile's words are evaluated with the parameters as they are when the cycle runs.
-  LatheRun r("G18 G21 G90 G8\n#<d> = 7\nG0 X20 Z5\nF100\nO100 sub\nG1 X#<d> Z0\nG1 Z-10\nO100 endsub\nG70 Q100\nM2\n");
+  // The profile's words are evaluated with the parameters as they are when the cycle runs; as in a
+  // call, the caller's local named parameters are not visible there (rs274: "Named parameter #<d>
+  // not defined"), global ones are.
+  LatheRun r("G18 G21 G90 G8\n#<_d> = 7\nG0 X20 Z5\nF100\nO100 sub\nG1 X#<_d> Z0\nG1 Z-10\nO100 endsub\nG70 Q100\nM2\n");
   ASSERT_EQ(r.sink.count(gc::Severity::error), 0u) << r.sink.stored().front().message;
   const auto ms = r.of_line(9);
   ASSERT_EQ(ms.size(), 4u);
   EXPECT_NEAR(ms[2]->end[0], 7, kEps);
   EXPECT_NEAR(ms[3]->end[0], 7, kEps);
   EXPECT_NEAR(ms[3]->end[2], -10, kEps);
+  LatheRun local("G18 G21 G90 G8\n#<d> = 7\nG0 X20 Z5\nF100\nO100 sub\nG1 X#<d> Z0\nG1 Z-10\nO100 endsub\nG70 Q100\nM2\n");
+  const gc::Diagnostic* d = local.find("PP-E703");
+  ASSERT_NE(d, nullptr) << local.all_codes();
+  EXPECT_EQ(d->where.line, 6u);
+}
+
+// rs274's convert_g7x sets the current position to each profile point: #<_x> (a radius under G7)
+// and #<_z> read in the profile are its last point, starting at the cycle's X Z. Where that point is
+// not known (no X on the cycle block, a cycle under G91), reading them is refused.
+TEST(LatheCyclesLinuxcnc, ProfilePositionParameters) {
+  LatheRun r("G18 G21 G90 G7\nG0 X60 Z5\nF100\nO300 sub\nG1 X10 Z0\nG1 X[#<_x> * 2 + 4] Z-5\n"
+             "G1 X30 Z[#5422 - 5]\nO300 endsub\nG70 Q300 X60 Z5\nM2\n");
+  ASSERT_EQ(r.sink.count(gc::Severity::error), 0u) << r.all_codes();
+  const auto ms = r.of_line(9);
+  ASSERT_GE(ms.size(), 3u);
+  EXPECT_NEAR(ms[ms.size() - 2]->end[0], 7, kEps);  // rs274: STRAIGHT_FEED(7, 0, -5)
+  EXPECT_NEAR(ms.back()->end[2], -10, kEps);
+  LatheRun unknown("G18 G21 G90 G7\nG0 X60 Z5\nF100\nO300 sub\nG1 X[#<_x> + 1] Z0\nO300 endsub\nG70 Q300\nM2\n");
+  expect_diag_at(unknown, "PP-E701", 5, 5);
 }
 
 TEST(LatheCyclesLinuxcnc, ProfileFormsNotReproducedAreRefusedAtTheCycle) {

@@ -108,9 +108,81 @@ TEST(ReaderLinuxcnc, ModalStateSaveAndRestore) {
   EXPECT_NEAR(r.motions[3].end[2], 1, kTol);  // G99 restored: the hole ends at R
   const Program bad(dialect("linuxcnc"), "G0 X0\nM70\nM71\nM72\n");
   expect_diag_at(bad, "PP-E207", 4, 1);
-  const Program auto_restore(dialect("linuxcnc"), "G0 X0\nM73\n");
-  expect_diag_at(auto_restore, "PP-U222", 2, 1);
+  // M73 in the main program saves as M70 does (rs274: M73 G20 G91 M72 G0 X1 → X1 mm absolute);
+  // nothing restores it at M2.
+  const Program main_m73(dialect("linuxcnc"), "G21 G90\nG0 X0\nM73\nG20 G91\nM72\nG0 X1\nG0 X1\n");
+  ASSERT_EQ(main_m73.motions.size(), 3u) << main_m73.all_codes();
+  EXPECT_TRUE(main_m73.sink.stored().empty()) << main_m73.all_codes();
+  EXPECT_NEAR(main_m73.motions[2].end[0], 1, kTol);
 }
+
+// LinuxCNC M-code reference "M73 Save and Autorestore Modal State" (and M70–M72), checked with rs274
+// (tests/resolve/linuxcnc/reader_m73.ngc runs the same traps through rs274): the state M73 saves in a
+// subroutine is restored when that call returns, by endsub or by return; units, distance mode,
+// plane and F come back; the motion mode does not.
+TEST(ReaderLinuxcnc, M73RestoresAtTheReturn) {
+  const ResolvedProgram r(dialect("linuxcnc"),
+                          "o<s> sub\nM73\nG20 G91 G18 F5\nG1 X1\no1 if [#1 GT 0]\no<s> return\no1 endif\nG1 X1\n"
+                          "o<s> endsub\nG21 G90 G17 F100\nG0 X0 Y0 Z0\no<s> call [0]\nG1 X10\no<s> call [1]\n"
+                          "G1 X20\nG2 X30 I5 J0\n");
+  ASSERT_EQ(r.motions.size(), 7u) << r.all_codes();
+  EXPECT_TRUE(r.sink.stored().empty()) << r.all_codes();
+  EXPECT_NEAR(r.motions[1].end[0], 25.4, kTol);   // G20 G91 inside
+  EXPECT_NEAR(r.motions[2].end[0], 50.8, kTol);
+  EXPECT_NEAR(r.motions[3].end[0], 10, kTol);     // endsub: mm, absolute again
+  EXPECT_NEAR(r.motions[3].feed, 100, kTol);
+  EXPECT_NEAR(r.motions[4].end[0], 35.4, kTol);   // the second call returns early
+  EXPECT_NEAR(r.motions[5].end[0], 20, kTol);     // return: mm, absolute again
+  EXPECT_EQ(r.motions[6].plane, gc::Plane::xy);   // G17 again
+  EXPECT_EQ(r.motions[6].type, MotionType::arc_cw);
+}
+
+// rs274: each call level has its own saved state — nested M73 restore their own; an M71 in the call
+// cancels the restore; an M70 after M73 in the same call saves again and keeps the restore.
+TEST(ReaderLinuxcnc, M73PerCallLevel) {
+  const ResolvedProgram nested(dialect("linuxcnc"),
+                               "o<inner> sub\nM73\nG21 G91\nG0 X1\no<inner> endsub\n"
+                               "o<outer> sub\nM73\nG20\no<inner> call\nG0 X1\nG91\no<outer> endsub\n"
+                               "G21 G90\nG0 X0 Y0 Z0\no<outer> call\nG0 X5\nG0 X5\n");
+  ASSERT_EQ(nested.motions.size(), 5u) << nested.all_codes();
+  EXPECT_NEAR(nested.motions[1].end[0], 1, kTol);      // inner: mm, incremental
+  EXPECT_NEAR(nested.motions[2].end[0], 25.4, kTol);   // back in outer: inch, absolute
+  EXPECT_NEAR(nested.motions[3].end[0], 5, kTol);      // back in main: mm, absolute
+  EXPECT_NEAR(nested.motions[4].end[0], 5, kTol);
+  const ResolvedProgram cancelled(dialect("linuxcnc"),
+                                  "o<s> sub\nM73\nG91\nM71\no<s> endsub\nG21 G90\nG0 X0\no<s> call\nG0 X1\nG0 X1\n");
+  ASSERT_EQ(cancelled.motions.size(), 3u) << cancelled.all_codes();
+  EXPECT_NEAR(cancelled.motions[2].end[0], 2, kTol);   // still G91
+  const ResolvedProgram resaved(dialect("linuxcnc"),
+                                "o<s> sub\nM73\nG20\nM70\nG91\no<s> endsub\nG21 G90\nG0 X0\no<s> call\nG0 X1\nG0 X1\n");
+  ASSERT_EQ(resaved.motions.size(), 3u) << resaved.all_codes();
+  EXPECT_NEAR(resaved.motions[1].end[0], 25.4, kTol);  // G20 (the M70's state) and G90 restored
+  EXPECT_NEAR(resaved.motions[2].end[0], 25.4, kTol);
+  // An M72 in a call whose level saved nothing stops LinuxCNC, even after an M70 of the caller.
+  const ResolvedProgram other_level(dialect("linuxcnc"),
+                                    "o<t> sub\n  M72\no<t> endsub\nG21 G90\nM70\no<t> call\nG0 X1\n");
+  expect_diag_at(other_level, "PP-E207", 2, 3);
+  EXPECT_TRUE(other_level.motions.empty());
+}
+
+// A LinuxCNC main program has one saved state: where a restore finds another level's save in it
+// (the caller's M70 … a subroutine's M73 … the caller's M72), the program is read per call level
+// but --flatten cannot write it as one program (PP-E709 at the M72).
+TEST(ReaderLinuxcnc, M73WithACallerSaveIsNotFlat) {
+  const std::string text = "o<s> sub\nM73\nG20\no<s> endsub\nG21 G90\nG91\nM70\nG90\no<s> call\nM72\nG0 X1\nG0 X1\n";
+  const ResolvedProgram r(dialect("linuxcnc"), text);
+  ASSERT_EQ(r.motions.size(), 2u) << r.all_codes();
+  EXPECT_TRUE(r.sink.stored().empty()) << r.all_codes();
+  EXPECT_NEAR(r.motions[1].end[0], 2, kTol);  // the main program's save: mm, G91
+  gc::DiagnosticSink sink;
+  const gc::ResolvedProgram resolved = gc::resolve(text, "t.nc", dialect("linuxcnc"), {}, sink);
+  ASSERT_EQ(resolved.not_flat.size(), 1u);
+  EXPECT_EQ(resolved.not_flat.front().code, "PP-E709");
+  EXPECT_EQ(resolved.not_flat.front().where.line, 10u);
+  EXPECT_NE(resolved.text.find("M73 (postproc: call level 1)"), std::string::npos) << resolved.text;
+  EXPECT_NE(resolved.text.find("M72 (postproc: call level 1)"), std::string::npos) << resolved.text;
+}
+
 
 // rs274: G92 X10 at X0 then G52 X5 gives a G92 offset of 5 (G52 replaces it), G92.1 clears both.
 TEST(ReaderLinuxcnc, G52AndG92ShareOneOffset) {
@@ -158,6 +230,102 @@ TEST(ReaderLinuxcnc, PolarWords) {
   expect_diag_at(mixed, "PP-E207", 3, 4);
   const Program origin(dialect("linuxcnc"), "G21 G90\nG0 X0 Y0\nG91 G0 @1\n");
   expect_diag_at(origin, "PP-E207", 3, 8);
+}
+
+// LinuxCNC G-code reference "Polar Coordinates" (the words act about the origin of the current
+// coordinate system, in G17 only) and rs274's find_ends, checked on traps: G90 @ alone at the origin
+// and G91 @ or ^ (even @0 / ^0) at the origin stop the program; G91 @ then ^ are two steps, so
+// a distance that reaches 0 stops at the ^ step; G18 and G53 refuse polar words; under G7 the
+// polar point is not doubled.
+TEST(ReaderLinuxcnc, PolarWordsWhereRs274Refuses) {
+  const Program at_origin(dialect("linuxcnc"), "G21 G90\nG0 X0 Y0\nG0 @1\n");
+  expect_diag_at(at_origin, "PP-E207", 3, 4);
+  const Program angle_only(dialect("linuxcnc"), "G21 G90\nG0 X0 Y0\nG0 ^30\n");
+  EXPECT_FALSE(angle_only.has("PP-E207")) << angle_only.all_codes();
+  const Program zero_step(dialect("linuxcnc"), "G21 G90\nG0 X0 Y0\nG91 G0 ^0\n");
+  expect_diag_at(zero_step, "PP-E207", 3, 8);
+  const Program through(dialect("linuxcnc"), "G21 G90\nG0 X2 Y0\nG91 G0 @-2 ^30\n");
+  expect_diag_at(through, "PP-E207", 3, 8);
+  const Program to_origin(dialect("linuxcnc"), "G21 G90\nG0 X2 Y0\nG91 G0 @-2\n");
+  ASSERT_EQ(to_origin.motions.size(), 2u) << to_origin.all_codes();
+  EXPECT_NEAR(to_origin.motions[1].end[0], 0, kTol);
+  const Program plane(dialect("linuxcnc"), "G21 G18 G90\nG0 X2 Y0 Z0\nG0 @1 ^30\n");
+  expect_diag_at(plane, "PP-E207", 3, 4);
+  const Program machine(dialect("linuxcnc"), "G21 G90\nG0 X2 Y0\nG53 G0 @1 ^30\n");
+  expect_diag_at(machine, "PP-E207", 3, 8);
+  const Program diameter(dialect("linuxcnc"), "G21 G17 G90 G7\nG0 X4 Y0 Z0\nG0 @1 ^0\nG91 G0 ^90\n");
+  ASSERT_EQ(diameter.motions.size(), 3u) << diameter.all_codes();
+  EXPECT_NEAR(diameter.motions[1].end[0], 1, kTol);  // rs274: STRAIGHT_TRAVERSE(1, 0, 0)
+  EXPECT_NEAR(diameter.motions[2].end[1], 1, kTol);
+}
+
+// LinuxCNC G-code reference "Canned Cycles" (L repeats) and "Polar Coordinates"; rs274's
+// convert_cycle_xy: under G91 each repeat first adds @ to the current point's distance from the
+// origin of the current coordinates, then ^ to its angle (tests/resolve/linuxcnc/
+// reader_polar_cycles.ngc runs the same traps through rs274). From X1.5 Y0, G91 ^60 L6 drills the
+// 1.5 circle at 60°, 120° … 360°.
+TEST(ReaderLinuxcnc, PolarCycleRepeatsStepFromHoleToHole) {
+  const Program r(dialect("linuxcnc"), "G20 G17 G90\nG0 X1.5 Y0 Z0\nG91 G81 R.1 Z-.5 ^60 L6 F10\n"
+                                       "G90 G0 X2 Y0 Z0\nG91 G81 R.1 Z-.5 @-.75 ^45 L4\n");
+  ASSERT_EQ(r.motions.size(), 12u) << r.all_codes();
+  EXPECT_TRUE(r.sink.stored().empty()) << r.all_codes();
+  for (int k = 0; k < 6; ++k) {
+    const double a = (k + 1) * 60.0 * 3.14159265358979323846 / 180.0;
+    EXPECT_EQ(r.motions[1 + k].type, MotionType::drill_cycle);
+    EXPECT_NEAR(r.motions[1 + k].end[0], 1.5 * 25.4 * std::cos(a), 1e-9) << k;
+    EXPECT_NEAR(r.motions[1 + k].end[1], 1.5 * 25.4 * std::sin(a), 1e-9) << k;
+    EXPECT_NEAR(r.motions[1 + k].end[2], 0.1 * 25.4, 1e-9);
+    EXPECT_NEAR(r.motions[1 + k].cycle_bottom, -0.4 * 25.4, 1e-9);
+  }
+  // The distance 2 → 1.25 → 0.5 → -0.25 (the point turns to the far side) → -1 (rs274: 0.8839
+  // 0.8839, 0 0.5, 0.1768 -0.1768, -0.5 0).
+  EXPECT_NEAR(r.motions[8].end[0], 0.8839 * 25.4, 3e-3);
+  EXPECT_NEAR(r.motions[9].end[1], 0.5 * 25.4, 1e-9);
+  EXPECT_NEAR(r.motions[10].end[0], 0.1768 * 25.4, 3e-3);
+  EXPECT_NEAR(r.motions[10].end[1], -0.1768 * 25.4, 3e-3);
+  EXPECT_NEAR(r.motions[11].end[0], -0.5 * 25.4, 1e-9);
+  EXPECT_NEAR(r.motions[11].end[1], 0, 1e-9);
+  // G90: the one hole L times; @ alone at the origin takes angle 0 in a cycle (no refusal).
+  const Program g90(dialect("linuxcnc"), "G21 G90\nG0 X0 Y0 Z0\nG81 R1 Z-1 @3 F10\nG81 R1 Z-1 @1 ^90 L2\n");
+  ASSERT_EQ(g90.motions.size(), 4u) << g90.all_codes();
+  EXPECT_NEAR(g90.motions[1].end[0], 3, kTol);
+  EXPECT_NEAR(g90.motions[2].end[1], 1, kTol);
+  EXPECT_NEAR(g90.motions[3].end[1], 1, kTol);
+  // Zero steps take no direction: @0 ^0 at the origin drills there; a real step there stops.
+  const Program zero(dialect("linuxcnc"), "G21 G90\nG0 X0 Y0 Z0\nG91 G81 R1 Z-1 @0 ^0 L2 F10\n");
+  EXPECT_EQ(zero.motions.size(), 3u) << zero.all_codes();
+  const Program origin(dialect("linuxcnc"), "G21 G90\nG0 X0 Y0 Z0\nG91 G81 R1 Z-1 ^30 L2 F10\n");
+  expect_diag_at(origin, "PP-E207", 3, 16);
+  // The polar origin is that of the current coordinates (G92 included).
+  const Program g92(dialect("linuxcnc"), "G21 G90\nG0 X3 Y0 Z0\nG92 X1\nG91 G81 R1 Z-1 ^90 L2 F100\n");
+  ASSERT_EQ(g92.motions.size(), 3u) << g92.all_codes();
+  EXPECT_NEAR(g92.motions[1].end[0], 0, kTol);
+  EXPECT_NEAR(g92.motions[1].end[1], 1, kTol);
+  EXPECT_NEAR(g92.motions[2].end[0], -1, kTol);
+}
+
+// rs274 reads L as an integer and refuses a fraction ("Non integer value for integer"), a negative
+// count and L0 ("Cannot do zero repeats of cycle"); a block that starts a cycle needs R and Z
+// ("R clearance plane unspecified in cycle", "Z value unspecified in xy plane canned cycle"). R and
+// Z are kept as written: a G91 block without R after a G90 one takes R from the initial level.
+TEST(ReaderLinuxcnc, CycleWordsRs274Refuses) {
+  for (const char* l : {"L0", "L-1", "L1.5", "L2.0001"}) {
+    const Program r(dialect("linuxcnc"), std::string("G21 G90\nG0 X2 Y0 Z5\nG81 R1 Z-1 F10 X1 ") + l + "\n");
+    expect_diag_at(r, "PP-E207", 3, 19);
+    EXPECT_EQ(r.motions.size(), 1u) << l;
+  }
+  const Program near(dialect("linuxcnc"), "G21 G90\nG0 X2 Y0 Z5\nG91 G81 R1 Z-1 F10 X1 L1.99991\n");
+  EXPECT_EQ(near.motions.size(), 3u) << near.all_codes();
+  const Program no_r(dialect("linuxcnc"), "G21 G90\nG0 X0 Y0 Z5\nG81 X1 Z-1 F10\n");
+  expect_diag_at(no_r, "PP-E207", 3, 1);
+  const Program no_z(dialect("linuxcnc"), "G21 G90\nG0 X0 Y0 Z5\nG81 X1 R1 Z-1 F10\nG82 X2 R1 P1\n");
+  expect_diag_at(no_z, "PP-E207", 4, 1);
+  EXPECT_EQ(no_z.motions.size(), 2u);
+  const Program kept(dialect("linuxcnc"), "G21 G90\nG0 X10 Y0 Z5\nG98 G81 R1 Z-1 @3 ^30 F10\nG91 ^30 L2\n");
+  ASSERT_EQ(kept.motions.size(), 4u) << kept.all_codes();
+  EXPECT_NEAR(kept.motions[2].end[2], 6, kTol);  // R1 from the initial level 5 (rs274: 6)
+  EXPECT_NEAR(kept.motions[2].cycle_bottom, 5, kTol);
+  EXPECT_NEAR(kept.motions[3].end[1], 3, kTol);  // 3 at 90°
 }
 
 // Editors on Windows write a UTF-8 byte-order mark; the controllers skip it.

@@ -65,6 +65,10 @@ CompensateResult compensate_program(std::string_view text, std::string_view file
     gcode::DiagnosticSink mapped = gcode::source_mapped(resolved, sink);
     opt.input_bytes = resolved.text.size();
     CompensateResult r;
+    if (opt.flatten && !resolved.not_flat.empty()) {  // the resolved text is not a program of its own here
+      sink.report(resolved.not_flat.front());
+      return {};
+    }
     if (opt.flatten) {
       r = compensate_flat(resolved.text, file, dialect, m, opt, popt, out, mapped, details);
       r.flattened = true;

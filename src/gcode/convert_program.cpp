@@ -57,6 +57,10 @@ ConvertResult convert_program(std::string_view text, std::string_view file, cons
   const ResolvedProgram r = resolve(text, file, dialect, with_program_folder(opt.resolve, file), sink);
   if (sink.count(Severity::error) > errors) return result;
   DiagnosticSink mapped = source_mapped(r, sink);
+  if (opt.flatten && !r.not_flat.empty()) {  // the resolved text is not a program of its own here
+    sink.report(r.not_flat.front());
+    return result;
+  }
   if (opt.flatten) {
     LineReader in{std::string_view(r.text)};
     ConvertOptions o = opt;

@@ -8,18 +8,47 @@
 
 namespace postproc::gcode {
 
+namespace {
+
+/// The call level a resolved program's M70–M73 line was executed at: its "(postproc: call level N)"
+/// comment (resolve/linuxcnc_statements.cpp), 0 without one.
+std::size_t call_level(const Block& b) {
+  constexpr std::string_view kMark = "(postproc: call level ";
+  for (const Token& t : b.tokens) {
+    if (t.kind != TokenKind::paren_comment) continue;
+    const std::string_view c = b.text(t.span);
+    if (c.substr(0, kMark.size()) != kMark) continue;
+    std::size_t n = 0;
+    for (std::size_t k = kMark.size(); k < c.size() && c[k] >= '0' && c[k] <= '9' && n < 1000; ++k)
+      n = n * 10 + static_cast<std::size_t>(c[k] - '0');
+    return n;
+  }
+  return 0;
+}
+
+}  // namespace
+
 void Interpreter::modal_save_restore(const Block& b, BlockWords& w) {
   if (d_.id != DialectId::linuxcnc) return;
   for (int i = 0; i < w.m_count; ++i) {
     const double m = w.m[static_cast<std::size_t>(i)];
+    if (m < 70 || m > 73) continue;
     const Span at = b.words[static_cast<std::size_t>(w.m_word[static_cast<std::size_t>(i)])].span;
-    if (m == 70) {
-      saved_ = s_;
-      saved_valid_ = true;
+    // LinuxCNC keeps one saved state per call level (M-code reference "M70–M73").
+    const std::size_t level = call_level(b);
+    if (level > 0 && level_saved_.size() < level) level_saved_.resize(level);
+    ModalState& saved = level == 0 ? saved_ : level_saved_[level - 1].first;
+    bool& saved_valid = level == 0 ? saved_valid_ : level_saved_[level - 1].second;
+    if (m == 70 || m == 73) {
+      // M73 saves as M70 does; LinuxCNC restores it when a subroutine returns, never at M2. In a
+      // program read without resolving M73 is in the main program; in a resolved one the resolver
+      // writes that restore as an M72 on the return line (resolve/linuxcnc_statements.cpp).
+      saved = s_;
+      saved_valid = true;
     } else if (m == 71) {
-      saved_valid_ = false;
+      saved_valid = false;
     } else if (m == 72) {
-      if (!saved_valid_) {
+      if (!saved_valid) {
         // rs274 stops here ("no valid stored context"): so does postproc.
         report(b, at, Severity::error, codes::kControllerRefuses,
                "M72 restores a modal state that was never saved (no M70) or was invalidated (M71); LinuxCNC "
@@ -30,28 +59,23 @@ void Interpreter::modal_save_restore(const Block& b, BlockWords& w) {
       // feed mode and F, the G54…G59.3 system, G98/G99, G7/G8, cutter compensation and the tool
       // length offset (the program Z changes with it, the machine does not move). Not G92 offsets,
       // not the motion mode.
-      s_.inch = saved_.inch;
-      s_.plane = saved_.plane;
-      s_.absolute = saved_.absolute;
-      s_.arc_absolute = saved_.arc_absolute;
-      s_.feed_mode = saved_.feed_mode;
-      s_.feed = saved_.feed;
-      s_.feed_known = saved_.feed_known;
-      s_.return_to_r = saved_.return_to_r;
-      s_.diameter_mode = saved_.diameter_mode;
-      s_.cutter_comp = saved_.cutter_comp;
-      s_.cutter_radius = saved_.cutter_radius;
-      s_.cutter_radius_known = saved_.cutter_radius_known;
-      if (saved_.work_offset.code10 != s_.work_offset.code10 || saved_.work_offset.p != s_.work_offset.p) s_.known = 0;
-      s_.work_offset = saved_.work_offset;
-      s_.tool_length_active = saved_.tool_length_active;
-      s_.tool_length_h = saved_.tool_length_h;
-      tool_length_change(b, w, at, saved_.tool_length, saved_.tool_length_known);
-    } else if (m == 73) {
-      report(b, at, Severity::warning, codes::kModalRestore,
-             "M73 restores the modal state when the subroutine returns, which this version does not follow; "
-             "the state after the return is unknown — use M70 at the start and M72 before the return instead");
-      s_.known = 0;
+      s_.inch = saved.inch;
+      s_.plane = saved.plane;
+      s_.absolute = saved.absolute;
+      s_.arc_absolute = saved.arc_absolute;
+      s_.feed_mode = saved.feed_mode;
+      s_.feed = saved.feed;
+      s_.feed_known = saved.feed_known;
+      s_.return_to_r = saved.return_to_r;
+      s_.diameter_mode = saved.diameter_mode;
+      s_.cutter_comp = saved.cutter_comp;
+      s_.cutter_radius = saved.cutter_radius;
+      s_.cutter_radius_known = saved.cutter_radius_known;
+      if (saved.work_offset.code10 != s_.work_offset.code10 || saved.work_offset.p != s_.work_offset.p) s_.known = 0;
+      s_.work_offset = saved.work_offset;
+      s_.tool_length_active = saved.tool_length_active;
+      s_.tool_length_h = saved.tool_length_h;
+      tool_length_change(b, w, at, saved.tool_length, saved.tool_length_known);
     }
   }
 }

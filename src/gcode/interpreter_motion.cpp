@@ -369,7 +369,7 @@ void Interpreter::do_motion(const Block& b, BlockWords& w, MotionSink& out_all) 
     s_.known &= static_cast<AxisMask>(~(bit(Axis::x) | bit(Axis::y) | bit(Axis::z)));
     return;
   }
-  if (w.polar_words != 0 && !polar_to_xy(b, w)) return;
+  if (w.polar_words != 0 && !polar_to_xy(b, w, mode == GMeaning::drill_cycle && !d_.lathe)) return;
   // A full circle may be given by its centre alone (no end words: the end is the start): LinuxCNC
   // (rs274 cuts it) and Fanuc ("Circular interpolation": X Y omitted with I J K = a 360° arc).
   const PlaneAxes pa = plane_axes(s_.plane);
@@ -543,7 +543,7 @@ void Interpreter::do_motion(const Block& b, BlockWords& w, MotionSink& out_all) 
         unresolved_motion(b, w, codes::kLatheDrill, "lathe / mill-turn drilling cycle");
         s_.known &= static_cast<AxisMask>(~w.axis_present);
       } else {
-        drill(b, w, m, out);
+        drill(b, w, m, out, prev_code10);
       }
       break;
     case GMeaning::threading:

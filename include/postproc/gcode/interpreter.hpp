@@ -51,6 +51,10 @@ struct ModalState {
   bool cycle_r_known = false;
   double cycle_bottom = 0;
   bool cycle_bottom_known = false;
+  /// LinuxCNC: R and the plane-normal word of the cycle as written (program units), kept for the
+  /// next cycle blocks, which compute the levels from them again (rs274's cycle_r / cycle_cc).
+  double cycle_r_word = 0, cycle_n_word = 0;
+  bool cycle_r_word_known = false, cycle_n_word_known = false;
   WorkOffset work_offset;
   AxisVector local_offset = AxisVector::Zero();
   AxisVector position_offset = AxisVector::Zero();
@@ -147,9 +151,13 @@ class Interpreter {
   bool radii_agree(const Block& b, Span at, const Eigen::Vector2d& s, const Eigen::Vector2d& e,
                    const Eigen::Vector2d& c,
                    std::string_view hint = {});
-  void drill(const Block& b, const BlockWords& w, Motion& m, MotionSink& out);
+  void drill(const Block& b, const BlockWords& w, Motion& m, MotionSink& out, std::uint16_t prev_code10);
+  bool linuxcnc_cycle_levels(const Block& b, const BlockWords& w, AxisMask normal_bit, std::uint16_t prev_code10);
   void drill_hole(const Block& b, const BlockWords& w, Motion& m, MotionSink& out, AxisMask normal_bit,
                   const PlaneAxes& p);
+  /// The repeat count of a drilling cycle block (L / K), 1 without one; -1 when the block is
+  /// refused or not followed (reported).
+  long drill_repeats(const Block& b, const BlockWords& w, AxisMask normal_bit);
   void fill_state(Motion& m) const;
   void tool_vector(const BlockWords& w, Motion& m) const;
   void dwell(const Block& b, BlockWords& w);
@@ -158,7 +166,9 @@ class Interpreter {
   [[nodiscard]] bool table_length(long number, double& mm) const;
   void cutter_comp_motion(const Block& b, Span at);
   void modal_save_restore(const Block& b, BlockWords& w);
-  bool polar_to_xy(const Block& b, BlockWords& w);
+  bool polar_to_xy(const Block& b, BlockWords& w, bool cycle);
+  void set_polar_xy(BlockWords& w, double x, double y) const;
+  bool polar_cycle_step(const Block& b, BlockWords& w);
   void siemens_token(const Block& b, const Token& t, BlockWords& w);
   void non_modal(const Block& b, BlockWords& w, MotionSink& out);
   bool fanuc_frame(const Block& b, BlockWords& w, GMeaning& mode);
@@ -206,6 +216,9 @@ class Interpreter {
   ModalState s_;
   ModalState saved_;           ///< LinuxCNC M70 saved state, valid when saved_valid_
   bool saved_valid_ = false;
+  /// LinuxCNC: the states saved (M70/M73) at subroutine call levels 1, 2, … of a resolved program,
+  /// whose M70–M73 lines the resolver marks "(postproc: call level N)"; level 0 is saved_.
+  std::vector<std::pair<ModalState, bool>> level_saved_;
   bool warned_integer_input_ = false;
   /// A chamfer or rounding at the end of this block's straight move, waiting for the next block.
   struct Corner {

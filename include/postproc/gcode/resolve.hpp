@@ -86,6 +86,12 @@ struct ResolvedProgram {
   std::uint64_t executed_blocks = 0;
   /// The --set values the program read (name → value), for the report.
   std::map<std::string, double> used_settings;
+  /// Empty, or the first place where `text` is right for postproc's interpreter but not as a program
+  /// of its own: LinuxCNC keeps a saved modal state (M70/M73) per call level and the resolved text
+  /// marks M70–M73 below the main program with "(postproc: call level N)"; a LinuxCNC main program
+  /// has one saved state, so where a restore would find another save there, `--flatten` refuses
+  /// (this diagnostic, PP-E709, at the source line).
+  std::vector<Diagnostic> not_flat;
 };
 
 /// True when `text` contains anything `resolve` evaluates (cheap scan through the lexer).

@@ -104,6 +104,11 @@ void Machine::compile(SourceFile& f, std::size_t i, Line& l) {
   }
   for (const Word& w : b.words) {
     if (w.letter == 'M' && w.kind == ValueKind::number && (w.number == 2 || w.number == 30)) l.ends_program = true;
+    if (w.letter == 'M' && w.kind == ValueKind::number && w.number >= 70 && w.number <= 73 &&
+        w.number == std::floor(w.number)) {
+      if (l.context == 0) l.context_span = w.span;
+      l.context = static_cast<std::uint8_t>(l.context | (1u << (static_cast<int>(w.number) - 70)));
+    }
     if (w.letter == 'G' && w.kind == ValueKind::number) {
       const long g10 = std::lround(w.number * 10);
       if (g10 >= 382 && g10 <= 385) l.probe = Line::Probe::starts;
@@ -112,6 +117,13 @@ void Machine::compile(SourceFile& f, std::size_t i, Line& l) {
         l.probe = Line::Probe::ends;
     }
     if (std::string_view("XYZABCUVW").find(w.letter) != std::string_view::npos && w.name_len == 1) l.axis_words = true;
+    if (w.letter == 'G' && w.kind == ValueKind::number) {
+      const long g10 = std::lround(w.number * 10);
+      if (g10 == 900) l.modes |= 1u;
+      if (g10 == 910) l.modes |= 2u;
+      if (g10 == 70) l.modes |= 4u;
+      if (g10 == 80) l.modes |= 8u;
+    }
     // G70–G72 take their profile from a subroutine (Q): resolving would drop the sub the
     // cycle needs.
     if (w.letter == 'G' && w.kind == ValueKind::number && w.number >= 70 && w.number < 73) {

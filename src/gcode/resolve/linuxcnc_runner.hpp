@@ -82,6 +82,9 @@ struct Line {
   enum class Probe : std::uint8_t { none, starts, ends } probe = Probe::none;  ///< G38.x / another group-1 G
   bool axis_words = false;
   bool abort = false;           // (abort, …)
+  std::uint8_t context = 0;     // literal M70 (1), M71 (2), M72 (4), M73 (8): saved modal state
+  std::uint8_t modes = 0;       // literal G90 (1), G91 (2), G7 (4), G8 (8): the modes a G7x profile reads by
+  Span context_span;            // the first of them
   bool cycle_profile = false;   // G70–G72: profile in a subroutine
   Span cycle_span;
   bool cycle_q_literal = false; // the Q word is a plain number (cycle_q)
@@ -96,8 +99,21 @@ struct Sub {
   std::size_t end = 0;    // the endsub line
 };
 
+/// A modal state saved by M70 or M73 (LinuxCNC M-code reference "M70–M73"), as the resolver
+/// follows it: the state itself is the interpreter's; here is which save it is and where, whether
+/// it is valid and, at a call level, whether the return restores it (M73).
+struct SavedState {
+  bool valid = false;
+  bool restore = false;          ///< M73 at this level: the return restores it
+  std::uint64_t id = 0;          ///< the n-th save of the run
+  bool absolute = true, diameter = false;  ///< G90/G91 and G7/G8 as saved (Machine::absolute_)
+  const SourceFile* file = nullptr;
+  std::size_t line = 0;          ///< of the M70/M73 (or, in the resolved program's slot, of an M71)
+};
+
 struct Frame {
   std::array<double, 31> saved{};  // #1–#30 of the caller
+  SavedState state;                // this call level's saved modal state
   std::unordered_map<int, double> locals;  // named locals
   std::map<std::size_t, long> repeats;     // remaining passes by repeat line
 };
@@ -183,11 +199,35 @@ class Machine {
 
   /// G70–G72 read their profile from the subroutine numbered Q (LinuxCNC docs, G70 and G71-G72):
   /// its lines are passed on, values substituted, as "oN sub" … "oN endsub" right before the
-  /// cycle's line, where the interpreter reads them as the profile. rs274 reads those lines
-  /// without executing them, so statements inside the profile are refused.
+  /// cycle's line, where the interpreter reads them as the profile. rs274 (convert_g7x) runs the
+  /// subroutine as a call: O-word control flow, calls and assignments are executed, the lines it
+  /// reaches are passed on in that order (a cycle inside a profile is refused, PP-E251).
   void cycle_profile(SourceFile& f, std::size_t pc, const Line& l);
+  /// One ordinary line of a G7x profile (`profile_` set): rs274's convert_g7x applies its
+  /// assignments and reads its X Z U W (values substituted) for the profile; nothing else of it is
+  /// executed (M2, comments, other G codes). The point it reaches is #<_x> / #<_z> afterwards.
+  void profile_line(SourceFile& f, std::size_t i, const Line& l);
+  /// G90/G91, G7/G8 (bits of Line::modes) executed outside a profile.
+  void apply_modes(unsigned bits) {
+    if (bits & 1u) absolute_ = true;
+    if (bits & 2u) absolute_ = false;
+    if (bits & 4u) diameter_ = true;
+    if (bits & 8u) diameter_ = false;
+  }
   std::size_t enclosing_loop(SourceFile& f, FileInfo& fi, std::size_t i, const Line& l);
   void call(SourceFile& f, std::size_t i, Line& l);
+
+  /// M70/M71/M72/M73 (bits 1 2 4 8) executed at line i of the current call level (LinuxCNC M-code
+  /// reference "M70–M73": one saved state per call level; M73 asks for the restore at the return).
+  /// Below the main program the line is marked "(postproc: call level N)" after the M word (`mark`
+  /// receives that insertion) and the interpreter keeps a state per level; the restore at a
+  /// return is written as "M72 (postproc: call level N)" on the return line. An M72 with no valid
+  /// save at its level stops LinuxCNC (PP-E207). A restore that a single saved state (a LinuxCNC
+  /// main program) would not reproduce is noted in ResolvedProgram::not_flat for --flatten.
+  void modal_context(SourceFile& f, std::size_t i, unsigned bits, Span at, std::vector<Edit>& mark);
+  void check_restore(SourceFile& f, std::size_t i, Span at, const SavedState& s, bool on_return);
+  [[nodiscard]] std::string level_mark() const { return fmt::format(" (postproc: call level {})", frames_.size() - 1); }
+  [[nodiscard]] static std::string where(const SourceFile& in, const SourceFile* f, std::size_t line);
 
   FileSet& files_;
   Emitter& out_;
@@ -202,6 +242,24 @@ class Machine {
   std::unordered_map<int, double> globals_;
   std::vector<Frame> frames_;
   std::map<std::string, Sub> subs_;
+  SavedState flat_;            ///< the resolved program's one saved state (M70/M73, M71 of any level)
+  // The modes a G7x profile's #<_x> / #<_z> depend on, followed through the run (rs274 starts in G90, G8).
+  bool absolute_ = true, diameter_ = false;
+  /// While a G7x profile is read: the point it has reached (rs274 sets the current position to each
+  /// profile point), per axis when known; X as a radius.
+  struct Profile {
+    bool absolute = true, diameter = false;
+    bool x_known = false, z_known = false;
+    double x = 0, z = 0;
+    std::size_t cycle_line = 0;
+    long q = 0;
+  };
+  Profile* profile_ = nullptr;
+  int x_id_ = names_.id("_x"), z_id_ = names_.id("_z");
+  /// The current point inside a profile for #<_x> (axis 0) / #<_z> (2), #5420 / #5422; throws
+  /// PP-E701 where it is not known.
+  double profile_position(int axis) const;
+  std::uint64_t saves_ = 0;
   std::map<const SourceFile*, std::unique_ptr<FileInfo>> info_;
 
  public:

@@ -14,6 +14,7 @@ double Machine::numbered(double index) {
   if (std::fabs(index - r) > 1e-4 || r < 0 || r >= kNumbered)
     throw EvalError{"PP-E703", fmt::format("parameter #{} does not exist (LinuxCNC has #1 … #{})", index, kNumbered - 1)};
   const int n = static_cast<int>(r);
+  if (profile_ && (n == 5420 || n == 5422)) return profile_position(n == 5420 ? 0 : 2);
   if (const char* what = runtime_numbered(n)) {
     const std::string key = fmt::format("#{}", n);
     if (const auto it = opt_.set.find(key); it != opt_.set.end()) {
@@ -29,6 +30,7 @@ double Machine::numbered(double index) {
 
 std::optional<double> Machine::named(int id) {
   const std::string& n = names_.name(id);
+  if (profile_ && (id == x_id_ || id == z_id_)) return profile_position(id == x_id_ ? 0 : 2);
   if (!n.empty() && n[0] == '_') {
     if (const auto it = globals_.find(id); it != globals_.end()) return it->second;
     const std::string key = "#<" + std::string(n) + ">";
@@ -127,8 +129,20 @@ void Machine::execute(SourceFile& f, std::size_t from, std::size_t to, bool in_s
     Line& l = line(f, pc);
     if (!l.ok) throw Stop{};
     if (!guard_.step(out_.emitted())) endless(f, pc, guard_.silent_message());
+    if (profile_ && l.kw == Kw::none) {
+      profile_line(f, pc, l);
+      ++pc;
+      continue;
+    }
     if (l.plain) {
-      if (!out_.emit(f, pc, {})) runaway(f, pc);
+      if (l.context) {
+        edits.clear();
+        modal_context(f, pc, l.context, l.context_span, edits);
+        if (!out_.emit(f, pc, edits)) runaway(f, pc);
+      } else if (!out_.emit(f, pc, {})) {
+        runaway(f, pc);
+      }
+      if (l.modes) apply_modes(l.modes);
       probe_results(l);
       if (l.ends_program) throw Stop{};
       ++pc;
@@ -146,7 +160,6 @@ void Machine::execute(SourceFile& f, std::size_t from, std::size_t to, bool in_s
       pc = next;
       continue;
     }
-    if (l.cycle_profile) cycle_profile(f, pc, l);
     if (l.abort) {
       f.report(pc, Span{0, static_cast<std::uint32_t>(f.raw(pc).size())}, Severity::error, "PP-E710",
                fmt::format("the program aborts here: {}{}", l.abort_text, context()));
@@ -157,7 +170,25 @@ void Machine::execute(SourceFile& f, std::size_t from, std::size_t to, bool in_s
     edits.clear();
     pending.clear();
     for (const Assign& as : l.assigns) pending.push_back(value(f, pc, as.span, as.value));
-    for (const WordValue& v : l.words) edits.push_back({v.span, format_value(value(f, pc, v.span, v.code), v.letter)});
+    unsigned context = l.context, modes = l.modes;
+    Span context_at = l.context_span;
+    for (const WordValue& v : l.words) {
+      const double x = value(f, pc, v.span, v.code);
+      if (v.letter == 'M' && x >= 70 && x <= 73 && x == std::floor(x)) {  // M[…] computed to M70–M73
+        if (context == 0) context_at = v.span;
+        context |= 1u << (static_cast<int>(x) - 70);
+      }
+      if (v.letter == 'G') {  // G[…] computed to G90 G91 G7 G8
+        const long g10 = std::lround(x * 10);
+        modes |= g10 == 900 ? 1u : g10 == 910 ? 2u : g10 == 70 ? 4u : g10 == 80 ? 8u : 0u;
+      }
+      edits.push_back({v.span, format_value(x, v.letter)});
+    }
+    // rs274's order within a block: M70–M73, then G7/G8 and G90/G91, then the motion (a G7x cycle,
+    // whose profile is written before this line).
+    if (context) modal_context(f, pc, context, context_at, edits);
+    apply_modes(modes);
+    if (l.cycle_profile) cycle_profile(f, pc, l);
     for (const Span& d : l.deletions) edits.push_back({d, ""});
     std::sort(edits.begin(), edits.end(), [](const Edit& x, const Edit& y) { return x.span.begin < y.span.begin; });
     if (!out_.emit(f, pc, edits)) runaway(f, pc);
@@ -209,6 +240,13 @@ std::size_t Machine::control(SourceFile& f, FileInfo& fi, std::size_t i, Line& l
         globals_[names_.id("_value")] = value(f, i, l.control_span, l.args[0]);
         globals_[names_.id("_value_returned")] = 1;
         guard_.changed();
+      }
+      if (const SavedState& st = frames_.back().state; st.valid && st.restore) {
+        // M73: LinuxCNC restores the state saved at this level as the subroutine returns; the
+        // resolved program does it with an M72 written on the return line.
+        check_restore(f, i, l.control_span, st, true);
+        const Edit m72{l.control_span, "M72" + level_mark()};
+        if (!out_.emit(f, i, std::span<const Edit>(&m72, 1))) runaway(f, i);
       }
       return kReturn;
     case Kw::call: call(f, i, l); return i + 1;
@@ -277,32 +315,175 @@ void Machine::cycle_profile(SourceFile& f, std::size_t pc, const Line& l) {
   if (!have_q) return;  // the interpreter refuses the cycle without Q
   const auto it = subs_.find(fmt::format("o{}", std::lround(q)));
   if (it == subs_.end()) return;  // … and without its subroutine
+  if (profile_) {
+    f.report(pc, l.cycle_span, Severity::error, "PP-E251",
+             fmt::format("a lathe cycle inside the profile of another (o{} sub, used by the G7x at line {}): rs274 "
+                         "takes its G code as the profile's motion mode, which this version does not follow; keep only "
+                         "G0/G1/G2/G3 moves and statements in the profile{}",
+                         profile_->q, profile_->cycle_line + 1, context()));
+    throw Stop{};
+  }
+  // rs274 (convert_g7x) first moves (G0) to the cycle's X Z, so the profile starts there: with G90
+  // and the word given, that point is known (X as a radius under G7).
+  Profile prof;
+  prof.absolute = absolute_;
+  prof.diameter = diameter_;
+  prof.cycle_line = pc;
+  prof.q = std::lround(q);
+  if (absolute_) {
+    const Block& cb = f.block(pc);
+    for (const Word& w : cb.words)
+      if ((w.letter == 'X' || w.letter == 'Z') && w.name_len == 1 && w.kind == ValueKind::number)
+        (w.letter == 'X' ? prof.x : prof.z) = w.number, (w.letter == 'X' ? prof.x_known : prof.z_known) = true;
+    for (const WordValue& v : l.words)
+      if (v.letter == 'X' || v.letter == 'Z')
+        (v.letter == 'X' ? prof.x : prof.z) = value(f, pc, v.span, v.code),
+                                          (v.letter == 'X' ? prof.x_known : prof.z_known) = true;
+    if (diameter_) prof.x /= 2;
+  }
   const Sub s = it->second;
   SourceFile& sf = *s.file;
   out_.push_call(CallFrame{f.name(), pc + 1, fmt::format("o{} profile", std::lround(q))});
   if (!out_.emit(sf, s.begin, {})) runaway(sf, s.begin);
-  std::vector<Edit> edits;
-  for (std::size_t i = s.begin + 1; i < s.end; ++i) {
-    Line& bl = line(sf, i);
-    if (!bl.ok) throw Stop{};
-    if (bl.kw != Kw::none || !bl.assigns.empty() || bl.abort || bl.cycle_profile || bl.ends_program) {
-      const Span at = bl.kw != Kw::none ? bl.control_span
-                      : !bl.assigns.empty() ? bl.assigns.front().span
-                      : bl.cycle_profile ? bl.cycle_span
-                                         : Span{0, static_cast<std::uint32_t>(sf.raw(i).size())};
-      sf.report(i, at, Severity::error, "PP-E251",
-                fmt::format("the profile of a lathe cycle (o{} sub, used by the G7x at line {}) holds a statement "
-                            "or cycle; rs274 reads the profile's moves without executing statements, so this "
-                            "cannot be followed: keep only G0/G1/G2/G3 moves in the profile{}",
-                            std::lround(q), pc + 1, context()));
-      throw Stop{};
-    }
-    edits.clear();
-    for (const WordValue& v : bl.words) edits.push_back({v.span, format_value(value(sf, i, v.span, v.code), v.letter)});
-    if (!out_.emit(sf, i, edits)) runaway(sf, i);
+  // rs274 runs the subroutine as a call ("oN CALL", no arguments): its O-word control flow, calls
+  // and assignments are executed; each other line is read for the profile only.
+  Frame fr;
+  std::copy(numbered_.begin() + 1, numbered_.begin() + 31, fr.saved.begin() + 1);
+  std::fill(numbered_.begin() + 1, numbered_.begin() + 31, 0.0);
+  frames_.push_back(std::move(fr));
+  guard_.changed();
+  globals_[names_.id("_value_returned")] = 0;
+  globals_[names_.id("_call_level")] = static_cast<double>(frames_.size() - 1);
+  profile_ = &prof;
+  try {
+    execute(sf, s.begin + 1, s.end + 1, true);
+  } catch (...) {
+    profile_ = nullptr;
+    throw;
   }
+  profile_ = nullptr;
+  std::copy(frames_.back().saved.begin() + 1, frames_.back().saved.end(), numbered_.begin() + 1);
+  frames_.pop_back();
+  globals_[names_.id("_call_level")] = static_cast<double>(frames_.size() - 1);
   if (!out_.emit(sf, s.end, {})) runaway(sf, s.end);
   out_.pop_call();
+}
+
+void Machine::profile_line(SourceFile& f, std::size_t i, const Line& l) {
+  if (l.cycle_profile) cycle_profile(f, i, l);  // refused inside a profile
+  std::vector<Edit> edits;
+  std::vector<double> pending;
+  for (const Assign& as : l.assigns) pending.push_back(value(f, i, as.span, as.value));
+  // X Z U W of the line: literal or evaluated (parameters as before the line).
+  std::array<double, 4> v{};
+  std::array<bool, 4> has{};
+  const auto slot = [](char c) { return c == 'X' ? 0 : c == 'Z' ? 1 : c == 'U' ? 2 : c == 'W' ? 3 : -1; };
+  for (const Word& w : f.block(i).words)
+    if (w.name_len == 1 && w.kind == ValueKind::number && slot(w.letter) >= 0) {
+      v[static_cast<std::size_t>(slot(w.letter))] = w.number;
+      has[static_cast<std::size_t>(slot(w.letter))] = true;
+    }
+  for (const WordValue& wv : l.words) {
+    const double x = value(f, i, wv.span, wv.code);
+    if (slot(wv.letter) >= 0) {
+      v[static_cast<std::size_t>(slot(wv.letter))] = x;
+      has[static_cast<std::size_t>(slot(wv.letter))] = true;
+    }
+    edits.push_back({wv.span, format_value(x, wv.letter)});
+  }
+  for (const Span& d : l.deletions) edits.push_back({d, ""});
+  std::sort(edits.begin(), edits.end(), [](const Edit& x, const Edit& y) { return x.span.begin < y.span.begin; });
+  if (!out_.emit(f, i, edits)) runaway(f, i);
+  for (std::size_t k = 0; k < l.assigns.size(); ++k) assign(l.assigns[k], pending[k], f, i, l.assigns[k].span);
+  // The point the profile reaches (rs274 convert_g7x under G90: U/W add to the last point, U halved
+  // under G7; X (already a radius under G7) and Z replace it). Under G91 every point is relative to
+  // the unknown start: not known.
+  Profile& p = *profile_;
+  if (!p.absolute) {
+    p.x_known = p.z_known = false;
+    return;
+  }
+  const double div = p.diameter ? 2.0 : 1.0;
+  if (has[2]) p.x += v[2] / div;
+  else if (has[0]) p.x = v[0] / div, p.x_known = true;
+  if (has[3]) p.z += v[3];
+  else if (has[1]) p.z = v[1], p.z_known = true;
+}
+
+double Machine::profile_position(int axis) const {
+  const Profile& p = *profile_;
+  if (axis == 0 ? p.x_known : p.z_known) return axis == 0 ? p.x : p.z;
+  const char a = axis == 0 ? 'X' : 'Z';
+  throw EvalError{"PP-E701",
+                  fmt::format("inside the profile of a lathe cycle (o{} sub, used by the G7x at line {}) the current {} "
+                              "(#<_{}>, #{}) is the profile's last point, which is not known here: {}; give {} on the "
+                              "cycle block, or an absolute {} in the profile before this line",
+                              p.q, p.cycle_line + 1, a, static_cast<char>(std::tolower(a)), axis == 0 ? 5420 : 5422,
+                              p.absolute ? fmt::format("the profile has not given {} yet and the cycle block has no {}", a, a)
+                                         : std::string("the cycle runs under G91, where the profile is relative to "
+                                                       "the position before it"),
+                              a, a)};
+}
+
+std::string Machine::where(const SourceFile& in, const SourceFile* f, std::size_t line) {
+  if (f == nullptr || f == &in) return fmt::format("line {}", line + 1);
+  return fmt::format("{}:{}", f->name(), line + 1);
+}
+
+void Machine::modal_context(SourceFile& f, std::size_t i, unsigned bits, Span at, std::vector<Edit>& mark) {
+  SavedState& level = frames_.back().state;
+  if (frames_.size() > 1) mark.push_back({Span{at.end, at.end}, level_mark()});
+  if (bits & (1u | 8u)) {  // M70, M73: save at this call level (M73 also asks for the restore at the return)
+    level.valid = true;
+    level.restore = level.restore || (bits & 8u) != 0;
+    level.id = ++saves_;
+    level.file = &f;
+    level.line = i;
+    level.absolute = absolute_;
+    level.diameter = diameter_;
+    flat_ = level;
+    guard_.changed();
+  }
+  if (bits & 2u) {  // M71: this level's state is invalid (and, in a single-state program, the one state)
+    level.valid = false;
+    flat_.valid = false;
+    flat_.file = &f;
+    flat_.line = i;
+  }
+  if (bits & 4u) check_restore(f, i, at, level, false);
+}
+
+void Machine::check_restore(SourceFile& f, std::size_t i, Span at, const SavedState& s, bool on_return) {
+  if (!s.valid) {
+    f.report(i, at, Severity::error, "PP-E207",
+             fmt::format("M72 restores the modal state saved at this call level, but none is valid here (never saved "
+                         "with M70/M73 in this {}, or invalidated by M71): LinuxCNC stops here (\"Cannot restore "
+                         "context from invalid stack frame\"); save with M70 at this level first{}",
+                         frames_.size() > 1 ? "subroutine call — a save of the caller does not count" : "program",
+                         context()));
+    throw Stop{};
+  }
+  absolute_ = s.absolute;
+  diameter_ = s.diameter;
+  if ((flat_.valid && flat_.id == s.id) || !r_.not_flat.empty()) return;
+  // Right for postproc's interpreter (a state per call level), but not as one program: noted for
+  // --flatten, which refuses then.
+  const std::string what =
+      on_return ? fmt::format("the subroutine returns here and LinuxCNC restores the modal state that the M73 at {} saved",
+                              where(f, s.file, s.line))
+                : fmt::format("this M72 restores the modal state saved at {} at this call level", where(f, s.file, s.line));
+  const std::string between =
+      flat_.valid ? fmt::format("the save at {} (another call level) came after it", where(f, flat_.file, flat_.line))
+                  : fmt::format("the M71 at {} (another call level) invalidated it", where(f, flat_.file, flat_.line));
+  DiagnosticSink capture;
+  LexContext ctx = f.context();
+  ctx.sink = &capture;
+  report_at(ctx, f.block(i), at, Severity::error, "PP-E709",
+            fmt::format("--flatten: {}, but {}; a LinuxCNC main program keeps one saved state, so the resolved program "
+                        "cannot restore it as one program; convert or compensate without --flatten (the program is "
+                        "written back into itself, subroutines kept), or save and restore at one call level{}",
+                        what, between, context()));
+  if (!capture.stored().empty()) r_.not_flat.push_back(capture.stored().front());
 }
 
 std::size_t Machine::enclosing_loop(SourceFile& f, FileInfo& fi, std::size_t i, const Line& l) {
