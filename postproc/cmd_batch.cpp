@@ -156,7 +156,7 @@ void setup_batch(CLI::App& app, int& rc) {
   cmd->add_option("-j,--jobs", o->jobs, "programs compensated at once (default: the cores this process may use, from its CPU affinity)");
   cmd->add_option("--glob", o->globs,
                   "file names to take (repeatable; case-insensitive; a glob with '/' matches the path below the job "
-                  "folder); default *.nc *.ngc *.tap *.mpf *.spf *.cnc *.gcode *.eia *.iso *.ptp *.min");
+                  "folder); default *.nc *.ngc *.tap *.mpf *.spf *.cnc *.gcode *.eia *.iso *.ptp *.min *.h (Heidenhain Klartext)");
   cmd->add_option("--mode", o->mode, "geometric, contour or all, as for compensate")
       ->check(CLI::IsMember({"geometric", "contour", "all"}))
       ->capture_default_str();

@@ -355,7 +355,7 @@ nlohmann::json summary_of(const nlohmann::json& files, double seconds) {
 
 const std::vector<std::string>& default_globs() {
   static const std::vector<std::string> g = {"*.nc",  "*.ngc", "*.tap", "*.mpf", "*.spf", "*.cnc",
-                                             "*.gcode", "*.eia", "*.iso", "*.ptp", "*.min"};
+                                             "*.gcode", "*.eia", "*.iso", "*.ptp", "*.min", "*.h"};
   return g;
 }
 
