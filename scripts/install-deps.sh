@@ -30,6 +30,7 @@ packages=(
 if [[ $mode != tool ]]; then
   packages+=(
     pkg-config time
+    zsh fish groff-base  # tests/docgen_cli.sh: the completions in each shell, the man pages through groff
     libgtest-dev libgmock-dev libbenchmark-dev
     chromium chromium-driver python3-selenium python3-pil  # tests/html_render.sh: reports in headless Chromium
     linuxcnc-uspace  # tests/rs274_compare.sh: LinuxCNC's own interpreter (rs274) as the reference
