@@ -78,7 +78,7 @@ struct SimulateArgs {
 void setup_predict(CLI::App& app, int& rc) {
   auto o = std::make_shared<PredictArgs>();
   auto* cmd = app.add_subcommand("predict", "predict the servo following errors and the contour errors they cause "
-                                            "(document 004), per block end point");
+                                            "at every block end point");
   cmd->add_option("input", o->input, "NC program")->required();
   cmd->add_option("-m,--machine", o->machine, "machine file with the servo data of every axis ([axes.X] kv …)")
       ->required();

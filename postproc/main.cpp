@@ -1,11 +1,13 @@
-// postproc command line: wires subcommands to the library. Exit codes are documented in README.md.
+// postproc command line: wires subcommands to the library. Exit codes are documented in docs/exit-codes.md.
 #include <cstdio>
 #include <exception>
+#include <string_view>
 
 #include <CLI/CLI.hpp>
 #include <fmt/format.h>
 
 #include "common.hpp"
+#include "docgen.hpp"
 #include "postproc/io/input_guard.hpp"
 #include "postproc/io/signal_cleanup.hpp"
 
@@ -25,6 +27,16 @@ int main(int argc, char** argv) {
   postproc::cli::setup_simulate(app, rc);
   postproc::cli::setup_diff(app, rc);
   postproc::cli::setup_batch(app, rc);
+  // Hidden, for the build: man pages and shell completions from the definitions above.
+  if (argc == 3 && std::string_view(argv[1]) == "--generate-docs") {
+    try {
+      postproc::cli::generate_docs(app, argv[2], POSTPROC_VERSION);
+      return 0;
+    } catch (const std::exception& e) {
+      std::fputs(fmt::format("postproc: error: {}\n", e.what()).c_str(), stderr);
+      return static_cast<int>(postproc::ExitCode::cannot_write);
+    }
+  }
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -1,18 +1,42 @@
 #!/usr/bin/env bash
-# Installs every build, test and bench dependency of postproc from Debian packages.
-# Idempotent; uses sudo when not run as root. Nothing is downloaded at build time.
+# Installs postproc's dependencies from Debian 12 packages. Idempotent; uses sudo when not run
+# as root. Nothing is downloaded at build time.
+#
+#   scripts/install-deps.sh            what building and running the tool needs (the `tool` preset)
+#   scripts/install-deps.sh --test     adds what the tests and benchmarks need (the `release` preset):
+#                                      GoogleTest, Google Benchmark, headless Chromium with WebDriver
+#                                      (tests/html_render.sh) and LinuxCNC's interpreter rs274
+#                                      (tests/rs274_compare.sh and the other comparisons)
+#   scripts/install-deps.sh --extra    adds --test's packages and clang (libFuzzer, the `fuzz`
+#                                      preset) and valgrind (instruction counts);
+#                                      POSTPROC_DEPS_EXTRA=1 does the same
 set -euo pipefail
+mode=tool
+for arg in "$@"; do
+  case "$arg" in
+    --test) [[ $mode == extra ]] || mode=test ;;
+    --extra) mode=extra ;;
+    -h|--help) sed -n '2,12p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    *) echo "install-deps: unknown argument '$arg' (use --test or --extra)" >&2; exit 64 ;;
+  esac
+done
+[[ "${POSTPROC_DEPS_EXTRA:-0}" == 1 ]] && mode=extra
+
 packages=(
-  build-essential cmake ninja-build pkg-config
+  build-essential cmake ninja-build
   libeigen3-dev libceres-dev libcli11-dev libfmt-dev
-  libgtest-dev libgmock-dev libbenchmark-dev
   libtomlplusplus-dev nlohmann-json3-dev libssl-dev
-  time
-  chromium chromium-driver python3-selenium python3-pil  # tests/html_render.sh: reports in headless Chromium
-  linuxcnc-uspace  # tests/rs274_compare.sh: LinuxCNC's own interpreter (rs274) as the reference
 )
-# Optional extras: clang for the libFuzzer target, valgrind for instruction counts.
-if [[ "${POSTPROC_DEPS_EXTRA:-0}" == 1 ]]; then
+if [[ $mode != tool ]]; then
+  packages+=(
+    pkg-config time
+    zsh fish groff-base  # tests/docgen_cli.sh: the completions in each shell, the man pages through groff
+    libgtest-dev libgmock-dev libbenchmark-dev
+    chromium chromium-driver python3-selenium python3-pil  # tests/html_render.sh: reports in headless Chromium
+    linuxcnc-uspace  # tests/rs274_compare.sh: LinuxCNC's own interpreter (rs274) as the reference
+  )
+fi
+if [[ $mode == extra ]]; then
   packages+=(clang libclang-rt-14-dev valgrind)
 fi
 missing=()
@@ -20,7 +44,7 @@ for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
 done
 if [[ ${#missing[@]} -eq 0 ]]; then
-  echo "install-deps: all ${#packages[@]} packages present"
+  echo "install-deps: all ${#packages[@]} packages present ($mode)"
   exit 0
 fi
 SUDO=""

@@ -6,7 +6,7 @@
 # shown equal the same run's JSON and stderr. A deliberately broken copy of a report must fail the
 # checker (the test can fail). `diff --predict` without servo data is refused with a located
 # diagnostic. Needs Debian's chromium, chromium-driver, python3-selenium and python3-pil
-# (scripts/install-deps.sh, which the README's test command runs); fails when they are missing.
+# (scripts/install-deps.sh --test, which the README's test command runs); fails when they are missing.
 # Usage: html_render.sh POSTPROC SOURCE_DIR
 set -u
 P=$1
@@ -21,9 +21,9 @@ failures=0
 fail() { echo "FAIL: $*"; failures=$((failures + 1)); }
 
 for f in /usr/bin/chromium /usr/bin/chromedriver "$PY"; do
-  [[ -x $f ]] || { echo "FAIL: $f missing (scripts/install-deps.sh installs it)"; exit 1; }
+  [[ -x $f ]] || { echo "FAIL: $f missing (scripts/install-deps.sh --test installs it)"; exit 1; }
 done
-"$PY" -c 'import selenium, PIL' 2> /dev/null || { echo "FAIL: python3-selenium / python3-pil missing (scripts/install-deps.sh)"; exit 1; }
+"$PY" -c 'import selenium, PIL' 2> /dev/null || { echo "FAIL: python3-selenium / python3-pil missing (scripts/install-deps.sh --test)"; exit 1; }
 
 "$P" compensate "$PROG" -m "$M" --mode contour -o "$T/cone_c.nc" 2> "$T/compensate.err" ||
   { fail "compensate --mode contour: $(cat "$T/compensate.err")"; exit 1; }

@@ -5,7 +5,7 @@
 # Usage: lcnc_samples_compare.sh POSTPROC [FOLDER]
 set -u
 dir=${2:-/usr/share/linuxcnc/ncfiles}
-command -v rs274 > /dev/null || { echo "FAIL: rs274 missing (scripts/install-deps.sh installs linuxcnc-uspace)"; exit 1; }
+command -v rs274 > /dev/null || { echo "FAIL: rs274 missing (scripts/install-deps.sh --test installs linuxcnc-uspace)"; exit 1; }
 [[ -d $dir ]] || { echo "FAIL: $dir missing (linuxcnc-uspace)"; exit 1; }
 shopt -s nullglob
 files=("$dir"/*.ngc)

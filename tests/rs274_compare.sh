@@ -1,14 +1,14 @@
 #!/usr/bin/env bash
 # Issue 3: the motions `postproc dump` gives for LinuxCNC programs with parameters, expressions,
 # O-word subroutines and control flow agree with LinuxCNC's own interpreter (`rs274 -g`, Debian
-# package linuxcnc-uspace, installed by scripts/install-deps.sh): the same sequence of straight
+# package linuxcnc-uspace, installed by scripts/install-deps.sh --test): the same sequence of straight
 # moves, end points equal to rs274's 4 printed decimals.
 # Usage: rs274_compare.sh POSTPROC SOURCE_DIR
 set -u
 P=$(realpath "$1")
 SRC=$(realpath "$2")
 D="$SRC/tests/resolve/linuxcnc"
-command -v rs274 > /dev/null || { echo "FAIL: rs274 missing (scripts/install-deps.sh installs linuxcnc-uspace)"; exit 1; }
+command -v rs274 > /dev/null || { echo "FAIL: rs274 missing (scripts/install-deps.sh --test installs linuxcnc-uspace)"; exit 1; }
 T=$(mktemp -d)
 trap 'rm -rf "$T"' EXIT
 fails=0
