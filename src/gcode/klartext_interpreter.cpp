@@ -405,8 +405,11 @@ ProgramStats run(LineReader& reader, const Dialect& d, std::string_view file, Di
       if (feed > 0) element->feed = feed, element->feed_known = !interp.inch();
       cn.motions.push_back(*element);
     } else {
-      report_at(ctx, bn, bn.tokens.empty() ? Span{0, 1} : bn.tokens.front().span, Severity::warning,
-                codes::kKlartextUnresolved,
+      // An element larger than its moves stops the control itself: an error, as the control's.
+      const bool control_stops = why.find("the control stops") != std::string::npos;
+      report_at(ctx, bn, bn.tokens.empty() ? Span{0, 1} : bn.tokens.front().span,
+                control_stops ? Severity::error : Severity::warning,
+                control_stops ? codes::kControllerRefuses : codes::kKlartextUnresolved,
                 fmt::format("{} is not built here: {}; the moves next to it are read up to the corner and not corrected",
                             rounding ? "RND" : "CHF", why));
       if (!ca.motions.empty()) ca.motions.back().words_transformed = true;
