@@ -23,7 +23,6 @@ inline constexpr double kPi = std::numbers::pi;
 inline constexpr double kDeg = kPi / 180.0;
 inline constexpr AxisMask kLinear = bit(Axis::x) | bit(Axis::y) | bit(Axis::z);
 inline constexpr AxisMask kRotary = bit(Axis::a) | bit(Axis::b) | bit(Axis::c);
-inline constexpr AxisMask kAll = static_cast<AxisMask>((1u << kAxisCount) - 1);
 
 /// Address words of a motion block, by meaning.
 struct Words {
@@ -136,7 +135,6 @@ class Interp {
   bool comp_reported_ = false, cutter_radius_known_ = false;
   Plane plane_ = Plane::xy;
   Eigen::Vector2d cc_ = Eigen::Vector2d::Zero();
-  std::array<bool, 2> cc_part_known_{false, false};
   bool cc_known_ = false;
   Plane cc_plane_ = Plane::xy;
   Plane geo_plane_ = Plane::xy;

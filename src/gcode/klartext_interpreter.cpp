@@ -161,6 +161,7 @@ void Interp::circle_centre(const Block& b) {
     return;
   }
   const PlaneAxes p = plane_axes(pl);
+  bool all_known = true;
   for (const int a : {p.u, p.v}) {
     const auto k = static_cast<std::size_t>(a);
     double v = 0;
@@ -175,9 +176,9 @@ void Interp::circle_centre(const Block& b) {
       v = len(w.value[k]);
     }
     cc_[a == p.u ? 0 : 1] = v;
-    cc_part_known_[a == p.u ? 0 : 1] = kn;
+    all_known = all_known && kn;
   }
-  cc_known_ = cc_part_known_[0] && cc_part_known_[1];
+  cc_known_ = all_known;
   cc_plane_ = pl;
 }
 

@@ -44,7 +44,7 @@ constexpr Verbs kVerbs[] = {
 
 class Lexer {
  public:
-  Lexer(const Dialect& d, Block& b, const LexContext& ctx) : d_(d), b_(b), ctx_(ctx), raw_(b.raw) {}
+  Lexer(Block& b, const LexContext& ctx) : b_(b), ctx_(ctx), raw_(b.raw) {}
 
   bool run() {
     skip_blanks();
@@ -159,7 +159,6 @@ class Lexer {
                                    w1));
     token(TokenKind::keyword, s, e, span(s, e));
     pos_ = e;
-    unknown_verb_ = true;
     return items();
   }
 
@@ -284,13 +283,11 @@ class Lexer {
     if (ctx_.sink != nullptr) report_at(ctx_, b_, at, Severity::error, code, std::move(msg));
   }
 
-  const Dialect& d_;
   Block& b_;
   const LexContext& ctx_;
   std::string_view raw_;
   std::size_t pos_ = 0;
   bool ok_ = true;
-  bool unknown_verb_ = false;
 };
 
 }  // namespace
@@ -386,6 +383,6 @@ std::string_view token_text(const Block& b, int i) {
   return b.text(b.tokens[static_cast<std::size_t>(i)].span);
 }
 
-bool lex(const Dialect& d, Block& block, const LexContext& ctx) { return Lexer(d, block, ctx).run(); }
+bool lex(const Dialect&, Block& block, const LexContext& ctx) { return Lexer(block, ctx).run(); }
 
 }  // namespace postproc::gcode::klartext

@@ -205,18 +205,14 @@ void Interp::motion(const Block& b, Verb v, MotionSink& out) {
                      comp_ == 1 ? "RL" : comp_ == 2 ? "RR" : "R+/R-"));
     comp_reported_ = true;
   }
-  if (frame_machine_) {
+  if (frame_machine_) {  // M91: machine coordinates; the work-frame position of these axes is lost
     known_ &= static_cast<AxisMask>(~w.present);
   } else {
     pos_ = m.end;
     known_ = end_known;
-  }
-  if (!frame_machine_) {
     tangent_from(m);
-    out.motion(m, b);
-  } else {
-    out.motion(m, b);
   }
+  out.motion(m, b);
   polar_words_ = false;
   after_motion_m(b, w, out);
 }
