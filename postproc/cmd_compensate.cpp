@@ -34,6 +34,7 @@ struct CompensateArgs {
   bool in_place = false;
   std::size_t max_per_code = 20;
   int iterations = 12;
+  int refine_iterations = 8;
   bool flatten = false;
   bool allow_recompensation = false;
   unsigned jobs = 0;
@@ -99,6 +100,11 @@ void setup_compensate(CLI::App& app, int& rc) {
                   "contour modes: most prediction / correction rounds (stops earlier when the predicted contour error "
                   "stops improving)")
       ->capture_default_str();
+  cmd->add_option("--refine-iterations", o->refine_iterations,
+                  "contour modes: most accepted steps per run of the refinement on the time-domain simulation of the "
+                  "written program (0: none)")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
   cmd->add_flag("--flatten", o->flatten,
                 "programs with parameters, expressions, subprograms or loops: write the resolved program as literal "
                 "moves (loops unrolled, calls expanded; comments and other blocks kept); without it the corrections "
@@ -178,6 +184,7 @@ void setup_compensate(CLI::App& app, int& rc) {
       const std::string text = io::read_file(o->input, "NC program");
       contour::PrecompensateOptions popt;
       popt.max_iterations = o->iterations;
+      popt.learning_iterations = o->refine_iterations;
       r = comp::compensate_program(text, o->input, d, *machine, opt, popt, out, sink, &contour);
     }
     bar.finish();
@@ -234,7 +241,8 @@ void setup_compensate(CLI::App& app, int& rc) {
     if (servo)
       std::fputs(fmt::format("postproc: contour: {} tool-tip contour error {:.3f} → {:.3f} µm (worst before: line {}), "
                              "tool-axis {:.2f} → {:.2f} arcsec{}; the iteration predicted {:.3f} µm / {:.2f} arcsec after "
-                             "at most {} iterations per run{}; runs: {} ({} iterated, {} lag precompensation, {} uncorrected; "
+                             "at most {} iterations per run{}; runs: {} ({} iterated, {} lag precompensation, {} refined on the "
+                             "simulation, {} uncorrected; "
                              "stopped: {} converged, {} no improvement, {} iteration limit, {} nothing to correct); "
                              "NURBS fit residual {:.4f} µm\n",
                              r.contour_verified ? "simulated (the program as written)" : "NOT simulated, predicted",
@@ -246,8 +254,9 @@ void setup_compensate(CLI::App& app, int& rc) {
                                  : std::string(),
                              r.contour_predicted_after_mm * 1000, r.contour_predicted_after_rad * 206264.80624709636,
                              r.contour_iterations, r.contour_converged ? "" : " (not converged)", r.contour_runs,
-                             r.contour_runs_iterated, r.contour_runs_lag,
-                             r.contour_runs - std::min(r.contour_runs, r.contour_runs_iterated + r.contour_runs_lag),
+                             r.contour_runs_iterated, r.contour_runs_lag, r.contour_runs_refined,
+                             r.contour_runs - std::min(r.contour_runs, r.contour_runs_iterated + r.contour_runs_lag +
+                                                                           r.contour_runs_refined),
                              r.contour_runs_stopped[1], r.contour_runs_stopped[2], r.contour_runs_stopped[3],
                              r.contour_runs_stopped[0], r.fit_residual_mm * 1000)
                      .c_str(),

@@ -81,12 +81,21 @@ Figures judge(const std::string& program, const mc::Machine& m, const std::strin
   const ct::Path written = path_of(c.text, m);
   pptruth::TruthOptions opt;
   opt.nominal = mode == "all";
+  opt.tip_interpolation = true;  // tool-tip programs (the blade, G43.4) as the controller interpolates them
   f.original = pptruth::simulate_truth(original, original, *m.actual, opt);
   f.corrected = pptruth::simulate_truth(written, original, *m.actual, opt);
   if (mode == "contour") {
     ct::Path lag = original;
     const std::vector<kin::JointVector> q = ct::lag_precompensation(original);
-    for (std::size_t i = 0; i < q.size(); ++i) lag.points[i].q = q[i];
+    for (std::size_t i = 0; i < q.size(); ++i) {
+      lag.points[i].q = q[i];
+      // Tool-tip programs are interpolated from the program coordinates: the advanced joints as the
+      // controller map writes them.
+      if (!lag.maps.empty() && lag.maps[lag.points[i].map].form() != mc::Form::axes) {
+        mc::Command cmd;
+        if (lag.maps[lag.points[i].map].command(q[i], original.points[i].command, cmd).ok()) lag.points[i].command = cmd;
+      }
+    }
     f.lag = pptruth::simulate_truth(lag, original, *m.actual, opt);
   }
   return f;

@@ -9,6 +9,7 @@
 #include <fmt/format.h>
 
 #include "postproc/compensation/compensate.hpp"
+#include "postproc/contour/learning_control.hpp"
 #include "postproc/contour/simulate.hpp"
 #include "postproc/error.hpp"
 #include "postproc/gcode/block_writer.hpp"
@@ -174,7 +175,8 @@ constexpr double kArcsecPerRad = 206264.80624709636;
 /// contour stage's input; nullopt (with `why`) when it cannot be (diagnostics, other runs, throw).
 std::optional<contour::Simulation> simulate_written(const std::string& written, std::string_view file,
                                                     const gcode::Dialect& dialect, const machine::Machine& m,
-                                                    const ContourDetails& d, std::string& why) {
+                                                    const ContourDetails& d, std::string& why,
+                                                    const contour::SimulateOptions& so = {}) {
   gcode::DiagnosticSink quiet(0);
   gcode::LineReader in{std::string_view(written)};
   const contour::Path p = contour::build_path(in, file, dialect, m, contour::PathOptions{}, quiet);
@@ -186,8 +188,12 @@ std::optional<contour::Simulation> simulate_written(const std::string& written, 
     why = fmt::format("the written program has {} runs, its input {}", p.runs.size(), d.path.runs.size());
     return std::nullopt;
   }
+  if (so.visit && p.points.size() != d.path.points.size()) {
+    why = fmt::format("the written program has {} path points, its input {}", p.points.size(), d.path.points.size());
+    return std::nullopt;
+  }
   try {
-    return contour::simulate(p, *d.reference, *m.actual);
+    return contour::simulate(p, *d.reference, *m.actual, so);
   } catch (const Error& e) {
     why = e.what();
     return std::nullopt;
@@ -199,20 +205,36 @@ std::optional<contour::Simulation> simulate_written(const std::string& written, 
 /// 1.7e-6 rad), rad.
 constexpr double kAxisNoiseRad = 1e-9;
 
-/// Run r of candidate c is not worse than the input o at its maxima (the gate's first rule).
-bool not_worse(const contour::Simulation& c, const contour::Simulation& o, std::size_t r) {
-  return c.run_tip_max[r] <= o.run_tip_max[r] && c.run_axis_max[r] <= o.run_axis_max[r] + kAxisNoiseRad;
-}
-
 /// Tool-tip figures closer than this are equal (mm): simulation noise, far below a written digit.
 constexpr double kTipNoiseMm = 1e-7;
 
-/// Run r of candidate c is better than the input o: not worse at the maxima, and one of them or
-/// the RMS smaller by more than the noise.
+/// The simulated figures of one run: largest errors and RMS, tool tip (mm) and tool axis (rad).
+struct RunFigures {
+  double tip = 0, axis = 0, tip_rms = 0, axis_rms = 0;
+};
+RunFigures figures_of(const contour::Simulation& s, std::size_t r) {
+  return {s.run_tip_max[r], s.run_axis_max[r], s.run_tip_rms[r], s.run_axis_rms[r]};
+}
+
+/// c is not worse than o in any of the four figures (the gate's first rule): neither largest
+/// error (tool tip, tool axis) nor either RMS grows. A candidate that lowers a peak but cuts the
+/// rest of the run worse (the RMS grows) does not qualify.
+bool not_worse(const RunFigures& c, const RunFigures& o) {
+  return c.tip <= o.tip && c.axis <= o.axis + kAxisNoiseRad && c.tip_rms <= o.tip_rms + kTipNoiseMm &&
+         c.axis_rms <= o.axis_rms + kAxisNoiseRad;
+}
+bool not_worse(const contour::Simulation& c, const contour::Simulation& o, std::size_t r) {
+  return not_worse(figures_of(c, r), figures_of(o, r));
+}
+
+/// c is better than o: not worse in any figure, and one of the maxima or the tool-tip RMS smaller
+/// by more than the noise.
+bool better(const RunFigures& c, const RunFigures& o) {
+  return not_worse(c, o) &&
+         (c.tip < o.tip - kTipNoiseMm || c.axis < o.axis - kAxisNoiseRad || c.tip_rms < o.tip_rms - kTipNoiseMm);
+}
 bool better(const contour::Simulation& c, const contour::Simulation& o, std::size_t r) {
-  return not_worse(c, o, r) &&
-         (c.run_tip_max[r] < o.run_tip_max[r] - kTipNoiseMm || c.run_axis_max[r] < o.run_axis_max[r] - kAxisNoiseRad ||
-          c.run_tip_rms[r] < o.run_tip_rms[r] - kTipNoiseMm);
+  return better(figures_of(c, r), figures_of(o, r));
 }
 
 /// Nothing changed in run r (same maxima): no reason to withhold or report it.
@@ -231,7 +253,100 @@ bool prefer(const contour::Simulation& a, const contour::Simulation& b, std::siz
   return a.run_tip_rms[r] + length * a.run_axis_rms[r] <= b.run_tip_rms[r] + length * b.run_axis_rms[r];
 }
 
-enum class Choice : std::uint8_t { uncorrected, lag, iterated };
+enum class Choice : std::uint8_t { uncorrected, lag, iterated, refined };
+
+/// The refinement of one run on the simulation.
+struct Refined {
+  int steps = 0;         ///< accepted steps
+  int trials = 0;        ///< simulations of trial steps
+  RunFigures figures{};  ///< simulated figures of the refined commands (when steps > 0)
+};
+
+/// Refinement on the simulation (contour/learning_control.hpp), all runs at once: every round
+/// writes the trial commands (`write(commands)` → the text), reads them back and simulates them
+/// (`simulate(text, equations, why)` gathers the samples' normal equations); per run the step is
+/// taken where the run improves (none of its four figures worse, its largest error tip + L × axis
+/// or its RMS better by more than the noise), else halved; a run stops after
+/// LearningOptions::max_iterations steps, when a step gains less than the relative tolerance, or
+/// after max_halvings halvings in a row. `cur` (per path point) holds the start and receives the
+/// result. At most 2 × max_iterations + max_halvings rounds.
+template <class Write, class Simulate>
+std::vector<Refined> refine(const contour::Path& path, std::vector<kin::JointVector>& cur,
+                            const contour::LearningOptions& lo, Write&& write, Simulate&& simulate) {
+  const std::size_t runs = path.runs.size();
+  std::vector<Refined> out(runs);
+  contour::SampleEquations eq_cur(path, lo.orientation_length_mm), eq_trial(path, lo.orientation_length_mm);
+  std::string why;
+  const std::string start = write(cur);
+  std::optional<contour::Simulation> sim = simulate(start, eq_trial, why);
+  if (!sim) return out;
+  // Each run's tool-tip and tool-axis rows weighted by the inverse of the start's RMS of each (L ×
+  // axis in mm): the step lowers both in proportion instead of trading one for the other (the
+  // acceptance wants neither worse). The start's equations are gathered again with the weights.
+  for (std::size_t r = 0; r < runs; ++r) {
+    const RunFigures f = figures_of(*sim, r);
+    const double wt = 1 / std::max(f.tip_rms, 1e-6), wa = 1 / std::max(lo.orientation_length_mm * f.axis_rms, 1e-6);
+    eq_cur.weigh(r, wt, wa);
+    eq_trial.weigh(r, wt, wa);
+  }
+  eq_trial.clear();
+  sim = simulate(start, eq_cur, why);
+  if (!sim) return out;
+  const double L = lo.orientation_length_mm;
+  std::vector<RunFigures> fig(runs);
+  std::vector<double> alpha(runs, 1.0);
+  std::vector<int> halvings(runs, 0);
+  std::vector<char> active(runs, 0), fresh(runs, 1);
+  for (std::size_t r = 0; r < runs; ++r) {
+    fig[r] = figures_of(*sim, r);
+    const contour::Run& run = path.runs[r];
+    bool any = false;
+    for (std::size_t i = run.begin; i < run.end && !any; ++i) any = contour::correctable(path, run, i);
+    active[r] = any && (fig[r].tip > 0 || fig[r].axis > 0) ? 1 : 0;
+  }
+  std::vector<kin::JointVector> step(path.points.size(), kin::JointVector::Zero(path.joints)), trial = cur;
+  const int rounds = 2 * lo.max_iterations + lo.max_halvings;
+  for (int round = 0; round < rounds && std::find(active.begin(), active.end(), 1) != active.end(); ++round) {
+    for (std::size_t r = 0; r < runs; ++r) {
+      if (active[r] == 0) continue;
+      const contour::Run& run = path.runs[r];
+      if (fresh[r] != 0) {
+        for (std::size_t i = run.begin; i < run.end; ++i) step[i].setZero();
+        eq_cur.solve(run, lo, step);
+        fresh[r] = 0;
+      }
+      for (std::size_t i = run.begin; i < run.end; ++i) trial[i] = cur[i] + alpha[r] * step[i];
+    }
+    eq_trial.clear();
+    const std::optional<contour::Simulation> ts = simulate(write(trial), eq_trial, why);
+    if (!ts) break;
+    for (std::size_t r = 0; r < runs; ++r) {
+      if (active[r] == 0) continue;
+      const contour::Run& run = path.runs[r];
+      ++out[r].trials;
+      const RunFigures got = figures_of(*ts, r), was = fig[r];
+      const double score = got.tip + L * got.axis, score_was = was.tip + L * was.axis;
+      const double rms = got.tip_rms + L * got.axis_rms, rms_was = was.tip_rms + L * was.axis_rms;
+      if (not_worse(got, was) && (score < score_was - kTipNoiseMm || rms < rms_was - kTipNoiseMm)) {
+        for (std::size_t i = run.begin; i < run.end; ++i) cur[i] = trial[i];
+        fig[r] = out[r].figures = got;
+        ++out[r].steps;
+        eq_cur.take_run(eq_trial, run);
+        fresh[r] = 1;
+        alpha[r] = std::min(1.0, 2 * alpha[r]);
+        halvings[r] = 0;
+        if (out[r].steps >= lo.max_iterations ||
+            (score_was - score < lo.relative_tolerance * score && rms_was - rms < lo.relative_tolerance * rms))
+          active[r] = 0;
+      } else {
+        for (std::size_t i = run.begin; i < run.end; ++i) trial[i] = cur[i];
+        alpha[r] *= 0.5;
+        if (++halvings[r] > lo.max_halvings) active[r] = 0;
+      }
+    }
+  }
+  return out;
+}
 
 }  // namespace
 
@@ -333,6 +448,8 @@ CompensateResult compensate_contour(std::string_view text, std::string_view file
              : std::string("not simulated");
   };
   std::unique_ptr<Pass> pass;
+  std::vector<kin::JointVector> refined_commands;
+  std::vector<Refined> refined_steps(runs);
   if (before && (sim_iterated || sim_lag)) {
     for (std::size_t run = 0; run < runs; ++run) {
       const bool it_ok = sim_iterated && better(*sim_iterated, *before, run);
@@ -357,6 +474,34 @@ CompensateResult compensate_contour(std::string_view text, std::string_view file
                         ri.after_tip_mm * 1000, fig(sim_lag, run), fig(before, run))};
       }
     }
+    // Refinement on the simulation (contour/learning_control.hpp), from each run's choice: a run's
+    // step is taken only where the simulation of the written trial improves the run (none of its
+    // four figures worse, its largest error or RMS better), else halved.
+    if (po.learning_iterations > 0) {
+      refined_commands.reserve(d.path.points.size());
+      for (std::size_t run = 0; run < runs; ++run)
+        for (std::size_t i = d.path.runs[run].begin; i < d.path.runs[run].end; ++i)
+          refined_commands.push_back(choice[run] == Choice::lag        ? d.result.lag_commands[i]
+                                     : choice[run] == Choice::iterated ? d.result.commands[i]
+                                                                       : d.path.points[i].q);
+      refined_commands.resize(d.path.points.size(), kin::JointVector::Zero(d.path.joints));
+      contour::LearningOptions lo;
+      lo.max_iterations = po.learning_iterations;
+      lo.orientation_length_mm = L;
+      lo.smoothing = po.smoothing;
+      const auto write = [&](const std::vector<kin::JointVector>& c) { return write_pass(c, none)->text; };
+      refined_steps = refine(d.path, refined_commands, lo, write, [&](const std::string& written, contour::SampleEquations& eq,
+                                                                     std::string& because) {
+        contour::SimulateOptions so;
+        so.visit = [&eq](const contour::SampleVisit& v) { eq.add(v); };
+        return simulate_written(written, file, dialect, m, d, because, so);
+      });
+      for (std::size_t run = 0; run < runs; ++run) {
+        if (refined_steps[run].steps == 0 || !better(refined_steps[run].figures, figures_of(*before, run))) continue;
+        choice[run] = Choice::refined;
+        withheld[run] = {};
+      }
+    }
     // The written program: one of the candidates as it is, or the runs' choices merged and
     // verified once more (runs are independent, so this confirms the candidates' figures).
     const bool all_iterated = std::all_of(choice.begin(), choice.end(), [](Choice c) { return c == Choice::iterated; });
@@ -370,8 +515,9 @@ CompensateResult compensate_contour(std::string_view text, std::string_view file
     } else {
       std::vector<kin::JointVector> merged = d.result.commands;
       for (std::size_t run = 0; run < runs; ++run)
-        if (choice[run] == Choice::lag)
-          for (std::size_t i = d.path.runs[run].begin; i < d.path.runs[run].end; ++i) merged[i] = d.result.lag_commands[i];
+        for (std::size_t i = d.path.runs[run].begin; i < d.path.runs[run].end; ++i)
+          if (choice[run] == Choice::lag) merged[i] = d.result.lag_commands[i];
+          else if (choice[run] == Choice::refined) merged[i] = refined_commands[i];
       for (int round = 0; round < 4; ++round) {
         pass = write_pass(merged, withheld);
         after = simulate_written(pass->text, file, dialect, m, d, why);
@@ -421,9 +567,16 @@ CompensateResult compensate_contour(std::string_view text, std::string_view file
     rep.moves = rr.size() > 0 ? rr.size() - 1 : 0;
     rep.iterations = ri.iterations;
     rep.stop = std::string(contour::to_string(ri.stop));
-    rep.written = choice[run] == Choice::uncorrected || ri.stop == contour::RunStop::nothing ? "uncorrected"
+    rep.written = choice[run] == Choice::refined                                             ? "refined"
+                  : choice[run] == Choice::uncorrected || ri.stop == contour::RunStop::nothing ? "uncorrected"
                   : choice[run] == Choice::lag                                               ? "lag"
                                                                                              : "iterated";
+    rep.refined_steps = refined_steps[run].steps;
+    if (refined_steps[run].steps > 0) {
+      rep.refined_mm = refined_steps[run].figures.tip;
+      rep.refined_rad = refined_steps[run].figures.axis;
+      rep.refined_rms_mm = refined_steps[run].figures.tip_rms;
+    }
     rep.predicted_before_mm = ri.before_tip_mm;
     rep.predicted_after_mm = ri.after_tip_mm;
     if (before) {
@@ -445,6 +598,7 @@ CompensateResult compensate_contour(std::string_view text, std::string_view file
     }
     if (rep.written == "iterated") ++out_r.contour_runs_iterated;
     if (rep.written == "lag") ++out_r.contour_runs_lag;
+    if (rep.written == "refined") ++out_r.contour_runs_refined;
     ++out_r.contour_runs_stopped[static_cast<std::size_t>(ri.stop)];
   }
   if (std::any_of(choice.begin(), choice.end(), [](Choice c) { return c != Choice::iterated; })) {
@@ -453,7 +607,9 @@ CompensateResult compensate_contour(std::string_view text, std::string_view file
     for (std::size_t run = 0; run < runs; ++run)
       if (choice[run] != Choice::iterated)
         for (std::size_t i = d.path.runs[run].begin; i < d.path.runs[run].end && i < written.size(); ++i)
-          written[i] = choice[run] == Choice::lag ? d.result.lag_commands[i] : d.path.points[i].q;
+          written[i] = choice[run] == Choice::lag       ? d.result.lag_commands[i]
+                       : choice[run] == Choice::refined ? refined_commands[i]
+                                                        : d.path.points[i].q;
     d.result.after = contour::predict(d.path, *m.actual, *d.reference, &written);
   }
   d.simulated_before = before;

@@ -68,7 +68,9 @@ nlohmann::json result_json(const CompensateResult& r, Mode mode, const ContourDe
                     {"fit_residual_um", r.fit_residual_mm * 1000}};
     j["contour"]["runs_iterated"] = r.contour_runs_iterated;
     j["contour"]["runs_lag"] = r.contour_runs_lag;
-    j["contour"]["runs_uncorrected"] = r.contour_runs - std::min(r.contour_runs, r.contour_runs_iterated + r.contour_runs_lag);
+    j["contour"]["runs_refined"] = r.contour_runs_refined;
+    j["contour"]["runs_uncorrected"] =
+        r.contour_runs - std::min(r.contour_runs, r.contour_runs_iterated + r.contour_runs_lag + r.contour_runs_refined);
     j["contour"]["stops"] = {{"converged", r.contour_runs_stopped[1]},
                              {"no_improvement", r.contour_runs_stopped[2]},
                              {"iteration_limit", r.contour_runs_stopped[3]},
@@ -90,7 +92,11 @@ nlohmann::json result_json(const CompensateResult& r, Mode mode, const ContourDe
                          {"iterated_tip_rms_um", c.iterated_rms_mm * 1000},
                          {"lag_tip_um", c.lag_mm * 1000},
                          {"lag_axis_arcsec", c.lag_rad * kArcsec},
-                         {"lag_tip_rms_um", c.lag_rms_mm * 1000}});
+                         {"lag_tip_rms_um", c.lag_rms_mm * 1000},
+                         {"refined_steps", c.refined_steps},
+                         {"refined_tip_um", c.refined_mm * 1000},
+                         {"refined_axis_arcsec", c.refined_rad * kArcsec},
+                         {"refined_tip_rms_um", c.refined_rms_mm * 1000}});
     j["contour"]["run_details"] = per_run;
     if (contour != nullptr) {
       nlohmann::json hu = nlohmann::json::array(), ha = nlohmann::json::array();

@@ -99,11 +99,15 @@ struct ContourRunReport {
   std::uint64_t moves = 0;
   int iterations = 0;           ///< accepted iterations of the run
   std::string stop;             ///< why its iteration stopped (contour::to_string(RunStop))
-  std::string written;          ///< "iterated", "lag" (first-order lag precompensation) or "uncorrected"
+  /// "iterated", "lag" (first-order lag precompensation), "refined" (one of them or the input,
+  /// refined on the simulation: contour/learning_control.hpp) or "uncorrected"
+  std::string written;
   double predicted_before_mm = 0, predicted_after_mm = 0;  ///< the iteration's prediction (largest tip error)
   double before_mm = 0, before_rad = 0, before_rms_mm = 0;  ///< simulated, as received
   double iterated_mm = 0, iterated_rad = 0, iterated_rms_mm = 0;  ///< simulated, iterated correction
   double lag_mm = 0, lag_rad = 0, lag_rms_mm = 0;            ///< simulated, lag precompensation
+  int refined_steps = 0;                                     ///< accepted steps of the refinement
+  double refined_mm = 0, refined_rad = 0, refined_rms_mm = 0;  ///< simulated, refined (refined_steps > 0)
 };
 
 
@@ -154,6 +158,7 @@ struct CompensateResult {
   int contour_iterations = 0;             ///< the most accepted iterations of a run
   bool contour_converged = false;         ///< no run stopped at the iteration limit
   std::uint64_t contour_runs_iterated = 0;  ///< runs written with the iterated correction
+  std::uint64_t contour_runs_refined = 0;   ///< runs written with the refinement on the simulation
   std::uint64_t contour_runs_lag = 0;       ///< runs written with the first-order lag precompensation
   std::uint64_t contour_runs_stopped[4] = {0, 0, 0, 0};  ///< runs per contour::RunStop
   std::vector<ContourRunReport> contour_run_reports;   ///< per run of the contour stage

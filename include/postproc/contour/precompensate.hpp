@@ -53,6 +53,9 @@ struct PrecompensateOptions {
   /// Add the drives' lag of the correction itself to the commands (δ = d + e₁·ḋ), so that the
   /// actual joints move by d: fewer iterations.
   bool invert_lag = true;
+  /// Accepted steps per run of the refinement on the time-domain simulation after the
+  /// verification (learning_control.hpp; compensate_contour.cpp runs it), 0: none.
+  int learning_iterations = 8;
   /// Told "contour: correcting" with the runs done of the runs (optional).
   Progress progress;
 };

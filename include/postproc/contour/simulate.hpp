@@ -6,6 +6,7 @@
 /// an intended contour (reference.hpp) — independently of the quasi-static prediction.
 
 #include <cstdint>
+#include <functional>
 #include <vector>
 
 #include "postproc/contour/path.hpp"
@@ -13,9 +14,22 @@
 
 namespace postproc::contour {
 
+/// One simulated sample as SimulateOptions::visit sees it (references valid during the call).
+struct SampleVisit {
+  std::size_t run = 0;
+  std::size_t segment = 0;  ///< the path point the command moves toward (Sample::segment)
+  double fraction = 0;      ///< how far along that segment the command is, 0…1
+  const kin::JointVector& actual;  ///< the drives' actual joints, mm / degrees
+  const kin::Model& model;         ///< the calibrated model of the segment's controller context
+  const ContourError& error;       ///< the actual pose's contour error against the reference
+};
+
 struct SimulateOptions {
   double settle_s = 0.1;       ///< time simulated at rest after each run's end, s
   std::size_t keep_every = 0;  ///< keep every k-th sample in Simulation::samples (0: none)
+  /// Called with every sample (optional): e.g. to gather the normal equations of a correction
+  /// (learning_control.hpp) without keeping the samples.
+  std::function<void(const SampleVisit&)> visit;
 };
 
 struct SimSample {

@@ -1,0 +1,112 @@
+// The normal equations of the refinement on the simulation (contour/learning_control.hpp): fed
+// samples whose contour errors a known end-point shift would cancel exactly, the block-tridiagonal
+// solve returns that shift (plus the drives' lag of it), and leaves the points it may not move.
+#include <gtest/gtest.h>
+
+#include "contour_support.hpp"
+#include "postproc/contour/learning_control.hpp"
+#include "postproc/contour/precompensate.hpp"
+
+namespace {
+
+namespace ct = postproc::contour;
+namespace kin = postproc::kin;
+
+/// Feeds `eq` the samples of every segment of run 0 at ten fractions each, with the contour error
+/// that the end-point shifts `x` (per path point; zero where the point is not correctable) would
+/// cancel under the learning model: the actual joints move by (1 − f)·x_a + f·x_b.
+void feed(ct::SampleEquations& eq, const ct::Path& p, const kin::Model& model, const std::vector<kin::JointVector>& x) {
+  const ct::Run& run = p.runs[0];
+  for (std::size_t s = run.begin + 1; s < run.end; ++s)
+    for (int k = 0; k < 10; ++k) {
+      const double f = 0.05 + 0.1 * k;
+      const kin::JointVector q = p.points[s - 1].q + f * (p.points[s].q - p.points[s - 1].q);
+      const kin::Jacobian j = model.jacobian(q);
+      const kin::JointVector shift = (1 - f) * x[s - 1] + f * x[s];
+      ct::ContourError e;
+      e.vector = j.topRows<3>() * shift;
+      e.rotation = j.bottomRows<3>() * shift;
+      e.distance = e.vector.norm();
+      e.angle = e.rotation.norm();
+      e.axis = Eigen::Vector3d::UnitZ();
+      eq.add(ct::SampleVisit{0, s, f, q, model, e});
+    }
+}
+
+ct::Path circle_path() {
+  ct::Path p = pptest::empty_path(pptest::mill());
+  pptest::add_run(p, pptest::circle(Eigen::Vector3d(0, 0, -5), 20, 24), 30);
+  return p;
+}
+
+TEST(LearningControl, RecoversAConstantShift) {
+  const ct::Path p = circle_path();
+  const kin::Model& model = *pptest::mill().actual;
+  const kin::JointVector shift = pptest::xyz(0.003, -0.002, 0.001);
+  std::vector<kin::JointVector> x(p.points.size(), kin::JointVector::Zero(3));
+  for (std::size_t i = 0; i < p.points.size(); ++i)
+    if (ct::correctable(p, p.runs[0], i)) x[i] = shift;
+  ct::SampleEquations eq(p, 100);
+  feed(eq, p, model, x);
+  ct::LearningOptions opt;
+  opt.damping = 0;
+  opt.smoothing = 0;
+  std::vector<kin::JointVector> step(p.points.size(), kin::JointVector::Zero(3));
+  eq.solve(p.runs[0], opt, step);
+  // A constant shift has no rate, so no lag term: the step is the shift itself.
+  for (std::size_t i = 0; i < p.points.size(); ++i) {
+    SCOPED_TRACE(i);
+    EXPECT_LT((step[i] - x[i]).norm(), 1e-9);
+  }
+  // The run's first and last points are not moved (the machine is at rest on them).
+  EXPECT_EQ(step.front().norm(), 0.0);
+  EXPECT_EQ(step.back().norm(), 0.0);
+}
+
+TEST(LearningControl, AddsTheDrivesLagOfAShiftThatVariesAlongTheRun) {
+  const ct::Path p = circle_path();
+  const kin::Model& model = *pptest::mill().actual;
+  // x(t) = a + b·t on the correctable points: the commands take x + e₁·ẋ = x + e₁·b, exact for a
+  // linear x with central (and at the ends one-sided) differences.
+  const kin::JointVector a = pptest::xyz(0.001, 0.002, -0.001), b = pptest::xyz(0.004, -0.003, 0.002);
+  std::vector<kin::JointVector> x(p.points.size(), kin::JointVector::Zero(3));
+  for (std::size_t i = 0; i < p.points.size(); ++i)
+    if (ct::correctable(p, p.runs[0], i)) x[i] = a + p.points[i].t * b;
+  ct::SampleEquations eq(p, 100);
+  // Weights scale the rows: a consistent system has the same solution under any weights.
+  eq.weigh(0, 7.5, 0.25);
+  feed(eq, p, model, x);
+  ct::LearningOptions opt;
+  opt.damping = 0;
+  opt.smoothing = 0;
+  std::vector<kin::JointVector> step(p.points.size(), kin::JointVector::Zero(3));
+  eq.solve(p.runs[0], opt, step);
+  int checked = 0;
+  for (std::size_t i = 0; i < p.points.size(); ++i) {
+    if (!ct::correctable(p, p.runs[0], i)) {
+      EXPECT_EQ(step[i].norm(), 0.0) << i;
+      continue;
+    }
+    kin::JointVector want = x[i];
+    for (int j = 0; j < 3; ++j) want[j] += p.drives[static_cast<std::size_t>(j)].lag(b[j]);
+    EXPECT_LT((step[i] - want).norm(), 1e-8) << i;
+    ++checked;
+  }
+  EXPECT_EQ(checked, 23);
+}
+
+TEST(LearningControl, NoSamplesNoStep) {
+  const ct::Path p = circle_path();
+  ct::SampleEquations eq(p, 100);
+  std::vector<kin::JointVector> step(p.points.size(), kin::JointVector::Zero(3));
+  eq.solve(p.runs[0], ct::LearningOptions{}, step);
+  for (const auto& s : step) EXPECT_EQ(s.norm(), 0.0);
+  // Samples gathered and then cleared leave nothing either.
+  std::vector<kin::JointVector> x(p.points.size(), pptest::xyz(0.01, 0, 0));
+  feed(eq, p, *pptest::mill().actual, x);
+  eq.clear();
+  eq.solve(p.runs[0], ct::LearningOptions{}, step);
+  for (const auto& s : step) EXPECT_EQ(s.norm(), 0.0);
+}
+
+}  // namespace
