@@ -3,6 +3,7 @@
 // with WRAPPED_ROTARY), which word reaches a corrected position (property over random moves), and
 // a compensated program that crosses 0° read back to the corrected positions.
 #include <cstdio>
+#include <cstring>
 #include <fstream>
 #include <random>
 #include <sstream>
@@ -12,6 +13,7 @@
 #include "postproc/compensation/compensate.hpp"
 #include "postproc/compensation/verify.hpp"
 #include "postproc/gcode/rotary_rollover.hpp"
+#include "src/gcode/rotary_direction.hpp"
 #include "postproc/io/output_file.hpp"
 #include "postproc/machine/machine.hpp"
 #include "support.hpp"
@@ -199,6 +201,136 @@ TEST(RotaryRollover, CompensatedProgramAcrossZeroReadsBackToTheCorrectedPoses) {
     EXPECT_GE(c, -0.1) << written.substr(at, 12);
     EXPECT_LT(c, 360.0) << written.substr(at, 12);
   }
+}
+
+}  // namespace
+
+namespace {
+
+/// Sinumerik 840D sl Programming Manual Fundamentals, "Absolute dimensions for rotary axes (DC,
+/// ACP, ACN)": on a modulo axis C=DC(w) takes the shorter way to w (at most half a turn), C=ACP(w)
+/// the positive way, C=ACN(w) the negative way; w within the turn.
+TEST(RotaryDirection, SinumerikDcAcpAcnOnAModuloAxis) {
+  for (const RotaryRollover r : {RotaryRollover::modulo, RotaryRollover::shortest}) {
+    SCOPED_TRACE(gc::to_string(r));
+    const gc::Dialect d = with_rollover("siemens", kC, r);
+    pptest::Program p(d,
+                      "G90 G0 C=10\nC=DC(350)\nC=ACP(10)\nC=ACN(20)\nC=IC(5)\nC=DC(200)\nC=ACP(0)\nC=ACN(0)\n"
+                      "C=dc(190)\nC=DC(10)\nM30\n");
+    ASSERT_EQ(p.motions.size(), 10u) << p.all_codes();
+    // From C10: DC(350) −20, ACP(10) +20, ACN(20) −350, IC(5) +5, DC(200) +175, ACP(0) +160,
+    // ACN(0) where it stands: no motion, dc(190) the shorter way −170, DC(10) exactly half a turn:
+    // the positive way, +180.
+    const double moved[] = {-20, 20, -350, 5, 175, 160, 0, -170, 180};
+    for (int i = 0; i < 9; ++i) {
+      const gc::Motion& m = p.motions[static_cast<std::size_t>(i + 1)];
+      EXPECT_NEAR(m.end[kC] - m.start[kC], moved[i], 1e-9) << "block " << i + 2;
+    }
+  }
+}
+
+TEST(RotaryDirection, RefusedWhereTheControlRefuses) {
+  {
+    // Not a modulo axis in the machine file: refused at the word (the control raises an alarm).
+    const gc::Dialect d = with_rollover("siemens", kC, RotaryRollover::off);
+    pptest::Program p(d, "G90 G0 C=10\nC=ACP(20)\nM30\n");
+    EXPECT_TRUE(p.has("PP-E207")) << p.all_codes();
+  }
+  {
+    const gc::Dialect d = with_rollover("siemens", kC, RotaryRollover::modulo);
+    pptest::Program out_of_turn(d, "G90 G0 C=10\nC=DC(360)\nM30\n");
+    EXPECT_TRUE(out_of_turn.has("PP-E207")) << out_of_turn.all_codes();
+    pptest::Program negative(d, "G90 G0 C=10\nC=ACN(-10)\nM30\n");
+    EXPECT_TRUE(negative.has("PP-E207")) << negative.all_codes();
+    pptest::Program linear(d, "G90 G0 X=DC(10)\nM30\n");
+    EXPECT_TRUE(linear.has("PP-E207")) << linear.all_codes();
+  }
+}
+
+/// The words the writer chooses read back to the target under the same function, and a target
+/// the function cannot reach has no word.
+TEST(RotaryDirection, ChosenWordsReadBackToTheTarget) {
+  std::mt19937 rng(23);
+  std::uniform_real_distribution<double> from_d(-720, 720), move_d(-359, 359);
+  for (const gc::RotaryDirection dir :
+       {gc::RotaryDirection::shortest, gc::RotaryDirection::positive, gc::RotaryDirection::negative}) {
+    int reached = 0, refused = 0;
+    for (int k = 0; k < 2000; ++k) {
+      const double from = from_d(rng), target = from + move_d(rng);
+      const auto w = gc::directed_word(dir, target, from);
+      const double delta = target - from;
+      const bool reachable = dir == gc::RotaryDirection::shortest   ? std::abs(delta) <= 180.0
+                             : dir == gc::RotaryDirection::positive ? delta >= 0
+                                                                    : delta <= 0;
+      if (std::abs(std::abs(delta) - 180.0) < 1e-6) continue;  // the tie: the positive way
+      ASSERT_EQ(w.has_value(), reachable) << gc::function_name(dir) << " from " << from << " to " << target;
+      if (!w) {
+        ++refused;
+        continue;
+      }
+      ++reached;
+      EXPECT_GE(*w, 0.0);
+      EXPECT_LT(*w, 360.0);
+      EXPECT_NEAR(gc::directed_target(dir, *w, from), target, 1e-9);
+    }
+    EXPECT_GT(reached, 500);
+    EXPECT_GT(refused, dir == gc::RotaryDirection::shortest ? 100 : 500);
+  }
+}
+
+}  // namespace
+
+namespace {
+
+/// A Siemens program positioning its modulo C axis with DC / ACP / ACN, compensated on the A/C
+/// trunnion: the functions stay, every value stays within the turn, and the written program reads
+/// back (under the same functions) to the corrected poses.
+TEST(RotaryDirection, CompensatedWordsKeepTheirFunctionAndReadBackToTheCorrectedPoses) {
+  std::ifstream in(std::string(POSTPROC_SOURCE_DIR) + "/samples/machines/trunnion_ac_siemens.toml");
+  std::stringstream ss;
+  ss << in.rdbuf();
+  std::string text = ss.str();
+  const std::string anchor = "[axes.C]\n";
+  ASSERT_NE(text.find(anchor), std::string::npos);
+  text.replace(text.find(anchor), anchor.size(), anchor + "rollover = \"modulo\"\n");
+  gc::DiagnosticSink msink;
+  const auto m = mc::parse_machine("ac.toml", text, msink);
+  ASSERT_TRUE(m);
+  const std::string program =
+      "G90 G54 G64\nT=\"BALL_8\" M6\nD1\nG0 X40 Y-20 Z30 A-10 C=DC(350)\nG1 X35 Y-15 Z28 C=ACP(5) F800\n"
+      "X30 Y-10 C=ACN(355)\nX25 Y-5 C=DC(0.5)\nR1=12.5\nX20 Y0 C=ACP(R1)\nM30\n";
+  const gc::Dialect d = *gc::make_dialect(m->dialect_name, m->dialect_options);
+  std::vector<std::uint64_t> line_map;
+  cp::CompensateOptions opt;
+  opt.line_map = &line_map;
+  opt.tool_version = "test";
+  opt.flatten = true;
+  gc::DiagnosticSink sink;
+  auto out = postproc::io::OutputFile::memory();
+  const cp::CompensateResult r = cp::compensate_program(program, "in.mpf", d, *m, opt, {}, out, sink);
+  for (const auto& diag : sink.stored())
+    if (diag.severity == gc::Severity::error) ADD_FAILURE() << gc::format(diag);
+  ASSERT_FALSE(sink.has_errors());
+  const std::string written = out.take();
+  EXPECT_GT(r.words_changed, 0u);
+  for (const char* fn : {"C=DC(", "C=ACP(", "C=ACN("}) {
+    std::size_t n = 0;
+    for (std::size_t at = written.find(fn); at != std::string::npos; at = written.find(fn, at + 1)) {
+      ++n;
+      const double c = std::strtod(written.c_str() + at + std::strlen(fn), nullptr);
+      EXPECT_GE(c, 0.0) << written.substr(at, 20);
+      EXPECT_LT(c, 360.0) << written.substr(at, 20);
+    }
+    EXPECT_GE(n, 1u) << fn << " kept\n" << written;
+  }
+  // The resolved program (R1 substituted) against the written one.
+  const std::string resolved = "G90 G54 G64\nT=\"BALL_8\" M6\nD1\nG0 X40 Y-20 Z30 A-10 C=DC(350)\n"
+                               "G1 X35 Y-15 Z28 C=ACP(5) F800\nX30 Y-10 C=ACN(355)\nX25 Y-5 C=DC(0.5)\n\n"
+                               "X20 Y0 C=ACP(12.5)\nM30\n";
+  const cp::VerifyResult v = cp::verify(resolved, written, line_map, d, *m);
+  EXPECT_GE(v.compared, 4u) << written;  // the four feed moves (the first rapid stays as written)
+  EXPECT_LE(v.max_excess_mm, 1e-7) << "line " << v.worst_line << "\n" << written;
+  EXPECT_GT(v.max_error_before_mm, 0.005);
 }
 
 }  // namespace

@@ -60,7 +60,7 @@ void Compensator::restore_arc_mode(const Block& b, gcode::BlockEditor& ed) {
     return;
   }
   if (!arc_mode_broken_ || b.words.empty()) return;
-  const std::string sep = b.raw.find_first_of(" \t") == std::string_view::npos ? "" : " ";
+  const std::string sep = word_separator(b);
   ed.insert_before(b.words.front().span, arc_word_ + sep);
   arc_mode_broken_ = false;
 }
@@ -100,7 +100,7 @@ bool Compensator::linearize_arc(const Block& b, const Motion& m, const ProgramMa
   }
   // The block becomes the first chord: G2/G3 → G1 (inserted when the arc was modal), centre,
   // radius and turn words go; the other chords follow as new lines.
-  const std::string sep = b.raw.find_first_of(" \t") == std::string_view::npos ? "" : " ";
+  const std::string sep = word_separator(b);
   if (d_.id == gcode::DialectId::heidenhain) {
     // Klartext: the arc block (C, CR, CT) becomes a straight line L; DR±, the radius word R and
     // the arc verb go (the CC block before it stays: it only sets the centre).
@@ -178,7 +178,7 @@ void Compensator::drill(const Block& b, const Motion& m, const ProgramMap& map, 
   }
   r_.words_changed += o.changed;
   r_.words_inserted += o.inserted;
-  const std::string sep = b.raw.find_first_of(" \t") == std::string_view::npos ? "" : " ";
+  const std::string sep = word_separator(b);
   const char normal = gcode::kAxisLetters[static_cast<std::size_t>(p.n)];
   for (const auto& [L, from, to] : {std::tuple{normal, bottom.c[p.n], cb.c[p.n]}, std::tuple{'R', rplane.c[p.n], cr.c[p.n]}}) {
     if (!rounded_change(p.n, from, to, m)) continue;

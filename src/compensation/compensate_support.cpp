@@ -6,6 +6,7 @@
 #include <fmt/format.h>
 
 #include "postproc/gcode/number_style.hpp"
+#include "src/gcode/rotary_direction.hpp"
 #include "src/gcode/text.hpp"
 
 namespace postproc::comp {
@@ -79,6 +80,13 @@ std::string comma_to_point(std::string_view t) {
 
 }  // namespace
 
+std::string word_separator(const gcode::Block& b) {
+  if (b.raw.find_first_of(" \t") != std::string_view::npos) return " ";
+  for (const Word& w : b.words)
+    if (w.has_equals) return " ";
+  return "";
+}
+
 std::optional<double> WordWriter::absolute_word(int a, double target, double from, double like) const {
   // The controller reads a rotary word that rolls over within the turn from where it stands (the
   // written start); before the axis is known, the reader counts from 0° (the interpreter's
@@ -111,7 +119,7 @@ WordWriter::Outcome WordWriter::rewrite(const Block& b, const Motion& m, gcode::
   for (const Word& w : b.words)
     if (track_.axis_of(w) >= 0) anchor.end = std::max(anchor.end, w.span.end);
   if (anchor.end == 0 && !b.words.empty()) anchor.end = b.words.back().span.end;
-  const std::string sep = b.raw.find_first_of(" \t") == std::string_view::npos ? "" : " ";
+  const std::string sep = word_separator(b);
   for (int a = 0; a < gcode::kAxisCount; ++a) {
     if (!((mask >> a) & 1u)) continue;
     const int dm = program_decimals(m_, a, m);
@@ -177,7 +185,27 @@ WordWriter::Outcome WordWriter::rewrite(const Block& b, const Motion& m, gcode::
       return o;
     }
     double v = pv - held;
-    if (!inc) {
+    const gcode::RotaryDirection dir =
+        w.kind == gcode::ValueKind::absolute_fn ? gcode::direction_of(b.text(w.value)) : gcode::RotaryDirection::none;
+    if (dir != gcode::RotaryDirection::none) {
+      // Sinumerik C=DC(w) / ACP(w) / ACN(w): the word stays a position within the turn that the
+      // function's direction takes from where the axis stands to the corrected position.
+      const double from = have_start ? held : 0.0;
+      const auto rw = gcode::directed_word(dir, pv, from);
+      if (!rw)
+        return {false, column_of(w),
+                fmt::format("the corrected rotary axis {} must move from {:.6f} to {:.6f} deg, which {}(…) cannot reach "
+                            "(it moves {}); program this move with another function (AC, IC) or incrementally",
+                            gcode::kAxisLetters[static_cast<std::size_t>(a)], from, pv, gcode::function_name(dir),
+                            dir == gcode::RotaryDirection::shortest   ? "at most half a turn"
+                            : dir == gcode::RotaryDirection::positive ? "the positive way, less than a turn"
+                                                                      : "the negative way, less than a turn"),
+                0, 0};
+      v = *rw;
+      // Written at the word's decimals, a value just below a full turn reads 360, which the
+      // control refuses: it is 0 of the next turn.
+      if (std::llround(v * s) >= std::llround(360.0 * s)) v = 0;
+    } else if (!inc) {
       const auto rw = absolute_word(a, pv, have_start ? held : 0.0, w.whole ? pv : w.number);
       if (!rw) return {false, column_of(w), rollover_refusal(a, pv, have_start ? held : 0.0), 0, 0};
       v = *rw;
@@ -249,7 +277,7 @@ WordWriter::Outcome WordWriter::rewrite(const Block& b, const Motion& m, gcode::
 
 std::optional<std::string> WordWriter::segment_line(const Block& b, const Motion& m, gcode::AxisMask mask, const AxisVector& from,
                                      const Command& to, std::uint64_t g93_segments) {
-  const std::string sep = b.raw.find_first_of(" \t") == std::string_view::npos ? "" : " ";
+  const std::string sep = word_separator(b);
   std::string line;
   if (b.block_delete) line = std::string(b.text(b.block_delete_span)) + sep;
   bool first = true;

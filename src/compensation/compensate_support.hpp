@@ -42,6 +42,10 @@ inline constexpr std::string_view kContourUnverified = "PP-W621";  // the writte
 /// inch program's linear words carry one more (0.0001 in = 2.54 µm, the controllers' inch
 /// increment), else the corrections of inch programs would be rounded to 25.4 µm.
 [[nodiscard]] int program_decimals(const machine::Machine& mc, int a, const gcode::Motion& m);
+/// What goes before a word inserted into block b: a blank when the block has blanks, or a
+/// Sinumerik `X=…` word (which needs one after it: `C=ACP(10) X5`, not `C=ACP(10)X5`); nothing in
+/// a block written without blanks (`X10Y5`).
+[[nodiscard]] std::string word_separator(const gcode::Block& b);
 using machine::kToolLengthError;  // PP-E621
 
 /// One block's single motion as read back (tool vector carried modally).

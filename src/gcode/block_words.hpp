@@ -22,7 +22,9 @@ struct Interpreter::BlockWords {
   AxisVector axis;                        ///< values as written (program units); valid where present
   AxisMask axis_present = 0;
   AxisMask axis_incremental = 0;          ///< U/W/H on Fanuc lathes, Siemens IC()
-  AxisMask axis_absolute = 0;             ///< Siemens AC()
+  AxisMask axis_absolute = 0;             ///< Siemens AC() (and DC() ACP() ACN())
+  /// Siemens DC() / ACP() / ACN() per axis (RotaryDirection of rotary_direction.hpp; 0: none).
+  std::array<std::uint8_t, kAxisCount> axis_direction{};
   AxisMask axis_unresolved = 0;           ///< written with an expression or parameter
   std::array<std::int8_t, kAxisCount> axis_word{};
 

@@ -8,6 +8,7 @@
 
 #include "postproc/gcode/lexer.hpp"
 #include "src/gcode/block_words.hpp"
+#include "src/gcode/rotary_direction.hpp"
 #include "src/gcode/codes.hpp"
 #include "src/gcode/number_text.hpp"
 #include "src/gcode/siemens_keywords.hpp"
@@ -319,7 +320,10 @@ bool Interpreter::collect(const Block& b, BlockWords& w) {
       w.axis[static_cast<Eigen::Index>(axis)] = v;
       w.axis_word[ax] = static_cast<std::int8_t>(i < 127 ? i : 127);
       if (incremental) w.axis_incremental |= bitmask;
-      if (fn_abs) w.axis_absolute |= bitmask;
+      if (fn_abs) {
+        w.axis_absolute |= bitmask;
+        w.axis_direction[ax] = static_cast<std::uint8_t>(direction_of(b.text(word.value)));
+      }
       if (!resolved) w.axis_unresolved |= bitmask;
       continue;
     }

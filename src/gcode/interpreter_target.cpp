@@ -7,6 +7,7 @@
 #include "postproc/gcode/interpreter.hpp"
 #include "src/gcode/block_words.hpp"
 #include "src/gcode/codes.hpp"
+#include "src/gcode/rotary_direction.hpp"
 
 namespace postproc::gcode {
 
@@ -26,6 +27,39 @@ bool Interpreter::target(const Block& b, const BlockWords& w, Motion& m) {
     const bool incremental =
         (w.axis_incremental & bitmask) || (!s_.absolute && !(w.axis_absolute & bitmask) && !w.machine_frame);
     const RotaryRollover roll = d_.rollover[static_cast<std::size_t>(a)];
+    const auto dir = static_cast<RotaryDirection>(w.axis_direction[static_cast<std::size_t>(a)]);
+    if (dir != RotaryDirection::none) {
+      // Sinumerik C=DC(w) / ACP(w) / ACN(w): a position within the turn, reached the shortest,
+      // the positive or the negative way (rotary_direction.hpp).
+      const int wi = w.axis_word[static_cast<std::size_t>(a)];
+      const Span at = wi >= 0 ? b.words[static_cast<std::size_t>(wi)].span : Span{};
+      const char letter = kAxisLetters[static_cast<std::size_t>(a)];
+      const std::string_view fn = function_name(dir);
+      if (a < 3 || a > 5) {
+        report(b, at, Severity::error, codes::kControllerRefuses,
+               fmt::format("{}={}(…): {} positions rotary axes only (the control raises an alarm); write {}={:g}",
+                           letter, fn, fn, letter, v));
+        return false;
+      }
+      if (roll != RotaryRollover::modulo && roll != RotaryRollover::shortest) {
+        report(b, at, Severity::error, codes::kControllerRefuses,
+               fmt::format("{}={}(…) needs {} to be a modulo rotary axis (the control's MD30310 ROT_IS_MODULO = 1), "
+                           "and the machine file says [axes.{}] rollover = \"{}\"; set rollover = \"modulo\" (or "
+                           "\"shortest\", as the control's MD30455 says) if the axis is one",
+                           letter, fn, letter, letter, to_string(roll)));
+        return false;
+      }
+      if (!(v >= 0.0 && v < 360.0)) {
+        report(b, at, Severity::error, codes::kControllerRefuses,
+               fmt::format("{}={}({:g}): a position with a direction must lie within the turn, 0 ≤ value < 360 "
+                           "(the control raises an alarm otherwise); write it within the turn",
+                           letter, fn, v));
+        return false;
+      }
+      s_.position[a] = directed_target(dir, v, (s_.known & bitmask) ? s_.position[a] : 0.0);
+      s_.known |= bitmask;
+      continue;
+    }
     if (incremental) {
       s_.position[a] += v;  // unknown stays unknown
     } else if (roll != RotaryRollover::off && !w.machine_frame) {

@@ -546,7 +546,10 @@ class Lexer {
       note_literal(v, end);
       if (std::uint32_t ne = scan_number(text, 0, false); ne == text.size() && ne > 0 && parse_number(text, w.number)) {
         w.kind = ValueKind::number;
-      } else if (text.size() > 3 && iequals(text.substr(0, 3), "AC(")) {
+      } else if (text.size() > 3 && (iequals(text.substr(0, 3), "AC(") || iequals(text.substr(0, 3), "DC("))) {
+        w.kind = ValueKind::absolute_fn;
+      } else if (text.size() > 4 && (iequals(text.substr(0, 4), "ACP(") || iequals(text.substr(0, 4), "ACN("))) {
+        // Sinumerik absolute positions of a modulo rotary axis with a direction (DC, ACP, ACN).
         w.kind = ValueKind::absolute_fn;
       } else if (text.size() > 3 && iequals(text.substr(0, 3), "IC(")) {
         w.kind = ValueKind::incremental_fn;

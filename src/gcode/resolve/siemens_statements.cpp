@@ -383,8 +383,11 @@ void Siemens::parse_items(SourceFile& f, Line& L, const Block& b, std::string_vi
         s.edit = m.value;
         s.letter = upper(raw[m.name.begin]);
         const std::string_view v = m.value.of(raw);
-        if (v.size() > 3 && (text::starts_with_i(v, "AC(") || text::starts_with_i(v, "IC(")) && v.back() == ')')
+        if (v.size() > 3 && (text::starts_with_i(v, "AC(") || text::starts_with_i(v, "IC(") ||
+                             text::starts_with_i(v, "DC(")) && v.back() == ')')
           s.edit = {m.value.begin + 3, m.value.end - 1};
+        else if (v.size() > 4 && (text::starts_with_i(v, "ACP(") || text::starts_with_i(v, "ACN(")) && v.back() == ')')
+          s.edit = {m.value.begin + 4, m.value.end - 1};
         Parser p(raw, s.edit.begin, s.edit.end, L.pool);
         s.expr = p.expr();
         p.expect_end("the value");
@@ -445,7 +448,7 @@ void Siemens::parse_items(SourceFile& f, Line& L, const Block& b, std::string_vi
           if (raw[close] == ')' && --depth == 0) break;
         }
         if (close + 1 != w.value.end)
-          throw Fail{"PP-E709", w.value, fmt::format("'{}' combines AC/IC with more terms; write AC(…) or IC(…) alone", w.value.of(raw))};
+          throw Fail{"PP-E709", w.value, fmt::format("'{}' combines AC/IC/DC/ACP/ACN with more terms; write the function alone", w.value.of(raw))};
         ++L.others;
         const Span inner{static_cast<std::uint32_t>(open + 1), close};
         std::string_view in = inner.of(raw);
