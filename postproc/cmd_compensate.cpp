@@ -48,6 +48,8 @@ nlohmann::json report_json(const CompensateArgs& a, const machine::Machine& m, c
   j["input"] = a.input;
   j["output"] = a.output;
   j["machine"] = {{"file", m.file}, {"sha256", m.sha256}, {"name", m.name}, {"model", m.model_kind}};
+  // The controller's rule between the two solutions of a tool axis (serial machines, docs/machine-file.md).
+  if (m.model_kind == "serial") j["machine"]["ik_branch"] = machine::to_string(m.ik_branch);
   j["mode"] = a.mode;
   j["status"] = ok ? "written" : "refused";
   j["limits"] = {{"max_deviation_mm", a.max_deviation_um / 1000.0}, {"max_angle_deviation_deg", a.max_angle_arcsec / 3600.0}};

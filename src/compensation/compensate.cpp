@@ -91,6 +91,7 @@ std::string header_comment(const gcode::Dialect& d, const machine::Machine& m, c
   // The controller conventions the corrections were computed under (docs/machine-file.md).
   if (const auto* hex = dynamic_cast<const kin::Hexapod*>(m.nominal.get()))
     text += fmt::format(" hexapod-spin={}", kin::to_string(hex->config().spin));
+  if (m.ik_branch != machine::IkBranch::nearest) text += fmt::format(" ik-branch={}", machine::to_string(m.ik_branch));
   for (int a = 0; a < gcode::kAxisCount; ++a)
     if (m.dialect_options.rollover[static_cast<std::size_t>(a)] != gcode::RotaryRollover::off)
       text += fmt::format(" rollover-{}={}", gcode::kAxisLetters[static_cast<std::size_t>(a)],

@@ -14,6 +14,15 @@
 #include "src/machine/toml_fields.hpp"
 
 namespace postproc::machine {
+
+std::string_view to_string(IkBranch b) {
+  switch (b) {
+    case IkBranch::nearest: return "nearest";
+    case IkBranch::tilt_positive: return "tilt-positive";
+    case IkBranch::tilt_negative: return "tilt-negative";
+  }
+  return "?";
+}
 namespace {
 
 constexpr std::string_view kDialects[] = {"fanuc", "siemens", "linuxcnc", "heidenhain-iso", "heidenhain"};
@@ -291,6 +300,17 @@ std::optional<Machine> parse_machine(std::string file, std::string text, gcode::
     if (auto p = f.quantity("interpolation_period", Dim::time, "s", false, {1e-6, 0.1})) m.interpolation_period = *p;
     if (auto c = f.quantity("max_rotary_correction", Dim::angle, "deg", false, {1e-7, 0.5}))
       m.max_rotary_correction_rad = *c;
+    static constexpr std::string_view kBranches[] = {"nearest", "tilt-positive", "tilt-negative"};
+    if (auto br = f.text("ik_branch", false, kBranches)) {
+      m.ik_branch = *br == "tilt-positive"   ? IkBranch::tilt_positive
+                    : *br == "tilt-negative" ? IkBranch::tilt_negative
+                                             : IkBranch::nearest;
+      if (m.model_kind != "serial" && m.ik_branch != IkBranch::nearest)
+        f.error_at("ik_branch", codes::kInconsistent,
+                   fmt::format("[machine] ik_branch = \"{}\" chooses between the two solutions of a serial machine "
+                               "with two rotary axes; a {} machine has no such choice — remove the key",
+                               *br, m.model_kind));
+    }
     static constexpr std::string_view kSpindleAxes[] = {"A", "B", "C"};
     if (auto ts = f.text("turning_spindle", false, kSpindleAxes)) turning_spindle = (*ts)[0];
     if (m.model_kind != "serial" && m.coordinates == ProgramCoordinates::axes)

@@ -1,6 +1,7 @@
 // The controller's command → joints map per program form, and the geometric remap through it.
 #include "postproc/machine/program_map.hpp"
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <limits>
@@ -60,6 +61,24 @@ Eigen::Vector2d virtual_ab_angles(const Eigen::Vector3d& o) {
 }
 
 namespace {
+
+/// Of the two closed-form orientation solutions of a serial machine, the one whose tilting axis
+/// (the rotary joint that flips sign between them; the other turns by half a turn) has the sign
+/// asked for; nullopt when there are not two, or the tilt is 0 (both solutions meet there: the
+/// nearest rule decides).
+std::optional<std::size_t> branch_by_tilt_sign(const kin::Model& model, const std::vector<kin::JointVector>& c,
+                                               bool positive) {
+  if (c.size() != 2) return std::nullopt;
+  const auto wrap = [](double deg) { return std::remainder(deg, 360.0); };  // (−180, 180]
+  for (int j = 0; j < model.joint_count(); ++j) {
+    if (model.joints()[static_cast<std::size_t>(j)].type != kin::JointType::rotary) continue;
+    const double a = wrap(c[0][j]), b = wrap(c[1][j]);
+    if (std::abs(a + b) > 1e-6 || std::abs(a) < 1e-6) continue;  // not the tilting axis, or at 0
+    return (a > 0) == positive ? 0u : 1u;
+  }
+  return std::nullopt;
+}
+
 
 /// The exact inverse (tool tip and tool axis matched) is taken while no rotary joint moves more than
 /// this fraction of the allowed rotary correction c; from there to c the damping of the bounded
@@ -250,15 +269,26 @@ kin::Solve ProgramMap::joints(const Command& cmd, const kin::JointVector& start,
     q = seed;
     return solve_linear(*nominal_, target.p, q);
   } else if (const auto* serial = dynamic_cast<const kin::SerialModel*>(nominal_.get())) {
-    // A tool vector: seed with the closed-form orientation branch nearest the previous joints.
+    // A tool vector: seed with the closed-form orientation branch the controller takes ([machine]
+    // ik_branch): the one nearest the previous joints, or the one whose tilting axis has the sign
+    // the controller keeps.
     kin::Pose at;
-    if (nominal_->forward(seed, at).ok() && at.axis().dot(target.axis()) < std::cos(10 * kin::kDeg)) {
-      double best = std::numeric_limits<double>::infinity();
-      for (const kin::JointVector& c : serial->orientation_candidates(target.axis(), start)) {
-        const double d = (c - start).squaredNorm();
-        if (d < best) {
-          best = d;
-          seed = c;
+    const bool by_sign = m_->ik_branch != IkBranch::nearest;
+    if (by_sign || (nominal_->forward(seed, at).ok() && at.axis().dot(target.axis()) < std::cos(10 * kin::kDeg))) {
+      const std::vector<kin::JointVector> candidates = serial->orientation_candidates(target.axis(), start);
+      const std::optional<std::size_t> signed_branch =
+          by_sign ? branch_by_tilt_sign(*nominal_, candidates, m_->ik_branch == IkBranch::tilt_positive) : std::nullopt;
+      if (signed_branch) {
+        seed = candidates[*signed_branch];
+      } else if (!by_sign || !nominal_->forward(seed, at).ok() ||
+                 at.axis().dot(target.axis()) < std::cos(10 * kin::kDeg)) {
+        double best = std::numeric_limits<double>::infinity();
+        for (const kin::JointVector& c : candidates) {
+          const double d = (c - start).squaredNorm();
+          if (d < best) {
+            best = d;
+            seed = c;
+          }
         }
       }
     }
@@ -282,7 +312,24 @@ kin::Solve ProgramMap::joints(const Command& cmd, const kin::JointVector& start,
     opt.match = kin::PoseMatch::full;
     return nominal_->inverse(last_reached_, seed, q, opt);
   }
-  return nominal_->inverse(target, seed, q, opt);
+  const kin::Solve s = nominal_->inverse(target, seed, q, opt);
+  if (s.status == kin::Status::singular) {
+    // At a pole (the tool axis on the axis of the last rotary joint, e.g. B0 on a B/C trunnion)
+    // the other rotary axis is free: the controller holds it where it stands. Where the seed's
+    // rotary joints, or the closed-form orientation solution nearest them (B to 0, C held), give
+    // the commanded tool axis, only the linear joints move.
+    std::vector<kin::JointVector> seeds{seed};
+    if (const auto* serial = dynamic_cast<const kin::SerialModel*>(nominal_.get()))
+      for (const kin::JointVector& c : serial->orientation_candidates(target.axis(), seed)) seeds.push_back(c);
+    for (const kin::JointVector& sd : seeds) {
+      kin::Pose at;
+      if (!nominal_->forward(sd, at).ok() || (at.axis() - target.axis()).norm() >= kToleranceRad) continue;
+      q = sd;
+      if (const kin::Solve lin = solve_linear(*nominal_, target.p, q); lin.ok()) return lin;
+    }
+    q = start;
+  }
+  return s;
 }
 
 kin::Solve ProgramMap::command(const kin::JointVector& q, const Command& like, Command& out) const {
@@ -430,6 +477,20 @@ kin::Solve ProgramMap::correct(const Command& cmd, const kin::JointVector& start
     }
   }
   if (!s.ok()) return s;
+  const kin::Solve written = command(q_actual, cmd, out);
+  if (!written.ok() || form_ != Form::tcp_vector || m_->ik_branch == IkBranch::nearest || hex_nominal_ != nullptr)
+    return written;
+  // Under a sign rule ([machine] ik_branch) the controller solves the written tool axis itself:
+  // near the pole a corrected axis can lie on the other branch (the tilting axis' sign flips and
+  // the table turns half a turn). Then the rotary joints keep the intended pose's values and the
+  // linear joints correct the tool tip; the tool axis keeps its error (reported as limited).
+  kin::JointVector q_rule;
+  if (joints(out, start, q_rule).ok() && (q_rule - q_actual).cwiseAbs().maxCoeff() < 1e-6) return written;
+  q_actual = q_nom;
+  if (const kin::Solve lin = solve_linear(*actual_, goal.p, q_actual); !lin.ok()) return lin;
+  kin::Pose at;
+  if (actual_->forward(q_actual, at).ok())
+    last_bounded_residual_rad_ = std::acos(std::clamp(at.axis().dot(goal.axis()), -1.0, 1.0));
   return command(q_actual, cmd, out);
 }
 

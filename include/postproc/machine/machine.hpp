@@ -32,6 +32,17 @@ enum class Orientation : std::uint8_t {
 };
 
 /// What an F word (per minute) measures.
+/// Which of the two inverse-kinematics solutions of a serial machine with two rotary axes the
+/// controller takes for a tool-tip program with a tool axis (TRAORI with vectors, M128 / TCPM with
+/// LN vectors, G43.5): the two differ in the sign of the tilting axis (the one that flips sign
+/// between them; the other turns by half a turn).
+enum class IkBranch : std::uint8_t {
+  nearest,        ///< the solution nearest the joints of the block before (postproc's former fixed rule)
+  tilt_positive,  ///< the tilting axis at a positive angle (where it is not 0)
+  tilt_negative,  ///< the tilting axis at a negative angle
+};
+[[nodiscard]] std::string_view to_string(IkBranch b);
+
 enum class FeedReference : std::uint8_t {
   tool_tip,       ///< path speed of the tool tip in the workpiece frame (TCP, parallel machines)
   combined_axes,  ///< √Σ axis rates² with degrees counted as mm (Fanuc/Siemens without TCP)
@@ -80,6 +91,8 @@ struct Machine {
   /// ([machine] max_rotary_correction): near a singular pose the tool axis is corrected only as
   /// far as this allows (kinematics/bounded_inverse.hpp); the tool tip is always corrected.
   double max_rotary_correction_rad = 0.017453292519943295;  // 1°
+  /// [machine] ik_branch: the controller's choice between the two solutions of a tool axis.
+  IkBranch ik_branch = IkBranch::nearest;
   /// The program axis that is the workpiece spindle of a mill-turn ([machine] turning_spindle,
   /// e.g. C), -1 for none: while the spindle turns (M3 / M4) it is not a position, a block is a
   /// turning move whose tool-tip radius and Z are what the program means.
