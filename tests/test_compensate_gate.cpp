@@ -63,6 +63,16 @@ ct::Path path_of(const std::string& text, const mc::Machine& m) {
   return p;
 }
 
+/// The original program and the written one simulated against the original's intended contour
+/// (`postproc simulate OUT --reference IN`): an independent check of what the report says.
+std::pair<ct::Simulation, ct::Simulation> simulate_both(const std::string& original, const std::string& written,
+                                                         const mc::Machine& m) {
+  const ct::Path po = path_of(original, m);
+  const ct::Path pw = path_of(written, m);
+  const ct::Reference ref(po, *m.actual);
+  return {ct::simulate(po, ref, *m.actual), ct::simulate(pw, ref, *m.actual)};
+}
+
 std::size_t count(const gc::DiagnosticSink& s, const std::string& code) {
   std::size_t n = 0;
   for (const auto& d : s.stored()) n += d.code == code ? 1 : 0;
@@ -101,11 +111,7 @@ TEST(CompensateGate, ContourNotBetterOnTheSimulatorIsWrittenUncorrected) {
   EXPECT_LT(c.r.contour_predicted_after_mm, 0.5 * c.r.contour_before_mm);
 
   // Independent check: simulate the original and the written text against the original's contour.
-  const ct::Path original = path_of(prog, m);
-  const ct::Path written = path_of(c.written, m);
-  const ct::Reference ref(original, *m.actual);
-  const ct::Simulation s0 = ct::simulate(original, ref, *m.actual);
-  const ct::Simulation s1 = ct::simulate(written, ref, *m.actual);
+  const auto [s0, s1] = simulate_both(prog, c.written, m);
   EXPECT_LE(s1.tip.max, s0.tip.max);
   EXPECT_LE(s1.axis.max, s0.axis.max);
   // The report's before / after are the simulation's, not the prediction.
@@ -159,11 +165,7 @@ TEST(CompensateGate, RefinementOnTheSimulationImprovesWhatTheCandidatesCouldNot)
   EXPECT_EQ(c.r.contour_runs_refined, 1u);
   EXPECT_EQ(c.r.contour_runs_withheld, 0u);
   EXPECT_GT(c.r.changed_blocks, 0u);
-  const ct::Path original = path_of(prog, m);
-  const ct::Path written = path_of(c.written, m);
-  const ct::Reference ref(original, *m.actual);
-  const ct::Simulation s0 = ct::simulate(original, ref, *m.actual);
-  const ct::Simulation s1 = ct::simulate(written, ref, *m.actual);
+  const auto [s0, s1] = simulate_both(prog, c.written, m);
   EXPECT_LT(s1.tip.max, s0.tip.max);
   EXPECT_LE(s1.axis.max, s0.axis.max);
   EXPECT_LT(s1.run_tip_rms[0], s0.run_tip_rms[0]);
@@ -204,11 +206,7 @@ TEST(CompensateGate, ContourBetterOnTheSimulatorIsWrittenAndReportedAsSimulated)
   EXPECT_TRUE(c.r.contour_verified);
   EXPECT_EQ(c.r.contour_runs_withheld, 0u);
   EXPECT_GT(c.r.changed_blocks, 1000u);
-  const ct::Path original = path_of(prog, m);
-  const ct::Path written = path_of(c.written, m);
-  const ct::Reference ref(original, *m.actual);
-  const ct::Simulation s0 = ct::simulate(original, ref, *m.actual);
-  const ct::Simulation s1 = ct::simulate(written, ref, *m.actual);
+  const auto [s0, s1] = simulate_both(prog, c.written, m);
   EXPECT_LT(s1.tip.max, 0.1 * s0.tip.max);
   EXPECT_LE(s1.axis.max, s0.axis.max);
   EXPECT_NEAR(c.r.contour_before_mm, s0.tip.max, 1e-9);

@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <cstring>
 #include <fstream>
+#include <optional>
 #include <random>
 #include <sstream>
 
@@ -31,6 +32,21 @@ gc::Dialect with_rollover(std::string_view name, int axis, RotaryRollover r) {
   o.rollover[static_cast<std::size_t>(axis)] = r;
   o.integer_input = gc::Dialect::IntegerInput::calculator;
   return *gc::make_dialect(name, o);
+}
+
+/// A sample machine file with `rollover = "<rule>"` in its [axes.C] table.
+std::optional<mc::Machine> sample_with_c_rollover(const std::string& file, const std::string& rule) {
+  std::ifstream in(std::string(POSTPROC_SOURCE_DIR) + "/samples/machines/" + file);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  std::string text = ss.str();
+  const std::string anchor = "[axes.C]\n";
+  if (text.find(anchor) == std::string::npos) return std::nullopt;
+  text.replace(text.find(anchor), anchor.size(), anchor + "rollover = \"" + rule + "\"\n");
+  gc::DiagnosticSink msink;
+  auto m = mc::parse_machine(file, text, msink);
+  for (const auto& diag : msink.stored()) ADD_FAILURE() << gc::format(diag);
+  return m;
 }
 
 /// B-63534EN/02 §20.2.1 "Rotary axis roll-over", RAB = 0 (shorter way): from A0, A-150 moves −150
@@ -142,16 +158,7 @@ TEST(RotaryRollover, LinuxcncWrappedRotaryMatchesRs274) {
 /// program, read back under the same rule, reaches the intended poses within rounding, and its C
 /// words stay within the turn as the program wrote them.
 TEST(RotaryRollover, CompensatedProgramAcrossZeroReadsBackToTheCorrectedPoses) {
-  std::ifstream in(std::string(POSTPROC_SOURCE_DIR) + "/samples/machines/trunnion_bc_fanuc.toml");
-  std::stringstream ss;
-  ss << in.rdbuf();
-  std::string text = ss.str();
-  const std::string anchor = "[axes.C]\n";
-  ASSERT_NE(text.find(anchor), std::string::npos);
-  text.replace(text.find(anchor), anchor.size(), anchor + "rollover = \"shortest\"\n");
-  gc::DiagnosticSink msink;
-  const auto m = mc::parse_machine("bc.toml", text, msink);
-  for (const auto& diag : msink.stored()) ADD_FAILURE() << gc::format(diag);
+  const auto m = sample_with_c_rollover("trunnion_bc_fanuc.toml", "shortest");
   ASSERT_TRUE(m);
   std::string program = "%\nO1000\nG21 G90 G94 G54\nG43 H7\nG0 X50. Y0. Z80. B30. C340.\n";
   for (int i = 0; i <= 40; ++i)  // C 340 → 350 … 0 … 20, written within the turn
@@ -286,15 +293,7 @@ namespace {
 /// trunnion: the functions stay, every value stays within the turn, and the written program reads
 /// back (under the same functions) to the corrected poses.
 TEST(RotaryDirection, CompensatedWordsKeepTheirFunctionAndReadBackToTheCorrectedPoses) {
-  std::ifstream in(std::string(POSTPROC_SOURCE_DIR) + "/samples/machines/trunnion_ac_siemens.toml");
-  std::stringstream ss;
-  ss << in.rdbuf();
-  std::string text = ss.str();
-  const std::string anchor = "[axes.C]\n";
-  ASSERT_NE(text.find(anchor), std::string::npos);
-  text.replace(text.find(anchor), anchor.size(), anchor + "rollover = \"modulo\"\n");
-  gc::DiagnosticSink msink;
-  const auto m = mc::parse_machine("ac.toml", text, msink);
+  const auto m = sample_with_c_rollover("trunnion_ac_siemens.toml", "modulo");
   ASSERT_TRUE(m);
   const std::string program =
       "G90 G54 G64\nT=\"BALL_8\" M6\nD1\nG0 X40 Y-20 Z30 A-10 C=DC(350)\nG1 X35 Y-15 Z28 C=ACP(5) F800\n"
