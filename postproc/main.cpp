@@ -8,6 +8,7 @@
 
 #include "common.hpp"
 #include "docgen.hpp"
+#include "option_hints.hpp"
 #include "postproc/io/input_guard.hpp"
 #include "postproc/io/signal_cleanup.hpp"
 
@@ -40,6 +41,13 @@ int main(int argc, char** argv) {
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
+    // A mistyped command or option: name it, with the nearest names, before CLI11's own message
+    // (which may only say that a required option is missing).
+    if (e.get_exit_code() != 0)
+      if (const auto hint = postproc::cli::unknown_word_hint(app, argc, argv)) {
+        std::fputs(fmt::format("postproc: error: {}\n", *hint).c_str(), stderr);
+        return static_cast<int>(postproc::ExitCode::usage);
+      }
     const int code = app.exit(e);
     return code == 0 ? 0 : static_cast<int>(postproc::ExitCode::usage);
   } catch (const postproc::Error& e) {

@@ -1,0 +1,37 @@
+#!/usr/bin/env bash
+# "Did you mean" for mistyped commands and options (postproc/option_hints.cpp): exit 64 (usage),
+# the unknown word named with the nearest names; valid command lines are not affected.
+# Usage: cli_hints.sh POSTPROC
+set -u
+P="$1"
+fail=0
+expect() {  # expect RC PATTERN -- ARGS...
+  local want_rc="$1" pattern="$2"
+  shift 3
+  local out rc
+  out=$("$P" "$@" 2>&1)
+  rc=$?
+  if [[ "$rc" != "$want_rc" ]] || ! grep -qF -- "$pattern" <<<"$out"; then
+    echo "FAIL: postproc $* → rc $rc (want $want_rc), output: $out (want: $pattern)"
+    fail=1
+  fi
+}
+expect 64 "unknown option '--machin' for 'postproc compensate'; did you mean '--machine'?" -- compensate a.nc --machin x -o y
+expect 64 "'compnsate' is not a postproc command; did you mean 'compensate'?" -- compnsate
+expect 64 "unknown option '--mehtod' for 'postproc calibrate'; did you mean '--method'?" -- calibrate --mehtod ridge x.csv
+expect 64 "unknown option '-z' for 'postproc check'" -- check a.nc --dialect fanuc -z
+expect 64 "unknown option '--hlp' for 'postproc calibrate plan'; did you mean '--help'?" -- calibrate plan --hlp
+expect 64 "'frobnicate' is not a postproc command (postproc --help lists them)" -- frobnicate
+expect 64 "did you mean '--refine-iterations'?" -- compensate a.nc -m m.toml -o o.nc --refine-iteration 3
+# Valid lines keep CLI11's own messages and codes.
+expect 0 "postproc" -- --version
+expect 0 "Usage:" -- check --help
+expect 64 "--machine is required" -- compensate a.nc -o o.nc
+expect 64 "contuor not in" -- compensate a.nc -m m.toml -o o.nc --mode contuor
+# A valid line with option values runs as before.
+tmp=$(mktemp -d)
+trap 'rm -rf "$tmp"' EXIT
+printf 'G0 X1.\nM30\n' > "$tmp/p.nc"
+expect 0 "result: accepted" -- check "$tmp/p.nc" --dialect=fanuc --max-per-code 5
+if [[ $fail == 0 ]]; then echo "cli_hints: all checks passed"; fi
+exit $fail
