@@ -157,6 +157,10 @@ class Pass final : public BlockVisitor {
   }
 
   void renumber(const Block& b, BlockEditor& ed) {
+    if (d_.id == DialectId::heidenhain) {
+      renumber_klartext(b, ed);
+      return;
+    }
     for (const Token& t : b.tokens) {
       // Jumps name sequence numbers; renumbering would retarget them.
       if (t.kind == TokenKind::control_flow || t.kind == TokenKind::label) {
@@ -188,6 +192,29 @@ class Pass final : public BlockVisitor {
     ed.replace(digits, std::move(num));
     next_n_ += opt_.renumber_step;
   }
+
+  /// Klartext: every block carries its number (the number is the whole leading integer, no N);
+  /// a block without one (a line postproc inserted, a comment) gets the next number. Jumps go to
+  /// labels (LBL), never to block numbers, so nothing refers to the numbers.
+  void renumber_klartext(const Block& b, BlockEditor& ed) {
+    // A line after one that ends in '~' continues that block (cycle parameters): no number.
+    std::size_t last = b.raw.find_last_not_of(" \t\r");
+    if (last == std::string_view::npos) return;  // a blank line is no block
+    const bool continuation = continued_;
+    continued_ = b.raw[last] == '~';
+    if (continuation) return;
+    std::string num = fmt::format("{}", next_n_);
+    if (b.has_n) {
+      ed.replace(b.n_span, std::move(num));
+    } else {
+      std::size_t first = 0;
+      while (first < b.raw.size() && (b.raw[first] == ' ' || b.raw[first] == '\t')) ++first;
+      ed.insert_before(Span{static_cast<std::uint32_t>(first), static_cast<std::uint32_t>(first)}, num + " ");
+    }
+    next_n_ += opt_.renumber_step;
+  }
+
+  bool continued_ = false;  ///< Klartext: the line before ended in '~'
 
   static bool has_letter(const Block& b, char L) {
     for (const Word& w : b.words)
