@@ -263,9 +263,9 @@ struct Refined {
 };
 
 /// Refinement on the simulation (contour/learning_control.hpp), all runs at once: every round
-/// writes the trial commands (`write(commands)` → the text), reads them back and simulates them
-/// (`simulate(text, equations, why)` gathers the samples' normal equations); per run the step is
-/// taken where the run improves (none of its four figures worse, its largest error tip + L × axis
+/// writes the trial commands (`write(commands)` → the text), reads them back and simulates the
+/// runs still refining (`simulate(text, equations, why, runs)` gathers their samples' normal
+/// equations); per run the step is taken where the run improves (none of its four figures worse, its largest error tip + L × axis
 /// or its RMS better by more than the noise), else halved; a run stops after
 /// LearningOptions::max_iterations steps, when a step gains less than the relative tolerance, or
 /// after max_halvings halvings in a row. `cur` (per path point) holds the start and receives the
@@ -273,12 +273,14 @@ struct Refined {
 template <class Write, class Simulate>
 std::vector<Refined> refine(const contour::Path& path, std::vector<kin::JointVector>& cur,
                             const contour::LearningOptions& lo, Write&& write, Simulate&& simulate) {
+  // `simulate(text, equations, why, runs)`: runs == nullptr simulates every run, else the runs
+  // marked (the trials of the runs still refining).
   const std::size_t runs = path.runs.size();
   std::vector<Refined> out(runs);
   contour::SampleEquations eq_cur(path, lo.orientation_length_mm), eq_trial(path, lo.orientation_length_mm);
   std::string why;
   const std::string start = write(cur);
-  std::optional<contour::Simulation> sim = simulate(start, eq_trial, why);
+  std::optional<contour::Simulation> sim = simulate(start, eq_trial, why, nullptr);
   if (!sim) return out;
   // Each run's tool-tip and tool-axis rows weighted by the inverse of the start's RMS of each (L ×
   // axis in mm): the step lowers both in proportion instead of trading one for the other (the
@@ -290,7 +292,7 @@ std::vector<Refined> refine(const contour::Path& path, std::vector<kin::JointVec
     eq_trial.weigh(r, wt, wa);
   }
   eq_trial.clear();
-  sim = simulate(start, eq_cur, why);
+  sim = simulate(start, eq_cur, why, nullptr);
   if (!sim) return out;
   const double L = lo.orientation_length_mm;
   std::vector<RunFigures> fig(runs);
@@ -318,7 +320,7 @@ std::vector<Refined> refine(const contour::Path& path, std::vector<kin::JointVec
       for (std::size_t i = run.begin; i < run.end; ++i) trial[i] = cur[i] + alpha[r] * step[i];
     }
     eq_trial.clear();
-    const std::optional<contour::Simulation> ts = simulate(write(trial), eq_trial, why);
+    const std::optional<contour::Simulation> ts = simulate(write(trial), eq_trial, why, &active);
     if (!ts) break;
     for (std::size_t r = 0; r < runs; ++r) {
       if (active[r] == 0) continue;
@@ -491,9 +493,10 @@ CompensateResult compensate_contour(std::string_view text, std::string_view file
       lo.smoothing = po.smoothing;
       const auto write = [&](const std::vector<kin::JointVector>& c) { return write_pass(c, none)->text; };
       refined_steps = refine(d.path, refined_commands, lo, write, [&](const std::string& written, contour::SampleEquations& eq,
-                                                                     std::string& because) {
+                                                                     std::string& because, const std::vector<char>* runs_to) {
         contour::SimulateOptions so;
         so.visit = [&eq](const contour::SampleVisit& v) { eq.add(v); };
+        so.only_runs = runs_to;
         return simulate_written(written, file, dialect, m, d, because, so);
       });
       for (std::size_t run = 0; run < runs; ++run) {

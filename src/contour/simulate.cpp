@@ -48,6 +48,7 @@ Simulation simulate(const Path& commanded, const Reference& ref, const kin::Mode
 
   for (std::size_t r = 0; r < commanded.runs.size(); ++r) {
     const Run& run = commanded.runs[r];
+    if (opt.only_runs != nullptr && (r >= opt.only_runs->size() || (*opt.only_runs)[r] == 0)) continue;
     if (run.begin >= run.end || run.end > commanded.points.size())
       throw Error(ExitCode::internal, "simulate: run " + std::to_string(r) + " outside the path's points");
     const kin::JointVector& q0 = commanded.points[run.begin].q;

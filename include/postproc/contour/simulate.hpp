@@ -30,6 +30,9 @@ struct SimulateOptions {
   /// Called with every sample (optional): e.g. to gather the normal equations of a correction
   /// (learning_control.hpp) without keeping the samples.
   std::function<void(const SampleVisit&)> visit;
+  /// Runs to simulate (optional; indexed like Path::runs, non-zero: simulated): the figures of the
+  /// others stay 0 and their time is not counted (Simulation::samples, SimSample::t).
+  const std::vector<char>* only_runs = nullptr;
 };
 
 struct SimSample {
