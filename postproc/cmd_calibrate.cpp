@@ -90,6 +90,9 @@ void parse_bound(const std::string& text, const kin::Model& model, cal::Identify
   opt.bounds.push_back({k, {lo, hi}});
 }
 
+/// A condition number of the identification Jacobian above this is warned about on the terminal.
+constexpr double kPoorCondition = 1e4;
+
 void print_summary(const cal::CalibrationRun& run, const cal::Comparison& c) {
   const auto& r = run.result;
   const auto& params = run.start->parameters();
@@ -117,6 +120,18 @@ void print_summary(const cal::CalibrationRun& run, const cal::Comparison& c) {
   out += figures("fitted", c.fit);
   if (c.validation.count > 0) out += figures("held out", c.validation);
   out += fmt::format("postproc: residual σ {:.5f} mm (mm-equivalent)\n", r.sigma);
+  // What the JSON report says, on the terminal too: a solve that ran out of iterations, and
+  // parameters the measurements determine poorly.
+  if (r.iterations >= run.options.max_iterations)
+    out += fmt::format("postproc: warning: the solver stopped at its iteration limit (--max-iterations {}) "
+                       "before it converged; the parameters may not be the best fit — run again with a higher "
+                       "--max-iterations\n",
+                       r.iterations);
+  if (r.start.condition > kPoorCondition)
+    out += fmt::format("postproc: warning: condition number {:.4g} (above {:g}): these measurements determine some "
+                       "parameters poorly, their estimates follow the noise — add poses that move those parameters "
+                       "(postproc calibrate plan) or fix them (--fix)\n",
+                       r.start.condition, kPoorCondition);
   std::fputs(out.c_str(), stderr);
 }
 

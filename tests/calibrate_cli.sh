@@ -113,6 +113,15 @@ grep -q "bad.csv:3:13: error: PP-C003" "$T/bad.err" || { fail "bad data: no loca
 "$P" calibrate -m "$M/trunnion_bc_fanuc_nominal.toml" "$D/trunnion_bc_positions.csv" --free 'NOPE*' -o "$T/bad3.toml" 2> /dev/null
 [ $? = 64 ] || fail "--free with an unknown parameter: expected exit 64"
 
+# The terminal says what the JSON says: an iteration limit reached, a poorly conditioned problem.
+"$P" calibrate -m "$M/hybrid_3prs_doc001_nominal.toml" "$D/hybrid_3prs_poses5.csv" --max-iterations 1 \
+  -o "$T/limit.toml" 2> "$T/limit.err" || fail "iteration limit: calibrate exited non-zero"
+grep -q "warning: the solver stopped at its iteration limit (--max-iterations 1)" "$T/limit.err" ||
+  fail "iteration limit: no warning"
+grep -q "warning: condition number 5.89.e+04" "$T/limit.err" || fail "condition: no warning for the 3-PRS 5-DoF set"
+"$P" calibrate -m "$M/trunnion_bc_fanuc_nominal.toml" "$D/trunnion_bc_positions.csv" -o "$T/well.toml" 2> "$T/well.err"
+grep -q "warning" "$T/well.err" && fail "a well-conditioned, converged calibration is warned about"
+
 if [ "$failures" -gt 0 ]; then
   echo "$failures failure(s)"
   exit 1
