@@ -166,7 +166,8 @@ void setup_batch(CLI::App& app, int& rc) {
   cmd->add_option("--machine-name", o->machine_name, "name of per-folder machine files")->capture_default_str();
   cmd->add_option("--max-deviation", o->max_deviation_um, "as for compensate, µm")->capture_default_str();
   cmd->add_option("--max-angle-deviation", o->max_angle_arcsec, "as for compensate, arcsec")->capture_default_str();
-  cmd->add_option("--iterations", o->iterations, "contour modes: most prediction / correction rounds")->capture_default_str();
+  cmd->add_option("--iterations,--max-iterations", o->iterations, "contour modes: most prediction / correction rounds")
+      ->capture_default_str();
   cmd->add_flag("--no-header", o->no_header, "do not write the header comment into the programs");
   cmd->add_flag("--allow-recompensation", o->allow_recompensation,
                 "compensate programs that already carry postproc's compensation header (refused otherwise, PP-E620)");

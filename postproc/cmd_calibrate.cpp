@@ -28,6 +28,8 @@ struct CalibrateArgs {
   std::string machine;
   std::string output;
   std::vector<std::string> reports;
+  std::vector<std::string> json_reports;  ///< --json: JSON whatever the name
+  std::vector<std::string> html_reports;  ///< --html: HTML whatever the name
   std::string method = "least-squares";
   double lambda = 0;
   std::vector<std::string> free;
@@ -311,6 +313,8 @@ void run_calibrate(const CalibrateArgs& a, int& rc) {
     const bool html = rp.ends_with(".html") || rp.ends_with(".htm");
     outputs.add(rp, html ? cal::report_html(run) : cal::report_json(run));
   }
+  for (const std::string& rp : a.json_reports) outputs.add(rp, cal::report_json(run));
+  for (const std::string& rp : a.html_reports) outputs.add(rp, cal::report_html(run));
   outputs.commit(&out);  // the machine file and its reports together, or none of them
   note_backup_kept(out);
   printer.finish();
@@ -329,6 +333,8 @@ void setup_calibrate(CLI::App& app, int& rc) {
   cmd->add_option("-o,--output", a->output, "the calibrated machine file to write");
   cmd->add_option("--validate", a->validate, "held-out measurement files: not fitted, only checked before/after");
   cmd->add_option("--report", a->reports, "write a report: R.json, or R.html (self-contained, residual plots)");
+  cmd->add_option("--json", a->json_reports, "write the JSON report here (as --report R.json)");
+  cmd->add_option("--html", a->html_reports, "write the HTML report here (as --report R.html)");
   cmd->add_option("--method", a->method, "least-squares (default), ridge, psi-substitution")->capture_default_str();
   cmd->add_option("--lambda", a->lambda, "ridge weight λ (mm² per unit² of parameter); 0 = chosen by GCV")->capture_default_str();
   cmd->add_option("--free", a->free, "identify only these parameters (names, * and ? patterns, comma separated)")->delimiter(',');

@@ -80,7 +80,7 @@ void setup_compensate(CLI::App& app, int& rc) {
   cmd->add_option("input", o->input, "NC program ('-' = stdin)")->required();
   cmd->add_option("-m,--machine", o->machine, "machine file (TOML, docs/machine-file.md)")->required();
   cmd->add_option("-o,--output", o->output, "output file ('-' = stdout)")->required();
-  cmd->add_option("--report", o->report, "write a JSON report of the run here");
+  cmd->add_option("--report,--json", o->report, "write a JSON report of the run here (--json: the same)");
   cmd->add_option("--html", o->html,
                   "contour modes: write a self-contained HTML report of the predicted contour errors before and "
                   "after compensation here");
@@ -98,7 +98,7 @@ void setup_compensate(CLI::App& app, int& rc) {
                   "Fanuc: whole numbers without a point are 'increment' (X100 = 0.1 mm) or 'calculator' (100 mm); "
                   "overrides the machine file")
       ->check(CLI::IsMember({"increment", "calculator"}));
-  cmd->add_option("--iterations", o->iterations,
+  cmd->add_option("--iterations,--max-iterations", o->iterations,
                   "contour modes: most prediction / correction rounds (stops earlier when the predicted contour error "
                   "stops improving)")
       ->capture_default_str();

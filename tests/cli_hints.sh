@@ -1,9 +1,11 @@
 #!/usr/bin/env bash
 # "Did you mean" for mistyped commands and options (postproc/option_hints.cpp): exit 64 (usage),
 # the unknown word named with the nearest names; valid command lines are not affected.
-# Usage: cli_hints.sh POSTPROC
+# One vocabulary: --json / --html for reports and --max-iterations wherever a command has them.
+# Usage: cli_hints.sh POSTPROC [SOURCE_DIR]
 set -u
 P="$1"
+SRC="${2:-}"
 fail=0
 expect() {  # expect RC PATTERN -- ARGS...
   local want_rc="$1" pattern="$2"
@@ -33,5 +35,15 @@ tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 printf 'G0 X1.\nM30\n' > "$tmp/p.nc"
 expect 0 "result: accepted" -- check "$tmp/p.nc" --dialect=fanuc --max-per-code 5
+if [[ -n "$SRC" ]]; then
+  S="$SRC/samples"
+  expect 0 "" -- compensate "$S/programs/cone_frustum_nas979.nc" -m "$S/machines/trunnion_ac_fanuc.toml" \
+    -o "$tmp/c.nc" --json "$tmp/c.json" --max-iterations 3
+  grep -q '"mode": "geometric"' "$tmp/c.json" 2>/dev/null || { echo "FAIL: compensate --json wrote no report"; fail=1; }
+  expect 0 "" -- calibrate "$S/measurements/trunnion_bc_positions.csv" -m "$S/machines/trunnion_bc_fanuc_nominal.toml" \
+    -o "$tmp/cal.toml" --json "$tmp/cal.report" --html "$tmp/cal.page" --max-iterations 50
+  head -c 1 "$tmp/cal.report" 2>/dev/null | grep -q '{' || { echo "FAIL: calibrate --json wrote no JSON"; fail=1; }
+  grep -qi '<html' "$tmp/cal.page" 2>/dev/null || { echo "FAIL: calibrate --html wrote no HTML"; fail=1; }
+fi
 if [[ $fail == 0 ]]; then echo "cli_hints: all checks passed"; fi
 exit $fail
