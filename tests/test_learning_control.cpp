@@ -33,6 +33,21 @@ void feed(ct::SampleEquations& eq, const ct::Path& p, const kin::Model& model, c
     }
 }
 
+/// The step solved from exact samples of the shifts x, undamped and unsmoothed, with the run's
+/// rows weighted (tool tip, tool axis).
+std::vector<kin::JointVector> exact_step(const ct::Path& p, const kin::Model& model, const std::vector<kin::JointVector>& x,
+                                         double weight_tip = 1, double weight_axis = 1) {
+  ct::SampleEquations eq(p, 100);
+  eq.weigh(0, weight_tip, weight_axis);
+  feed(eq, p, model, x);
+  ct::LearningOptions opt;
+  opt.damping = 0;
+  opt.smoothing = 0;
+  std::vector<kin::JointVector> step(p.points.size(), kin::JointVector::Zero(3));
+  eq.solve(p.runs[0], opt, step);
+  return step;
+}
+
 ct::Path circle_path() {
   ct::Path p = pptest::empty_path(pptest::mill());
   pptest::add_run(p, pptest::circle(Eigen::Vector3d(0, 0, -5), 20, 24), 30);
@@ -46,13 +61,7 @@ TEST(LearningControl, RecoversAConstantShift) {
   std::vector<kin::JointVector> x(p.points.size(), kin::JointVector::Zero(3));
   for (std::size_t i = 0; i < p.points.size(); ++i)
     if (ct::correctable(p, p.runs[0], i)) x[i] = shift;
-  ct::SampleEquations eq(p, 100);
-  feed(eq, p, model, x);
-  ct::LearningOptions opt;
-  opt.damping = 0;
-  opt.smoothing = 0;
-  std::vector<kin::JointVector> step(p.points.size(), kin::JointVector::Zero(3));
-  eq.solve(p.runs[0], opt, step);
+  const std::vector<kin::JointVector> step = exact_step(p, model, x);
   // A constant shift has no rate, so no lag term: the step is the shift itself.
   for (std::size_t i = 0; i < p.points.size(); ++i) {
     SCOPED_TRACE(i);
@@ -72,15 +81,8 @@ TEST(LearningControl, AddsTheDrivesLagOfAShiftThatVariesAlongTheRun) {
   std::vector<kin::JointVector> x(p.points.size(), kin::JointVector::Zero(3));
   for (std::size_t i = 0; i < p.points.size(); ++i)
     if (ct::correctable(p, p.runs[0], i)) x[i] = a + p.points[i].t * b;
-  ct::SampleEquations eq(p, 100);
   // Weights scale the rows: a consistent system has the same solution under any weights.
-  eq.weigh(0, 7.5, 0.25);
-  feed(eq, p, model, x);
-  ct::LearningOptions opt;
-  opt.damping = 0;
-  opt.smoothing = 0;
-  std::vector<kin::JointVector> step(p.points.size(), kin::JointVector::Zero(3));
-  eq.solve(p.runs[0], opt, step);
+  const std::vector<kin::JointVector> step = exact_step(p, model, x, 7.5, 0.25);
   int checked = 0;
   for (std::size_t i = 0; i < p.points.size(); ++i) {
     if (!ct::correctable(p, p.runs[0], i)) {
