@@ -62,6 +62,14 @@ void Compensator::write_segments(const Block& b, const Motion& m, gcode::BlockEd
     if (!line->empty()) after_.push_back(std::move(*line));
     prev = p.c;
   }
+  if (d_.id == gcode::DialectId::heidenhain && !after_.empty() && !unnumbered_warned_) {
+    // Klartext numbers every block; the new lines have none (numbers are renumbered only when asked).
+    unnumbered_warned_ = true;
+    note(b, m.column, kUnnumberedBlocks,
+         "new blocks follow this one without block numbers (a subdivided move or a linearised arc; the TNC numbers "
+         "every block): renumber the program before running it — postproc convert --renumber 0,1, or the TNC "
+         "editor");
+  }
   written_ = out.c;
   written_known_ = m.known | mask_;
   prev_vector_ = m.tool_vector;

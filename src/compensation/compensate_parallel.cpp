@@ -28,7 +28,8 @@ bool Compensator::Carry::operator==(const Carry& o) const {
          header_done == o.header_done && joints.size() == o.joints.size() && joints == o.joints &&
          written == o.written && written_known == o.written_known && mask == o.mask && prev_vector == o.prev_vector &&
          prev_written_vector == o.prev_written_vector && arc_mode_broken == o.arc_mode_broken &&
-         arc_word == o.arc_word && turning_limit_warned == o.turning_limit_warned && map_held == o.map_held &&
+         arc_word == o.arc_word && turning_limit_warned == o.turning_limit_warned &&
+         unnumbered_warned == o.unnumbered_warned && map_held == o.map_held &&
          (!map_held || map_key == o.map_key);
 }
 

@@ -35,6 +35,7 @@ inline constexpr std::string_view kTravel = "PP-E603";          // the corrected
 inline constexpr std::string_view kKinematics = "PP-E604";      // the kinematics failed (singular, no convergence)
 inline constexpr std::string_view kRapidAsWritten = "PP-W601";  // a rapid left uncorrected (positions unknown)
 inline constexpr std::string_view kTurningLimit = "PP-W602";    // a turning radius below what the machine reaches
+inline constexpr std::string_view kUnnumberedBlocks = "PP-W603";  // Klartext blocks inserted without a block number
 inline constexpr std::string_view kSpindlePosition = "PP-E605"; // the turning spindle's axis programmed while it turns
 inline constexpr int kMaxSegments = 4096;
 
@@ -93,6 +94,7 @@ class Compensator final : public gcode::BlockVisitor {
     Eigen::Vector3d prev_written_vector = Eigen::Vector3d::UnitZ();
     bool arc_mode_broken = false;
     bool turning_limit_warned = false;
+    bool unnumbered_warned = false;
     bool map_held = false;  ///< a controller map of context map_key is held
     MapKey map_key;
     [[nodiscard]] bool operator==(const Carry& o) const;
@@ -100,8 +102,8 @@ class Compensator final : public gcode::BlockVisitor {
   [[nodiscard]] Carry carry() const {
     return Carry{track_,  vector_,      eol_,         recompensation_checked_, header_done_,
                  arc_word_, joints_,     written_,     written_known_,          mask_,
-                 prev_vector_, prev_written_vector_, arc_mode_broken_, turning_limit_warned_, map_held_,
-                 map_key_};
+                 prev_vector_, prev_written_vector_, arc_mode_broken_, turning_limit_warned_, unnumbered_warned_,
+                 map_held_,    map_key_};
   }
   void restore(const Carry& c) {
     track_ = c.track;
@@ -118,6 +120,7 @@ class Compensator final : public gcode::BlockVisitor {
     arc_mode_broken_ = c.arc_mode_broken;
     arc_word_ = c.arc_word;
     turning_limit_warned_ = c.turning_limit_warned;
+    unnumbered_warned_ = c.unnumbered_warned;
     map_held_ = c.map_held;
     map_key_ = c.map_key;
     map_.reset();  // rebuilt from map_key_ by the next motion
@@ -668,6 +671,7 @@ class Compensator final : public gcode::BlockVisitor {
   bool header_done_ = false;
   bool rapid_as_written_ = false;
   bool turning_limit_warned_ = false;      ///< PP-W602 is said once per program
+  bool unnumbered_warned_ = false;        ///< PP-W603 is said once per program
   const Block* measured_block_ = nullptr;  ///< the block measure() reports on
   bool arc_mode_broken_ = false;  ///< an arc was linearised; a following modal arc needs its G word
   std::string arc_word_ = "G2";
