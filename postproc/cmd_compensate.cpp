@@ -35,6 +35,7 @@ struct CompensateArgs {
   std::size_t max_per_code = 20;
   int iterations = 12;
   int refine_iterations = 8;
+  bool quiet = false;
   bool flatten = false;
   bool allow_recompensation = false;
   unsigned jobs = 0;
@@ -107,6 +108,7 @@ void setup_compensate(CLI::App& app, int& rc) {
                   "written program (0: none)")
       ->capture_default_str()
       ->check(CLI::NonNegativeNumber);
+  cmd->add_flag("-q,--quiet", o->quiet, "diagnostics only, no summary lines");
   cmd->add_flag("--flatten", o->flatten,
                 "programs with parameters, expressions, subprograms or loops: write the resolved program as literal "
                 "moves (loops unrolled, calls expanded; comments and other blocks kept); without it the corrections "
@@ -222,6 +224,10 @@ void setup_compensate(CLI::App& app, int& rc) {
     }
     outputs.commit(&out);  // the program and its reports together, or none of them
     note_backup_kept(out);
+    if (o->quiet) {
+      rc = 0;
+      return;
+    }
     if (o->mode == "contour")
       std::fputs(fmt::format("postproc: {} blocks, {} moves, {} blocks changed ({} words changed, {} inserted); largest "
                              "correction {:.4f} mm / {:.5f} deg\n",

@@ -17,6 +17,7 @@ struct ConvertArgs {
   std::string output;
   DialectArgs dialect;
   bool in_place = false;
+  bool quiet = false;
   std::size_t max_per_code = 20;
   std::string renumber;  ///< "START[,STEP]"
   std::string decimals;  ///< "X=4,Y=4,…"
@@ -94,6 +95,7 @@ void setup_convert(CLI::App& app, int& rc) {
   cmd->add_option("-o,--output", o->output, "output file ('-' = stdout)")->required();
   add_dialect_options(*cmd, o->dialect, true);
   cmd->add_flag("--in-place", o->in_place, "allow -o to name the input (a .bak backup is kept)");
+  cmd->add_flag("-q,--quiet", o->quiet, "diagnostics only, no summary notes");
   cmd->add_flag("--strip-comments", o->opt.strip_comments, "remove ( ) and ; comments; comment-only lines go");
   cmd->add_option("--renumber", o->renumber, "renumber existing N words: START[,STEP] (refused if the program "
                                              "jumps to sequence numbers)");
@@ -146,7 +148,7 @@ void setup_convert(CLI::App& app, int& rc) {
       rc = static_cast<int>(ExitCode::refused);
       return;
     }
-    print_summary(o->opt, r);
+    if (!o->quiet) print_summary(o->opt, r);
     out.commit();
     note_backup_kept(out);
     rc = 0;  // written; warnings (unresolved constructs) were printed but change nothing here

@@ -44,6 +44,11 @@ if [[ -n "$SRC" ]]; then
     -o "$tmp/cal.toml" --json "$tmp/cal.report" --html "$tmp/cal.page" --max-iterations 50
   head -c 1 "$tmp/cal.report" 2>/dev/null | grep -q '{' || { echo "FAIL: calibrate --json wrote no JSON"; fail=1; }
   grep -qi '<html' "$tmp/cal.page" 2>/dev/null || { echo "FAIL: calibrate --html wrote no HTML"; fail=1; }
+  # -q: diagnostics only, no summary lines.
+  out=$("$P" compensate "$S/programs/cone_frustum_nas979.nc" -m "$S/machines/trunnion_ac_fanuc.toml" -o "$tmp/q.nc" -q 2>&1)
+  [[ $? == 0 && -z "$out" && -s "$tmp/q.nc" ]] || { echo "FAIL: compensate -q printed: $out"; fail=1; }
+  out=$("$P" convert "$S/programs/cone_frustum_nas979.nc" --dialect fanuc --decimals X=5 -o "$tmp/q2.nc" -q 2>&1)
+  [[ $? == 0 && -z "$out" && -s "$tmp/q2.nc" ]] || { echo "FAIL: convert -q printed: $out"; fail=1; }
 fi
 if [[ $fail == 0 ]]; then echo "cli_hints: all checks passed"; fi
 exit $fail
