@@ -9,6 +9,7 @@
 
 #include "src/gcode/klartext.hpp"
 #include "src/gcode/number_text.hpp"
+#include "src/gcode/rotary_direction.hpp"
 #include "src/gcode/text.hpp"
 
 namespace postproc::gcode {
@@ -546,10 +547,8 @@ class Lexer {
       note_literal(v, end);
       if (std::uint32_t ne = scan_number(text, 0, false); ne == text.size() && ne > 0 && parse_number(text, w.number)) {
         w.kind = ValueKind::number;
-      } else if (text.size() > 3 && (iequals(text.substr(0, 3), "AC(") || iequals(text.substr(0, 3), "DC("))) {
-        w.kind = ValueKind::absolute_fn;
-      } else if (text.size() > 4 && (iequals(text.substr(0, 4), "ACP(") || iequals(text.substr(0, 4), "ACN("))) {
-        // Sinumerik absolute positions of a modulo rotary axis with a direction (DC, ACP, ACN).
+      } else if ((text.size() > 3 && iequals(text.substr(0, 3), "AC(")) || direction_of(text) != RotaryDirection::none) {
+        // AC(…), and Sinumerik absolute positions of a modulo rotary axis with a direction (DC, ACP, ACN).
         w.kind = ValueKind::absolute_fn;
       } else if (text.size() > 3 && iequals(text.substr(0, 3), "IC(")) {
         w.kind = ValueKind::incremental_fn;

@@ -1,7 +1,11 @@
-// Roll-over positioning of rotary axes (see rotary_rollover.hpp).
+// Roll-over positioning of rotary axes (see rotary_rollover.hpp), and Sinumerik DC / ACP / ACN
+// (rotary_direction.hpp).
 #include "postproc/gcode/rotary_rollover.hpp"
 
 #include <cmath>
+
+#include "src/gcode/rotary_direction.hpp"
+#include "src/gcode/text.hpp"
 
 namespace postproc::gcode {
 namespace {
@@ -11,6 +15,9 @@ double turn(double x) {
   const double r = std::fmod(x, 360.0);
   return r < 0 ? r + 360.0 : (r >= 360.0 ? 0.0 : r);
 }
+
+/// Angles closer than this are equal, degrees (far below any written digit).
+constexpr double kSame = 1e-9;
 
 }  // namespace
 
@@ -69,6 +76,51 @@ std::optional<double> rollover_word(RotaryRollover r, double target, double from
     if (r == RotaryRollover::signed_direction && w != 0) consider(-w);
   }
   return best;
+}
+
+// Sinumerik DC / ACP / ACN (rotary_direction.hpp): the same turn arithmetic, one direction per word.
+
+RotaryDirection direction_of(std::string_view value) {
+  if (text::starts_with_i(value, "DC(")) return RotaryDirection::shortest;
+  if (text::starts_with_i(value, "ACP(")) return RotaryDirection::positive;
+  if (text::starts_with_i(value, "ACN(")) return RotaryDirection::negative;
+  return RotaryDirection::none;
+}
+
+std::string_view function_name(RotaryDirection d) {
+  switch (d) {
+    case RotaryDirection::shortest: return "DC";
+    case RotaryDirection::positive: return "ACP";
+    case RotaryDirection::negative: return "ACN";
+    case RotaryDirection::none: break;
+  }
+  return "";
+}
+
+double directed_target(RotaryDirection d, double word, double from) {
+  double delta = turn(word) - turn(from);
+  switch (d) {
+    case RotaryDirection::shortest:
+      if (delta > 180.0) delta -= 360.0;
+      else if (delta <= -180.0) delta += 360.0;
+      break;
+    case RotaryDirection::positive:
+      if (delta < 0) delta += 360.0;
+      break;
+    case RotaryDirection::negative:
+      if (delta > 0) delta -= 360.0;
+      break;
+    case RotaryDirection::none: return word;
+  }
+  if (std::abs(delta) < kSame) delta = 0;
+  return from + delta;
+}
+
+std::optional<double> directed_word(RotaryDirection d, double target, double from) {
+  if (d == RotaryDirection::none) return target;
+  const double w = turn(target);
+  if (std::abs(directed_target(d, w, from) - target) > kSame) return std::nullopt;
+  return w;
 }
 
 }  // namespace postproc::gcode

@@ -2,6 +2,8 @@
 // and the IF/WHILE/FOR/REPEAT/LOOP structure of a file matched.
 #include "siemens_runner.hpp"
 
+#include "src/gcode/rotary_direction.hpp"
+
 namespace postproc::gcode::resolver::siemens_run {
 
 std::unique_ptr<Line> Siemens::parse(SourceFile& f, std::size_t i) {
@@ -383,11 +385,11 @@ void Siemens::parse_items(SourceFile& f, Line& L, const Block& b, std::string_vi
         s.edit = m.value;
         s.letter = upper(raw[m.name.begin]);
         const std::string_view v = m.value.of(raw);
-        if (v.size() > 3 && (text::starts_with_i(v, "AC(") || text::starts_with_i(v, "IC(") ||
-                             text::starts_with_i(v, "DC(")) && v.back() == ')')
-          s.edit = {m.value.begin + 3, m.value.end - 1};
-        else if (v.size() > 4 && (text::starts_with_i(v, "ACP(") || text::starts_with_i(v, "ACN(")) && v.back() == ')')
-          s.edit = {m.value.begin + 4, m.value.end - 1};
+        // AC(…) / IC(…) / DC(…) / ACP(…) / ACN(…): the argument is the expression, the wrapper kept.
+        const bool wrapped = text::starts_with_i(v, "AC(") || text::starts_with_i(v, "IC(") ||
+                             direction_of(v) != RotaryDirection::none;
+        if (wrapped && v.back() == ')')
+          s.edit = {static_cast<std::uint32_t>(m.value.begin + v.find('(') + 1), m.value.end - 1};
         Parser p(raw, s.edit.begin, s.edit.end, L.pool);
         s.expr = p.expr();
         p.expect_end("the value");
