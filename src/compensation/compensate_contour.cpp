@@ -272,27 +272,25 @@ struct Refined {
 /// result. At most 2 × max_iterations + max_halvings rounds.
 template <class Write, class Simulate>
 std::vector<Refined> refine(const contour::Path& path, std::vector<kin::JointVector>& cur,
-                            const contour::LearningOptions& lo, Write&& write, Simulate&& simulate) {
+                            const std::vector<RunFigures>& start_figures, const contour::LearningOptions& lo,
+                            Write&& write, Simulate&& simulate) {
   // `simulate(text, equations, why, runs)`: runs == nullptr simulates every run, else the runs
   // marked (the trials of the runs still refining).
   const std::size_t runs = path.runs.size();
   std::vector<Refined> out(runs);
   contour::SampleEquations eq_cur(path, lo.orientation_length_mm), eq_trial(path, lo.orientation_length_mm);
   std::string why;
-  const std::string start = write(cur);
-  std::optional<contour::Simulation> sim = simulate(start, eq_trial, why, nullptr);
-  if (!sim) return out;
   // Each run's tool-tip and tool-axis rows weighted by the inverse of the start's RMS of each (L ×
-  // axis in mm): the step lowers both in proportion instead of trading one for the other (the
-  // acceptance wants neither worse). The start's equations are gathered again with the weights.
-  for (std::size_t r = 0; r < runs; ++r) {
-    const RunFigures f = figures_of(*sim, r);
+  // axis in mm; `start_figures`: the gate's simulation of the candidate each run starts from): the
+  // step lowers both in proportion instead of trading one for the other (the acceptance wants
+  // neither worse).
+  for (std::size_t r = 0; r < runs && r < start_figures.size(); ++r) {
+    const RunFigures& f = start_figures[r];
     const double wt = 1 / std::max(f.tip_rms, 1e-6), wa = 1 / std::max(lo.orientation_length_mm * f.axis_rms, 1e-6);
     eq_cur.weigh(r, wt, wa);
     eq_trial.weigh(r, wt, wa);
   }
-  eq_trial.clear();
-  sim = simulate(start, eq_cur, why, nullptr);
+  const std::optional<contour::Simulation> sim = simulate(write(cur), eq_cur, why, nullptr);
   if (!sim) return out;
   const double L = lo.orientation_length_mm;
   std::vector<RunFigures> fig(runs);
@@ -480,19 +478,23 @@ CompensateResult compensate_contour(std::string_view text, std::string_view file
     // step is taken only where the simulation of the written trial improves the run (none of its
     // four figures worse, its largest error or RMS better), else halved.
     if (po.learning_iterations > 0) {
-      refined_commands.reserve(d.path.points.size());
+      for (const contour::PathPoint& p : d.path.points) refined_commands.push_back(p.q);
       for (std::size_t run = 0; run < runs; ++run)
         for (std::size_t i = d.path.runs[run].begin; i < d.path.runs[run].end; ++i)
-          refined_commands.push_back(choice[run] == Choice::lag        ? d.result.lag_commands[i]
-                                     : choice[run] == Choice::iterated ? d.result.commands[i]
-                                                                       : d.path.points[i].q);
-      refined_commands.resize(d.path.points.size(), kin::JointVector::Zero(d.path.joints));
+          if (choice[run] != Choice::uncorrected)
+            refined_commands[i] = choice[run] == Choice::lag ? d.result.lag_commands[i] : d.result.commands[i];
       contour::LearningOptions lo;
       lo.max_iterations = po.learning_iterations;
       lo.orientation_length_mm = L;
       lo.smoothing = po.smoothing;
       const auto write = [&](const std::vector<kin::JointVector>& c) { return write_pass(c, none)->text; };
-      refined_steps = refine(d.path, refined_commands, lo, write, [&](const std::string& written, contour::SampleEquations& eq,
+      std::vector<RunFigures> start_figures(runs);
+      for (std::size_t run = 0; run < runs; ++run)
+        start_figures[run] = figures_of(choice[run] == Choice::lag        ? *sim_lag
+                                        : choice[run] == Choice::iterated ? *sim_iterated
+                                                                          : *before,
+                                        run);
+      refined_steps = refine(d.path, refined_commands, start_figures, lo, write, [&](const std::string& written, contour::SampleEquations& eq,
                                                                      std::string& because, const std::vector<char>* runs_to) {
         contour::SimulateOptions so;
         so.visit = [&eq](const contour::SampleVisit& v) { eq.add(v); };
