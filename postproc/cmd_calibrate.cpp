@@ -94,6 +94,8 @@ void parse_bound(const std::string& text, const kin::Model& model, cal::Identify
 
 /// A condition number of the identification Jacobian above this is warned about on the terminal.
 constexpr double kPoorCondition = 1e4;
+/// A file whose normalised rms residual is beyond this factor of 1 (either way) is warned about.
+constexpr double kPoorFit = 3;
 
 void print_summary(const cal::CalibrationRun& run, const cal::Comparison& c) {
   const auto& r = run.result;
@@ -121,14 +123,53 @@ void print_summary(const cal::CalibrationRun& run, const cal::Comparison& c) {
   };
   out += figures("fitted", c.fit);
   if (c.validation.count > 0) out += figures("held out", c.validation);
-  out += fmt::format("postproc: residual σ {:.5f} mm (mm-equivalent)\n", r.sigma);
-  // What the JSON report says, on the terminal too: a solve that ran out of iterations, and
+  out += fmt::format("postproc: residual σ {:.5f} mm (mm-equivalent{})\n", r.sigma,
+                     r.sigma_reference_mm != cal::kDefaultSigma
+                         ? fmt::format(", weighted to the most accurate file's σ {:g} µm", r.sigma_reference_mm * 1000)
+                         : "");
+  for (const cal::FrameEstimate& f : r.frames) {
+    const Eigen::Vector3d w = f.rotation();
+    auto sd = [&](int k, double scale) {
+      return std::isfinite(f.stddev[static_cast<std::size_t>(k)]) ? fmt::format("±{:.3g}", f.stddev[static_cast<std::size_t>(k)] * scale)
+                                                                  : std::string("held");
+    };
+    constexpr double kArcsec = 180.0 / kin::kPi * 3600;
+    out += fmt::format("postproc: instrument frame '{}' ({} measurements): translation ({:.4f} {}, {:.4f} {}, {:.4f} {}) µm, "
+                       "rotation ({:.3f} {}, {:.3f} {}, {:.3f} {}) arcsec\n",
+                       f.name, f.measurements, f.t.x() * 1000, sd(0, 1000), f.t.y() * 1000, sd(1, 1000), f.t.z() * 1000,
+                       sd(2, 1000), w.x() * kArcsec, sd(3, kArcsec), w.y() * kArcsec, sd(4, kArcsec), w.z() * kArcsec,
+                       sd(5, kArcsec));
+    for (const std::string& why : f.held_why)
+      out += fmt::format("postproc: instrument frame '{}': {}\n", f.name, why);
+  }
+  const bool per_file = r.files.size() > 1 || std::any_of(r.files.begin(), r.files.end(), [](const cal::FileFit& f) { return f.declared; });
+  for (const cal::FileFit& f : r.files) {
+    if (!per_file) break;
+    out += fmt::format("postproc: file {}: σ {:g} µm, σ_angle {:.3g} arcsec ({}), {} residual rows, χ² {:.4g}, "
+                       "normalised rms {:.3f}\n",
+                       f.file, f.sigma_mm * 1000, f.sigma_rad * 180.0 / kin::kPi * 3600, f.declared ? "declared" : "default",
+                       f.rows, f.chi2, f.normalised_rms);
+    if (f.declared && f.normalised_rms > kPoorFit)
+      out += fmt::format("postproc: warning: {} fits {:.1f} times worse than its declared sigma: the sigma is too "
+                         "small, the file holds outliers or a misregistered frame (declare '# frame: instrument'), or "
+                         "the machine model misses an error; check the file's residuals in the report\n",
+                         f.file, f.normalised_rms);
+    if (f.declared && f.normalised_rms < 1 / kPoorFit)
+      out += fmt::format("postproc: warning: {} fits {:.1f} times better than its declared sigma: the sigma looks too "
+                         "large, so this file weighs too little against the others\n",
+                         f.file, 1 / f.normalised_rms);
+  }
+  // What the JSON report says, on the terminal too: a solve that did not converge, and
   // parameters the measurements determine poorly.
   if (r.iterations >= run.options.max_iterations)
     out += fmt::format("postproc: warning: the solver stopped at its iteration limit (--max-iterations {}) "
                        "before it converged; the parameters may not be the best fit — run again with a higher "
                        "--max-iterations\n",
                        r.iterations);
+  else if (!r.converged)
+    out += fmt::format("postproc: warning: the solver stopped without converging ({}); the parameters may not be the "
+                       "best fit\n",
+                       r.message);
   if (r.start.condition > kPoorCondition)
     out += fmt::format("postproc: warning: condition number {:.4g} (above {:g}): these measurements determine some "
                        "parameters poorly, their estimates follow the noise — add poses that move those parameters "
@@ -260,6 +301,8 @@ void run_calibrate(const CalibrateArgs& a, int& rc) {
     solved = start.with_values(run.result.values);
     run.start = &start;
     run.solved = solved.get();
+    // Instrument-frame values in the workpiece frame (estimated registration), for every figure.
+    data = cal::registered(data, run.result);
     run.data = data;
     const cal::Comparison c = cal::compare(run);
     print_summary(run, c);
@@ -280,6 +323,12 @@ void run_calibrate(const CalibrateArgs& a, int& rc) {
       t.held.emplace_back(k, why);
     }
     out_text = cal::replace_toml_table(out_text, "errors", cal::errors_table_toml(t));
+    for (const cal::FrameEstimate& f : run.result.frames) {
+      const Eigen::Vector3d w = f.rotation() / kin::kDeg * 3600;
+      header.push_back(fmt::format("  instrument frame {}: translation ({:.4f}, {:.4f}, {:.4f}) um, rotation ({:.3f}, "
+                                   "{:.3f}, {:.3f}) arcsec (estimated with the machine's parameters)",
+                                   f.name, f.t.x() * 1000, f.t.y() * 1000, f.t.z() * 1000, w.x(), w.y(), w.z()));
+    }
     header.push_back(fmt::format("  method {}, {} of {} parameters identified, residual sigma {:.4f} mm, fitted max error "
                                  "{:.4f} -> {:.4f} mm",
                                  cal::to_string(opt.method), run.result.identified.size(), run.result.start.parameters,

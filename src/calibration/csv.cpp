@@ -1,6 +1,7 @@
 // Measurement files: CSV with unit-carrying column names (see csv.hpp).
 #include "postproc/calibration/csv.hpp"
 
+#include <algorithm>
 #include <cctype>
 #include <charconv>
 #include <cmath>
@@ -133,6 +134,7 @@ std::optional<CsvTable> CsvTable::parse(std::string file, std::string_view text,
     if (content.empty()) continue;
     if (content.front() == '#') {
       if (!header) t.comments_.emplace_back(trim(content.substr(1)));
+      t.comment_lines_.push_back({line_no, std::string(line), std::string(trim(content.substr(1))), header});
       continue;
     }
     Row row;
@@ -203,6 +205,98 @@ std::optional<std::string> CsvTable::meta(std::string_view key) const {
     if (iequal(trim(std::string_view(c).substr(0, colon)), key)) return std::string(trim(std::string_view(c).substr(colon + 1)));
   }
   return std::nullopt;
+}
+
+namespace {
+
+/// The key of a "key: value" comment: one word of letters, digits and '_' before the first ':';
+/// empty for free text.
+std::string_view header_key(std::string_view text) {
+  const auto colon = text.find(':');
+  if (colon == std::string_view::npos) return {};
+  const std::string_view key = trim(text.substr(0, colon));
+  if (key.empty() || !std::isalpha(static_cast<unsigned char>(key.front()))) return {};
+  for (char c : key)
+    if (!std::isalnum(static_cast<unsigned char>(c)) && c != '_') return {};
+  return key;
+}
+
+}  // namespace
+
+std::uint64_t CsvTable::meta_line(std::string_view key) const {
+  for (const CommentLine& c : comment_lines_)
+    if (!c.after_header && iequal(header_key(c.text), key)) return c.line;
+  return 0;
+}
+
+void CsvTable::meta_error(std::string_view key, std::string_view code, std::string message) {
+  for (const CommentLine& c : comment_lines_) {
+    if (!iequal(header_key(c.text), key)) continue;
+    gcode::Diagnostic d;
+    d.code = std::string(code);
+    d.file = file_;
+    const auto hash = c.raw.find('#');
+    d.where = {c.line, static_cast<std::uint32_t>(hash == std::string::npos ? 1 : hash + 1)};
+    d.source_line = c.raw;
+    d.length = static_cast<std::uint32_t>(std::max<std::size_t>(trim(c.raw).size(), 1));
+    d.message = std::move(message);
+    sink_->report(std::move(d));
+    return;
+  }
+  error(kHeader, -1, code, std::move(message));
+}
+
+bool CsvTable::check_header_keys(std::span<const std::string_view> settings,
+                                 std::span<const std::string_view> informational) {
+  bool ok = true;
+  std::string list;
+  for (std::string_view k : settings) list += (list.empty() ? "" : ", ") + std::string(k);
+  for (std::string_view k : informational) list += (list.empty() ? "" : ", ") + std::string(k);
+  std::vector<std::string> seen;
+  auto matches = [](std::string_view key, std::span<const std::string_view> keys) {
+    return std::any_of(keys.begin(), keys.end(), [&](std::string_view k) {
+      return k.ends_with('*') ? key.size() >= k.size() - 1 && iequal(key.substr(0, k.size() - 1), k.substr(0, k.size() - 1))
+                              : iequal(key, k);
+    });
+  };
+  for (const CommentLine& c : comment_lines_) {
+    const std::string_view key = header_key(c.text);
+    if (key.empty()) continue;
+    const bool setting = matches(key, settings);
+    const bool is_known = setting || matches(key, informational);
+    auto report = [&](std::string message) {
+      gcode::Diagnostic d;
+      d.code = std::string(codes::kCsvHeaderKey);
+      d.file = file_;
+      const auto at = c.raw.find(key);
+      d.where = {c.line, static_cast<std::uint32_t>(at == std::string::npos ? 1 : at + 1)};
+      d.source_line = c.raw;
+      d.length = static_cast<std::uint32_t>(key.size());
+      d.message = std::move(message);
+      sink_->report(std::move(d));
+      ok = false;
+    };
+    if (!is_known) {
+      report(fmt::format("'# {}:' is not a header key of this kind of file (known: {}); a setting postproc does "
+                         "not know is never ignored: fix the key, or write free text without 'word:' at its start",
+                         key, list));
+      continue;
+    }
+    if (c.after_header) {
+      report(fmt::format("'# {}:' comes after the column header line, where it is not read; move it above the header",
+                         key));
+      continue;
+    }
+    if (!setting) continue;
+    std::string lower(key);
+    for (char& ch : lower) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
+    if (std::find(seen.begin(), seen.end(), lower) != seen.end()) {
+      report(fmt::format("'# {}:' is given twice; keep one", key));
+      continue;
+    }
+    seen.push_back(lower);
+  }
+  return ok;
 }
 
 int CsvTable::find(std::string_view base) const {

@@ -11,6 +11,7 @@
 #include <random>
 
 #include <ceres/ceres.h>
+#include <Eigen/Geometry>
 #include <Eigen/QR>
 #include <Eigen/SVD>
 #include <fmt/format.h>
@@ -69,29 +70,90 @@ int rows_of(const Measurement& m, int joints, bool substitute) {
   return substituted(m, substitute) ? 6 : residual_rows(m, joints);
 }
 
-/// Residual rows of `m` against prediction `p` (see identify.hpp).
-void residual_from(const Measurement& m, const Prediction& p, double w, bool substitute, double* res) {
+/// Row weights of one measurement: length rows (mm, struts) and angle rows (mm-eq per rad).
+struct Weights {
+  double length = 1;
+  double angle = kOrientationWeight;
+};
+
+/// Residual rows of `m`, whose measured pose (in the workpiece frame) is `measured`, against
+/// prediction `p` (see identify.hpp).
+void residual_from(const Measurement& m, const kin::Pose& measured, const Prediction& p, const Weights& w,
+                   bool substitute, double* res) {
   if (m.kind == MeasurementKind::struts) {
-    for (int i = 0; i < m.q.size(); ++i) res[i] = m.q[i] - p.q[i];
+    for (int i = 0; i < m.q.size(); ++i) res[i] = w.length * (m.q[i] - p.q[i]);
     return;
   }
   int at = 0;
   if (m.kind != MeasurementKind::direction) {
-    const Vec3 dp = m.measured.p - p.pose.p;
-    for (int k = 0; k < 3; ++k) res[at++] = dp[k];
+    const Vec3 dp = measured.p - p.pose.p;
+    for (int k = 0; k < 3; ++k) res[at++] = w.length * dp[k];
   }
   if (m.kind == MeasurementKind::position) return;
   if (m.kind == MeasurementKind::pose && (m.has_torsion || substitute)) {
-    const kin::Pose target = m.has_torsion ? m.measured : substitute_torsion(m.measured, p.pose);
-    const Vec3 dth = w * kin::rotation_difference(target.r, p.pose.r);
+    const kin::Pose target = m.has_torsion ? measured : substitute_torsion(measured, p.pose);
+    const Vec3 dth = w.angle * kin::rotation_difference(target.r, p.pose.r);
     for (int k = 0; k < 3; ++k) res[at++] = dth[k];
     return;
   }
   Vec3 u, v;
-  orthonormal_pair(m.measured.axis(), u, v);
-  const Vec3 d = m.measured.axis() - p.pose.axis();
-  res[at++] = w * u.dot(d);
-  res[at++] = w * v.dot(d);
+  orthonormal_pair(measured.axis(), u, v);
+  const Vec3 d = measured.axis() - p.pose.axis();
+  res[at++] = w.angle * u.dot(d);
+  res[at++] = w.angle * v.dot(d);
+}
+
+/// exp(ω): the rotation by |ω| about ω.
+Mat3 rotation_of(const Vec3& w) {
+  const double a = w.norm();
+  return a > 0 ? Eigen::AngleAxisd(a, w / a).toRotationMatrix() : Mat3::Identity();
+}
+
+/// An instrument frame's registration: P_w = exp(ω)·r0·P_i + t, with reg = (t, ω).
+kin::Pose registered_pose(const kin::Pose& measured, const Mat3& r0, const double* reg) {
+  const Mat3 r = rotation_of(Vec3(reg[3], reg[4], reg[5])) * r0;
+  kin::Pose out;
+  out.p = r * measured.p + Vec3(reg[0], reg[1], reg[2]);
+  out.r = r * measured.r;
+  return out;
+}
+
+/// An instrument frame while it is estimated; `reg` is its Ceres parameter block (t mm, ω rad).
+struct FrameState {
+  std::string name;
+  std::uint8_t free = 0;
+  std::uint8_t held = 0;
+  Mat3 r0 = Mat3::Identity();
+  std::array<double, 6> reg{};
+  std::size_t measurements = 0;
+  /// The identified components (free and not held), as indices 0…5.
+  [[nodiscard]] std::vector<int> estimated() const {
+    std::vector<int> out;
+    for (int k = 0; k < 6; ++k)
+      if ((free & (1u << k)) != 0 && (held & (1u << k)) == 0) out.push_back(k);
+    return out;
+  }
+};
+
+/// d(residual)/d(registration components) by central differences (no model evaluation: the
+/// prediction does not depend on the registration). Rows ≤ 6 (frames never hold strut readings).
+void registration_jacobian(const Measurement& m, const Mat3& r0, std::array<double, 6> reg, const Prediction& p,
+                           const Weights& w, bool substitute, int rows, std::span<const int> components, double* out,
+                           int stride, int first_column) {
+  std::array<double, 6> a{}, b{};
+  for (std::size_t c = 0; c < components.size(); ++c) {
+    const auto k = static_cast<std::size_t>(components[c]);
+    const double h = k < 3 ? 1e-3 : 1e-6;  // exact for t (linear); O(h²) for ω
+    const double keep = reg[k];
+    reg[k] = keep + h;
+    residual_from(m, registered_pose(m.measured, r0, reg.data()), p, w, substitute, a.data());
+    reg[k] = keep - h;
+    residual_from(m, registered_pose(m.measured, r0, reg.data()), p, w, substitute, b.data());
+    reg[k] = keep;
+    for (int r = 0; r < rows; ++r)
+      out[r * stride + first_column + static_cast<int>(c)] =
+          (a[static_cast<std::size_t>(r)] - b[static_cast<std::size_t>(r)]) / (2 * h);
+  }
 }
 
 /// A model at parameter values x, with what derivatives by the parameters `cols` need. Ceres
@@ -181,8 +243,8 @@ class Evaluator {
 };
 
 /// d(residual)/d(cols) from d(prediction)/d(cols), rows as residual_from.
-void residual_jacobian(const Measurement& m, const Prediction& p, const Eigen::MatrixXd& d, double w, bool substitute,
-                       double* out, int stride, std::span<const int> where) {
+void residual_jacobian(const Measurement& m, const kin::Pose& measured, const Prediction& p, const Eigen::MatrixXd& d,
+                       const Weights& w, bool substitute, double* out, int stride, std::span<const int> where) {
   const int k = static_cast<int>(d.cols());
   int row = 0;
   auto put = [&](const Eigen::RowVectorXd& r) {
@@ -190,22 +252,22 @@ void residual_jacobian(const Measurement& m, const Prediction& p, const Eigen::M
     ++row;
   };
   if (m.kind == MeasurementKind::struts) {
-    for (Eigen::Index i = 0; i < d.rows(); ++i) put(-d.row(i));
+    for (Eigen::Index i = 0; i < d.rows(); ++i) put(-w.length * d.row(i));
     return;
   }
   if (m.kind != MeasurementKind::direction)
-    for (int i = 0; i < 3; ++i) put(-d.row(i));
+    for (int i = 0; i < 3; ++i) put(-w.length * d.row(i));
   if (m.kind == MeasurementKind::position) return;
   const auto rot = d.bottomRows(3);
   if (m.kind == MeasurementKind::pose && (m.has_torsion || substitute)) {
-    for (int i = 0; i < 3; ++i) put(-w * rot.row(i));
+    for (int i = 0; i < 3; ++i) put(-w.angle * rot.row(i));
     return;
   }
   Vec3 u, v;
-  orthonormal_pair(m.measured.axis(), u, v);
+  orthonormal_pair(measured.axis(), u, v);
   const Vec3 o = p.pose.axis();
-  put(-w * (o.cross(u)).transpose() * rot);
-  put(-w * (o.cross(v)).transpose() * rot);
+  put(-w.angle * (o.cross(u)).transpose() * rot);
+  put(-w.angle * (o.cross(v)).transpose() * rot);
 }
 
 /// One measurement as a Ceres residual block over the whole parameter vector (the parameters
@@ -218,10 +280,16 @@ void residual_jacobian(const Measurement& m, const Prediction& p, const Eigen::M
 /// an iteration, was tried: it needs twice the iterations on document 001's experiment.)
 class MeasurementCost final : public ceres::CostFunction {
  public:
-  MeasurementCost(Evaluator& ev, const Measurement& m, int n, double w, bool substitute)
-      : ev_(ev), m_(m), n_(n), w_(w), substitute_(substitute && !m.has_torsion && m.kind == MeasurementKind::pose) {
+  MeasurementCost(Evaluator& ev, const Measurement& m, int n, Weights w, bool substitute, FrameState* frame)
+      : ev_(ev),
+        m_(m),
+        n_(n),
+        w_(w),
+        substitute_(substitute && !m.has_torsion && m.kind == MeasurementKind::pose),
+        frame_(frame) {
     set_num_residuals(rows_of(m, ev.model().joint_count(), substitute));
     mutable_parameter_block_sizes()->push_back(n);
+    if (frame_ != nullptr) mutable_parameter_block_sizes()->push_back(6);
     where_.resize(ev.cols().size());
     for (std::size_t c = 0; c < where_.size(); ++c) where_[c] = ev.cols()[c];
   }
@@ -229,12 +297,19 @@ class MeasurementCost final : public ceres::CostFunction {
     ev_.set(parameters[0]);
     Prediction p;
     if (!predict(ev_.model(), m_, p)) return false;
-    residual_from(m_, p, w_, substitute_, residuals);
+    const kin::Pose measured = frame_ != nullptr ? registered_pose(m_.measured, frame_->r0, parameters[1]) : m_.measured;
+    residual_from(m_, measured, p, w_, substitute_, residuals);
     if (jacobians != nullptr && jacobians[0] != nullptr) {
       Eigen::MatrixXd d;
       if (!ev_.derivative(m_, d)) return false;
       std::fill(jacobians[0], jacobians[0] + num_residuals() * n_, 0.0);
-      residual_jacobian(m_, p, d, w_, substitute_, jacobians[0], n_, where_);
+      residual_jacobian(m_, measured, p, d, w_, substitute_, jacobians[0], n_, where_);
+    }
+    if (frame_ != nullptr && jacobians != nullptr && jacobians[1] != nullptr) {
+      std::array<double, 6> reg{};
+      std::copy(parameters[1], parameters[1] + 6, reg.begin());
+      static constexpr std::array<int, 6> all = {0, 1, 2, 3, 4, 5};
+      registration_jacobian(m_, frame_->r0, reg, p, w_, substitute_, num_residuals(), all, jacobians[1], 6, 0);
     }
     return true;
   }
@@ -243,8 +318,9 @@ class MeasurementCost final : public ceres::CostFunction {
   Evaluator& ev_;
   const Measurement& m_;
   int n_;
-  double w_;
+  Weights w_;
   bool substitute_;
+  FrameState* frame_;
   std::vector<int> where_;
 };
 
@@ -325,77 +401,16 @@ std::vector<Measurement> fit_set(std::span<const Measurement> data) {
 
 std::string unit_text(const kin::Parameter& p) { return p.unit == "rad" ? "rad" : "mm"; }
 
-}  // namespace
+/// A column's name and unit for the identifiability report.
+struct Label {
+  std::string name, unit;
+};
 
-std::string_view to_string(Method m) {
-  switch (m) {
-    case Method::least_squares: return "least-squares";
-    case Method::ridge: return "ridge";
-    case Method::psi_substitution: return "psi-substitution";
-  }
-  return "?";
-}
-
-std::optional<Method> parse_method(std::string_view s) {
-  if (s == "least-squares" || s == "ls") return Method::least_squares;
-  if (s == "ridge") return Method::ridge;
-  if (s == "psi-substitution" || s == "psi") return Method::psi_substitution;
-  return std::nullopt;
-}
-
-bool measurement_residual(const kin::Model& model, const Measurement& m, double* out, double orientation_weight) {
-  Prediction p;
-  if (!predict(model, m, p)) return false;
-  residual_from(m, p, orientation_weight, false, out);
-  return true;
-}
-
-Eigen::VectorXd residuals(const kin::Model& model, std::span<const Measurement> data, double orientation_weight) {
-  int rows = 0;
-  for (const Measurement& m : data) rows += residual_rows(m, model.joint_count());
-  Eigen::VectorXd out(rows);
-  int at = 0;
-  for (const Measurement& m : data) {
-    const int n = residual_rows(m, model.joint_count());
-    if (!measurement_residual(model, m, out.data() + at, orientation_weight))
-      out.segment(at, n).setConstant(std::numeric_limits<double>::quiet_NaN());
-    at += n;
-  }
-  return out;
-}
-
-void linearise(const kin::Model& model, std::span<const Measurement> data, std::span<const int> columns,
-               Eigen::VectorXd& res, Eigen::MatrixXd& jac, double orientation_weight, bool numeric) {
-  Evaluator ev(model, std::vector<int>(columns.begin(), columns.end()), numeric);
-  ev.set(model.values());
-  const int nj = model.joint_count();
-  int rows = 0;
-  for (const Measurement& m : data) rows += residual_rows(m, nj);
-  const int k = static_cast<int>(columns.size());
-  res.resize(rows);
-  RowMatrix j = RowMatrix::Zero(rows, k);
-  std::vector<int> where(columns.size());
-  for (int c = 0; c < k; ++c) where[static_cast<std::size_t>(c)] = c;
-  int at = 0;
-  for (const Measurement& m : data) {
-    Prediction p;
-    Eigen::MatrixXd d;
-    if (!predict(ev.model(), m, p) || !ev.derivative(m, d))
-      throw Error(ExitCode::usage, fmt::format("{}: the model cannot evaluate this {} measurement (joints outside its "
-                                               "reach, or a pose it cannot assume); check the row",
-                                               m.label, to_string(m.kind)));
-    residual_from(m, p, orientation_weight, false, res.data() + at);
-    residual_jacobian(m, p, d, orientation_weight, false, j.data() + static_cast<Eigen::Index>(at) * k, k, where);
-    at += residual_rows(m, nj);
-  }
-  jac = j;
-}
-
-Identifiability analyse(const Eigen::MatrixXd& j, std::span<const int> columns, const kin::Model& model,
-                        double rank_tolerance) {
+/// analyse() over labelled columns: dependent and unobserved are local column indices.
+Identifiability analyse_labelled(const Eigen::MatrixXd& j, std::span<const Label> labels, double rank_tolerance) {
   Identifiability a;
   a.rows = static_cast<int>(j.rows());
-  a.parameters = static_cast<int>(columns.size());
+  a.parameters = static_cast<int>(labels.size());
   std::vector<int> observed;
   std::vector<double> scale;
   double max_norm = 0;
@@ -403,8 +418,8 @@ Identifiability analyse(const Eigen::MatrixXd& j, std::span<const int> columns, 
   for (Eigen::Index c = 0; c < j.cols(); ++c) {
     const double n = j.col(c).norm();
     if (n <= 1e-12 * std::max(max_norm, 1e-300)) {
-      a.unobserved.push_back(columns[static_cast<std::size_t>(c)]);
-      a.dependent.push_back(columns[static_cast<std::size_t>(c)]);
+      a.unobserved.push_back(static_cast<int>(c));
+      a.dependent.push_back(static_cast<int>(c));
     } else {
       observed.push_back(static_cast<int>(c));
       scale.push_back(n);
@@ -439,9 +454,9 @@ Identifiability analyse(const Eigen::MatrixXd& j, std::span<const int> columns, 
     std::string text;
     for (Eigen::Index c = 0; c < v.rows(); ++c) {
       if (std::abs(v(c, i)) < 0.05 * std::abs(v(big, i))) continue;
-      const kin::Parameter& p = model.parameters()[static_cast<std::size_t>(columns[static_cast<std::size_t>(observed[static_cast<std::size_t>(c)])])];
+      const Label& l = labels[static_cast<std::size_t>(observed[static_cast<std::size_t>(c)])];
       text += fmt::format("{}{:+.3g} {} {}", text.empty() ? "" : ", ", v(c, i) / scale[static_cast<std::size_t>(c)] / ref,
-                          unit_text(p), p.name);
+                          l.unit, l.name);
     }
     a.combinations.push_back(text);
   }
@@ -451,8 +466,258 @@ Identifiability analyse(const Eigen::MatrixXd& j, std::span<const int> columns, 
     const Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(js);
     const auto& perm = qr.colsPermutation().indices();
     for (int i = a.rank; i < static_cast<int>(observed.size()); ++i)
-      a.dependent.push_back(columns[static_cast<std::size_t>(observed[static_cast<std::size_t>(perm[i])])]);
+      a.dependent.push_back(observed[static_cast<std::size_t>(perm[i])]);
   }
+  std::sort(a.dependent.begin(), a.dependent.end());
+  return a;
+}
+
+std::vector<Label> labels_of(const kin::Model& model, std::span<const int> columns) {
+  std::vector<Label> out;
+  for (int c : columns) {
+    const kin::Parameter& p = model.parameters()[static_cast<std::size_t>(c)];
+    out.push_back({p.name, unit_text(p)});
+  }
+  return out;
+}
+
+double sigma_length(const Measurement& m) { return m.source.sigma_mm > 0 ? m.source.sigma_mm : kDefaultSigma; }
+double sigma_angle(const Measurement& m, double w) {
+  return m.source.sigma_rad > 0 ? m.source.sigma_rad : sigma_length(m) / w;
+}
+
+/// The registration columns of one frame in a Jacobian: its components, from column `first`.
+struct FrameColumns {
+  std::vector<int> components;
+  int first = 0;
+};
+
+/// Residuals and Jacobian of `data` at `model`: the model's parameters `columns`, then each
+/// frame's registration components (frame_of[i]: the frame of data[i], −1 for the workpiece).
+void linearise_all(const kin::Model& model, std::span<const Measurement> data, std::span<const int> columns,
+                   std::span<const Weights> weights, std::span<const FrameState> frames, std::span<const int> frame_of,
+                   std::span<const FrameColumns> frame_columns, Eigen::VectorXd& res, Eigen::MatrixXd& jac,
+                   bool numeric) {
+  Evaluator ev(model, std::vector<int>(columns.begin(), columns.end()), numeric);
+  ev.set(model.values());
+  const int nj = model.joint_count();
+  int rows = 0;
+  for (const Measurement& m : data) rows += residual_rows(m, nj);
+  int k = static_cast<int>(columns.size());
+  for (const FrameColumns& f : frame_columns) k += static_cast<int>(f.components.size());
+  res.resize(rows);
+  RowMatrix j = RowMatrix::Zero(rows, k);
+  std::vector<int> where(columns.size());
+  for (std::size_t c = 0; c < columns.size(); ++c) where[c] = static_cast<int>(c);
+  int at = 0;
+  for (std::size_t i = 0; i < data.size(); ++i) {
+    const Measurement& m = data[i];
+    Prediction p;
+    Eigen::MatrixXd d;
+    if (!predict(ev.model(), m, p) || !ev.derivative(m, d))
+      throw Error(ExitCode::usage, fmt::format("{}: the model cannot evaluate this {} measurement (joints outside its "
+                                               "reach, or a pose it cannot assume); check the row",
+                                               m.label, to_string(m.kind)));
+    const int f = frame_of.empty() ? -1 : frame_of[i];
+    const FrameState* frame = f >= 0 ? &frames[static_cast<std::size_t>(f)] : nullptr;
+    const kin::Pose measured = frame != nullptr ? registered_pose(m.measured, frame->r0, frame->reg.data()) : m.measured;
+    const int n = residual_rows(m, nj);
+    residual_from(m, measured, p, weights[i], false, res.data() + at);
+    double* out = j.data() + static_cast<Eigen::Index>(at) * k;
+    residual_jacobian(m, measured, p, d, weights[i], false, out, k, where);
+    if (frame != nullptr && static_cast<std::size_t>(f) < frame_columns.size()) {
+      const FrameColumns& fc = frame_columns[static_cast<std::size_t>(f)];
+      registration_jacobian(m, frame->r0, frame->reg, p, weights[i], false, n, fc.components, out, k, fc.first);
+    }
+    at += n;
+  }
+  jac = j;
+}
+
+/// Start values of each frame's registration: the rigid transform (no scale) that best carries
+/// the measured points onto the start model's (Umeyama), or, for a frame with only tool axes,
+/// the rotation that best carries the measured axes onto the model's (Kabsch). Only when every
+/// component the data can move is free; otherwise the identity (the held components stay 0).
+void start_registration(const kin::Model& model, std::span<const Measurement> fit, std::span<const int> frame_of,
+                        std::vector<FrameState>& frames) {
+  for (std::size_t f = 0; f < frames.size(); ++f) {
+    std::vector<Vec3> src, dst, src_axis, dst_axis;
+    for (std::size_t i = 0; i < fit.size(); ++i) {
+      if (frame_of[i] != static_cast<int>(f)) continue;
+      const Measurement& m = fit[i];
+      kin::Pose p;
+      if (!model.forward(m.q, p).ok()) continue;
+      if (m.kind == MeasurementKind::pose || m.kind == MeasurementKind::position) {
+        src.push_back(m.measured.p);
+        dst.push_back(p.p);
+      }
+      if (m.kind == MeasurementKind::pose || m.kind == MeasurementKind::direction) {
+        src_axis.push_back(m.measured.axis());
+        dst_axis.push_back(p.axis());
+      }
+    }
+    FrameState& fr = frames[f];
+    const bool all = fr.free == (kTranslation | kRotation);
+    if (!src.empty() && all && src.size() >= 3) {
+      Eigen::Matrix3Xd a(3, static_cast<Eigen::Index>(src.size())), b(3, static_cast<Eigen::Index>(src.size()));
+      for (std::size_t i = 0; i < src.size(); ++i) {
+        a.col(static_cast<Eigen::Index>(i)) = src[i];
+        b.col(static_cast<Eigen::Index>(i)) = dst[i];
+      }
+      const Eigen::Matrix3Xd centred = a.colwise() - a.rowwise().mean();
+      const Eigen::JacobiSVD<Eigen::MatrixXd> spread(centred);
+      if (spread.singularValues()[1] > 1e-6 * spread.singularValues()[0]) {  // not all on a line
+        const Eigen::Matrix4d t = Eigen::umeyama(a, b, false);
+        fr.r0 = t.topLeftCorner<3, 3>();
+        for (int k = 0; k < 3; ++k) fr.reg[static_cast<std::size_t>(k)] = t(k, 3);
+      }
+    } else if (src.empty() && fr.free == kRotation && src_axis.size() >= 2) {
+      Mat3 h = Mat3::Zero();
+      for (std::size_t i = 0; i < src_axis.size(); ++i) h += src_axis[i] * dst_axis[i].transpose();
+      const Eigen::JacobiSVD<Mat3> svd(h, Eigen::ComputeFullU | Eigen::ComputeFullV);
+      if (svd.singularValues()[1] > 1e-6 * svd.singularValues()[0]) {  // two axes that are not parallel
+        Mat3 d = Mat3::Identity();
+        d(2, 2) = (svd.matrixV() * svd.matrixU().transpose()).determinant() < 0 ? -1 : 1;
+        fr.r0 = svd.matrixV() * d * svd.matrixU().transpose();
+      }
+    } else if (!src.empty() && (fr.free & kTranslation) == kTranslation && (fr.free & kRotation) == 0) {
+      Vec3 mean = Vec3::Zero();
+      for (std::size_t i = 0; i < src.size(); ++i) mean += dst[i] - src[i];
+      mean /= static_cast<double>(src.size());
+      for (int k = 0; k < 3; ++k) fr.reg[static_cast<std::size_t>(k)] = mean[k];
+    }
+  }
+}
+
+/// Holds the registration components the machine's identified parameters already explain: a
+/// component whose column-scaled Jacobian column lies within `tolerance` of the span of the
+/// identified machine columns (and of the components kept before it). Records why.
+void hold_confounded(const Eigen::MatrixXd& machine, std::span<const int> machine_params, const kin::Model& model,
+                     const Eigen::MatrixXd& reg, std::span<const std::pair<int, int>> reg_of, double tolerance,
+                     std::vector<FrameState>& frames, std::vector<std::vector<std::string>>& why) {
+  const Eigen::Index rows = machine.rows();
+  Eigen::MatrixXd q(rows, 0);
+  Eigen::VectorXd mscale(machine.cols());
+  Eigen::MatrixXd ms(rows, machine.cols());
+  for (Eigen::Index c = 0; c < machine.cols(); ++c) {
+    mscale[c] = std::max(machine.col(c).norm(), 1e-300);
+    ms.col(c) = machine.col(c) / mscale[c];
+  }
+  if (ms.cols() > 0) {
+    const Eigen::HouseholderQR<Eigen::MatrixXd> qr(ms);
+    q = qr.householderQ() * Eigen::MatrixXd::Identity(rows, ms.cols());
+  }
+  for (Eigen::Index c = 0; c < reg.cols(); ++c) {
+    const auto [f, k] = reg_of[static_cast<std::size_t>(c)];
+    const double norm = reg.col(c).norm();
+    FrameState& fr = frames[static_cast<std::size_t>(f)];
+    if (norm <= 1e-300) {
+      fr.held = static_cast<std::uint8_t>(fr.held | (1u << k));
+      why[static_cast<std::size_t>(f)].push_back(fmt::format("{}: no measurement depends on it", registration_name(k)));
+      continue;
+    }
+    const Eigen::VectorXd col = reg.col(c) / norm;
+    const Eigen::VectorXd r = col - q * (q.transpose() * col);
+    if (r.norm() > tolerance) {
+      q.conservativeResize(Eigen::NoChange, q.cols() + 1);
+      q.col(q.cols() - 1) = r / r.norm();
+      continue;
+    }
+    fr.held = static_cast<std::uint8_t>(fr.held | (1u << k));
+    // Which machine parameters explain it: the least-squares combination of their columns.
+    std::string text;
+    if (ms.cols() > 0) {
+      const Eigen::VectorXd coef = ms.colPivHouseholderQr().solve(col);
+      Eigen::Index big = 0;
+      coef.cwiseAbs().maxCoeff(&big);
+      for (Eigen::Index i = 0; i < coef.size(); ++i) {
+        if (std::abs(coef[i]) < 0.2 * std::abs(coef[big])) continue;
+        const kin::Parameter& p = model.parameters()[static_cast<std::size_t>(machine_params[static_cast<std::size_t>(i)])];
+        text += fmt::format("{}{} ({:+.3g} {} per {})", text.empty() ? "" : ", ", p.name, coef[i] * norm / mscale[i],
+                            unit_text(p), k < 3 ? "mm" : "rad");
+      }
+    }
+    why[static_cast<std::size_t>(f)].push_back(
+        fmt::format("{}: explained by the machine's {} (held; the data cannot tell the instrument's placement from "
+                    "the machine's error here)",
+                    registration_name(k), text.empty() ? "parameters" : text));
+  }
+}
+
+}  // namespace
+
+Eigen::Vector3d FrameEstimate::rotation() const {
+  const Eigen::AngleAxisd aa(r);
+  return aa.angle() * aa.axis();
+}
+
+std::vector<Measurement> registered(std::span<const Measurement> data, const IdentifyResult& result) {
+  std::vector<Measurement> out(data.begin(), data.end());
+  for (Measurement& m : out) {
+    if (m.source.frame.empty()) continue;
+    const auto f = std::find_if(result.frames.begin(), result.frames.end(),
+                                [&](const FrameEstimate& e) { return e.name == m.source.frame; });
+    if (f == result.frames.end())
+      throw Error(ExitCode::usage,
+                  fmt::format("{}: this measurement is in instrument frame '{}', which no fitted measurement "
+                              "determines; fit some measurements of the same set-up (or declare the frame of the "
+                              "held-out file as the fitted file's: '# frame: instrument NAME')",
+                              m.label, m.source.frame));
+    m.measured.p = f->r * m.measured.p + f->t;
+    m.measured.r = f->r * m.measured.r;
+    m.source.frame.clear();
+  }
+  return out;
+}
+
+std::string_view to_string(Method m) {
+  switch (m) {
+    case Method::least_squares: return "least-squares";
+    case Method::ridge: return "ridge";
+    case Method::psi_substitution: return "psi-substitution";
+  }
+  return "?";
+}
+
+std::optional<Method> parse_method(std::string_view s) {
+  if (s == "least-squares" || s == "ls") return Method::least_squares;
+  if (s == "ridge") return Method::ridge;
+  if (s == "psi-substitution" || s == "psi") return Method::psi_substitution;
+  return std::nullopt;
+}
+
+bool measurement_residual(const kin::Model& model, const Measurement& m, double* out, double orientation_weight) {
+  Prediction p;
+  if (!predict(model, m, p)) return false;
+  residual_from(m, m.measured, p, Weights{1, orientation_weight}, false, out);
+  return true;
+}
+
+Eigen::VectorXd residuals(const kin::Model& model, std::span<const Measurement> data, double orientation_weight) {
+  int rows = 0;
+  for (const Measurement& m : data) rows += residual_rows(m, model.joint_count());
+  Eigen::VectorXd out(rows);
+  int at = 0;
+  for (const Measurement& m : data) {
+    const int n = residual_rows(m, model.joint_count());
+    if (!measurement_residual(model, m, out.data() + at, orientation_weight))
+      out.segment(at, n).setConstant(std::numeric_limits<double>::quiet_NaN());
+    at += n;
+  }
+  return out;
+}
+
+void linearise(const kin::Model& model, std::span<const Measurement> data, std::span<const int> columns,
+               Eigen::VectorXd& res, Eigen::MatrixXd& jac, double orientation_weight, bool numeric) {
+  const std::vector<Weights> w(data.size(), Weights{1, orientation_weight});
+  linearise_all(model, data, columns, w, {}, {}, {}, res, jac, numeric);
+}
+
+Identifiability analyse(const Eigen::MatrixXd& j, std::span<const int> columns, const kin::Model& model,
+                        double rank_tolerance) {
+  Identifiability a = analyse_labelled(j, labels_of(model, columns), rank_tolerance);
+  for (int& c : a.dependent) c = columns[static_cast<std::size_t>(c)];
+  for (int& c : a.unobserved) c = columns[static_cast<std::size_t>(c)];
   std::sort(a.dependent.begin(), a.dependent.end());
   return a;
 }
@@ -479,9 +744,57 @@ IdentifyResult identify(const kin::Model& start_model, std::span<const Measureme
 
   IdentifyResult result;
   const double w = options.orientation_weight;
+
+  // Weights from the files' uncertainties, relative to the most accurate file (identify.hpp).
+  double sigma0 = std::numeric_limits<double>::infinity();
+  for (const Measurement& m : fit) sigma0 = std::min(sigma0, sigma_length(m));
+  result.sigma_reference_mm = sigma0;
+  std::vector<Weights> weights;
+  weights.reserve(fit.size());
+  for (const Measurement& m : fit) weights.push_back({sigma0 / sigma_length(m), sigma0 / sigma_angle(m, w)});
+
+  // Instrument frames: one per name, its components the union of its files'.
+  std::vector<FrameState> frames;
+  std::vector<int> frame_of(fit.size(), -1);
+  for (std::size_t i = 0; i < fit.size(); ++i) {
+    const Source& src = fit[i].source;
+    if (src.frame.empty()) continue;
+    auto it = std::find_if(frames.begin(), frames.end(), [&](const FrameState& f) { return f.name == src.frame; });
+    if (it == frames.end()) {
+      frames.push_back(FrameState{src.frame});
+      it = frames.end() - 1;
+    }
+    it->free = static_cast<std::uint8_t>(it->free | src.free);
+    ++it->measurements;
+    frame_of[i] = static_cast<int>(it - frames.begin());
+  }
+  for (const Measurement& m : data)
+    if (m.validate && !m.source.frame.empty() &&
+        std::none_of(frames.begin(), frames.end(), [&](const FrameState& f) { return f.name == m.source.frame; }))
+      throw Error(ExitCode::usage,
+                  fmt::format("{}: held-out measurement in instrument frame '{}', which no fitted measurement "
+                              "determines; fit some measurements of the same set-up, or name the fitted file's frame "
+                              "('# frame: instrument NAME' in both files)",
+                              m.label, m.source.frame));
+  start_registration(start_model, fit, frame_of, frames);
+  std::vector<FrameColumns> all_columns(frames.size());
+  std::vector<std::pair<int, int>> reg_of;  // (frame, component) per registration column
+  int first = static_cast<int>(free.size());
+  for (std::size_t f = 0; f < frames.size(); ++f) {
+    all_columns[f].first = first;
+    for (int k = 0; k < 6; ++k)
+      if ((frames[f].free & (1u << k)) != 0) {
+        all_columns[f].components.push_back(k);
+        reg_of.emplace_back(static_cast<int>(f), k);
+        ++first;
+      }
+  }
+
   Eigen::VectorXd res0;
-  Eigen::MatrixXd j0;
-  linearise(start_model, fit, free, res0, j0, w, options.numeric_derivatives);
+  Eigen::MatrixXd jall;
+  linearise_all(start_model, fit, free, weights, frames, frame_of, all_columns, res0, jall, options.numeric_derivatives);
+  const Eigen::Index nfree = static_cast<Eigen::Index>(free.size());
+  const Eigen::MatrixXd j0 = jall.leftCols(nfree);
   result.initial_cost = 0.5 * res0.squaredNorm();
   result.start = analyse(j0, free, start_model, options.rank_tolerance);
   for (int k : free)
@@ -489,15 +802,49 @@ IdentifyResult identify(const kin::Model& start_model, std::span<const Measureme
       result.identified.push_back(k);
     else
       result.held.push_back(k);
-  if (static_cast<int>(res0.size()) < static_cast<int>(result.identified.size()))
+  std::vector<std::vector<std::string>> held_why(frames.size());
+  if (!frames.empty()) {
+    Eigen::MatrixXd ji(jall.rows(), static_cast<Eigen::Index>(result.identified.size()));
+    for (std::size_t c = 0; c < result.identified.size(); ++c)
+      ji.col(static_cast<Eigen::Index>(c)) = jall.col(std::find(free.begin(), free.end(), result.identified[c]) - free.begin());
+    // A registration column 99.9995 % inside the machine's span (residual norm 1e-3 of the
+    // column) would be estimated with a noise amplification of 1000: held instead.
+    hold_confounded(ji, result.identified, start_model, jall.rightCols(jall.cols() - nfree), reg_of, 1e-3, frames, held_why);
+    // The report's figures cover everything fitted together: the machine's requested parameters
+    // and the registration components.
+    std::vector<Label> labels = labels_of(start_model, free);
+    for (const auto& [f, k] : reg_of)
+      labels.push_back({fmt::format("{}[{}]", registration_name(k), frames[static_cast<std::size_t>(f)].name), k < 3 ? "mm" : "rad"});
+    const Identifiability joint = analyse_labelled(jall, labels, options.rank_tolerance);
+    result.start.rows = joint.rows;
+    result.start.parameters = joint.parameters;
+    result.start.rank = joint.rank;
+    result.start.condition = joint.condition;
+    result.start.o1 = joint.o1;
+    result.start.o3 = joint.o3;
+    result.start.o4 = joint.o4;
+    result.start.singular_values = joint.singular_values;
+    result.start.combinations = joint.combinations;
+  }
+  std::vector<FrameColumns> est_columns(frames.size());
+  int estimated_registration = 0;
+  first = static_cast<int>(result.identified.size());
+  for (std::size_t f = 0; f < frames.size(); ++f) {
+    est_columns[f].first = first;
+    est_columns[f].components = frames[f].estimated();
+    first += static_cast<int>(est_columns[f].components.size());
+    estimated_registration += static_cast<int>(est_columns[f].components.size());
+  }
+  const int unknowns = static_cast<int>(result.identified.size()) + estimated_registration;
+  if (static_cast<int>(res0.size()) < unknowns)
     throw Error(ExitCode::usage, fmt::format("identify: {} parameters but only {} measured components; add measurements "
                                              "or fix parameters",
-                                             result.identified.size(), res0.size()));
+                                             unknowns, res0.size()));
 
   std::vector<double> x = start_model.values();
   const std::vector<double> x0 = x;
-  if (!result.identified.empty()) {
-    if (options.method == Method::ridge) {
+  if (unknowns > 0) {
+    if (options.method == Method::ridge && !result.identified.empty()) {
       if (options.ridge_lambda > 0) {
         result.lambda = options.ridge_lambda;
       } else {
@@ -514,20 +861,35 @@ IdentifyResult identify(const kin::Model& start_model, std::span<const Measureme
     ceres::Problem::Options popt;
     popt.cost_function_ownership = ceres::TAKE_OWNERSHIP;
     popt.loss_function_ownership = ceres::TAKE_OWNERSHIP;
+    popt.manifold_ownership = ceres::TAKE_OWNERSHIP;
     ceres::Problem problem(popt);
     double* xp = x.data();
     const bool substitute = options.method == Method::psi_substitution;
-    for (const Measurement& m : fit) {
+    for (std::size_t i = 0; i < fit.size(); ++i) {
       ceres::LossFunction* loss = nullptr;
       if (options.loss == Loss::huber) loss = new ceres::HuberLoss(options.loss_scale);
       if (options.loss == Loss::cauchy) loss = new ceres::CauchyLoss(options.loss_scale);
-      problem.AddResidualBlock(new MeasurementCost(ev, m, n, w, substitute), loss, xp);
+      FrameState* frame = frame_of[i] >= 0 ? &frames[static_cast<std::size_t>(frame_of[i])] : nullptr;
+      if (frame != nullptr)
+        problem.AddResidualBlock(new MeasurementCost(ev, fit[i], n, weights[i], substitute, frame), loss, xp,
+                                 frame->reg.data());
+      else
+        problem.AddResidualBlock(new MeasurementCost(ev, fit[i], n, weights[i], substitute, nullptr), loss, xp);
     }
     if (result.lambda > 0) problem.AddResidualBlock(new RidgeCost(result.identified, x0, result.lambda), nullptr, xp);
     std::vector<int> constant;
     for (int k = 0; k < n; ++k)
       if (!std::binary_search(result.identified.begin(), result.identified.end(), k)) constant.push_back(k);
-    if (!constant.empty()) problem.SetManifold(xp, new ceres::SubsetManifold(n, constant));
+    if (static_cast<int>(constant.size()) == n) problem.SetParameterBlockConstant(xp);
+    else if (!constant.empty()) problem.SetManifold(xp, new ceres::SubsetManifold(n, constant));
+    for (FrameState& f : frames) {
+      const std::vector<int> est = f.estimated();
+      std::vector<int> held;
+      for (int k = 0; k < 6; ++k)
+        if (std::find(est.begin(), est.end(), k) == est.end()) held.push_back(k);
+      if (held.size() == 6) problem.SetParameterBlockConstant(f.reg.data());
+      else if (!held.empty()) problem.SetManifold(f.reg.data(), new ceres::SubsetManifold(6, held));
+    }
     for (const auto& [k, range] : options.bounds) {
       problem.SetParameterLowerBound(xp, k, range.first);
       problem.SetParameterUpperBound(xp, k, range.second);
@@ -552,22 +914,34 @@ IdentifyResult identify(const kin::Model& start_model, std::span<const Measureme
     // Ceres counts the evaluation at the start as iteration 0.
     result.iterations = std::max(0, static_cast<int>(summary.iterations.size()) - 1);
     result.usable = summary.IsSolutionUsable();
+    result.converged = summary.termination_type == ceres::CONVERGENCE;
     result.message = summary.message;
   } else {
     result.usable = true;
+    result.converged = true;
     result.message = "nothing to identify";
   }
 
   const auto solved = start_model.with_values(x);
   Eigen::VectorXd res1;
   Eigen::MatrixXd j1;
-  linearise(*solved, fit, result.identified, res1, j1, w, options.numeric_derivatives);
+  linearise_all(*solved, fit, result.identified, weights, frames, frame_of, est_columns, res1, j1,
+                options.numeric_derivatives);
   result.final_cost = 0.5 * res1.squaredNorm();
-  const int dof = static_cast<int>(res1.size()) - static_cast<int>(result.identified.size());
+  const int dof = static_cast<int>(res1.size()) - unknowns;
   result.sigma = dof > 0 ? std::sqrt(res1.squaredNorm() / dof) : std::numeric_limits<double>::quiet_NaN();
-  result.solution = analyse(j1, result.identified, *solved, options.rank_tolerance);
+  std::vector<Label> labels = labels_of(*solved, result.identified);
+  for (std::size_t f = 0; f < frames.size(); ++f)
+    for (int k : est_columns[f].components)
+      labels.push_back({fmt::format("{}[{}]", registration_name(k), frames[f].name), k < 3 ? "mm" : "rad"});
+  result.solution = analyse_labelled(j1, labels, options.rank_tolerance);
+  for (int& c : result.solution.dependent) c = c < static_cast<int>(result.identified.size()) ? result.identified[static_cast<std::size_t>(c)] : -1;
+  for (int& c : result.solution.unobserved) c = c < static_cast<int>(result.identified.size()) ? result.identified[static_cast<std::size_t>(c)] : -1;
+  std::erase(result.solution.dependent, -1);
+  std::erase(result.solution.unobserved, -1);
   result.stddev.assign(static_cast<std::size_t>(n), std::numeric_limits<double>::quiet_NaN());
-  if (!result.identified.empty()) {
+  std::vector<double> column_stddev(static_cast<std::size_t>(j1.cols()), std::numeric_limits<double>::quiet_NaN());
+  if (j1.cols() > 0) {
     // Cov = σ̂²(JᵀJ)⁻¹ through the SVD of the column-scaled Jacobian (pseudo-inverse on its rank).
     Eigen::VectorXd scale(j1.cols());
     for (Eigen::Index c = 0; c < j1.cols(); ++c) scale[c] = std::max(j1.col(c).norm(), 1e-300);
@@ -578,9 +952,61 @@ IdentifyResult identify(const kin::Model& start_model, std::span<const Measureme
       double var = 0;
       for (Eigen::Index i = 0; i < s.size(); ++i)
         if (s[i] > options.rank_tolerance * s[0]) var += svd.matrixV()(c, i) * svd.matrixV()(c, i) / (s[i] * s[i]);
-      result.stddev[static_cast<std::size_t>(result.identified[static_cast<std::size_t>(c)])] =
-          result.sigma * std::sqrt(var) / scale[c];
+      column_stddev[static_cast<std::size_t>(c)] = result.sigma * std::sqrt(var) / scale[c];
     }
+    for (std::size_t c = 0; c < result.identified.size(); ++c)
+      result.stddev[static_cast<std::size_t>(result.identified[c])] = column_stddev[c];
+  }
+  for (std::size_t f = 0; f < frames.size(); ++f) {
+    const FrameState& fr = frames[f];
+    FrameEstimate e;
+    e.name = fr.name;
+    e.free = fr.free;
+    e.held = fr.held;
+    e.held_why = held_why[f];
+    e.t = Vec3(fr.reg[0], fr.reg[1], fr.reg[2]);
+    e.r = rotation_of(Vec3(fr.reg[3], fr.reg[4], fr.reg[5])) * fr.r0;
+    e.measurements = fr.measurements;
+    e.stddev.fill(std::numeric_limits<double>::quiet_NaN());
+    for (std::size_t c = 0; c < est_columns[f].components.size(); ++c)
+      e.stddev[static_cast<std::size_t>(est_columns[f].components[c])] =
+          column_stddev[static_cast<std::size_t>(est_columns[f].first) + c];
+    result.frames.push_back(std::move(e));
+  }
+  // The start registration, for the report (the rigid fit before the joint solve).
+  {
+    std::vector<FrameState> s0 = frames;
+    for (FrameState& f : s0) f.reg = {};
+    start_registration(start_model, fit, frame_of, s0);
+    for (std::size_t f = 0; f < frames.size(); ++f) {
+      result.frames[f].start_t = Vec3(s0[f].reg[0], s0[f].reg[1], s0[f].reg[2]);
+      result.frames[f].start_r = s0[f].r0;
+    }
+  }
+  // χ² per file, in each file's own uncertainty: the residuals are in σ₀ units.
+  {
+    const int nj = start_model.joint_count();
+    const double share = res1.size() > 0 ? 1.0 - static_cast<double>(unknowns) / static_cast<double>(res1.size()) : 1.0;
+    int at = 0;
+    for (std::size_t i = 0; i < fit.size(); ++i) {
+      const Measurement& m = fit[i];
+      auto it = std::find_if(result.files.begin(), result.files.end(), [&](const FileFit& f) { return f.file == m.file; });
+      if (it == result.files.end()) {
+        FileFit ff;
+        ff.file = m.file;
+        ff.sigma_mm = sigma_length(m);
+        ff.sigma_rad = sigma_angle(m, w);
+        ff.declared = m.source.sigma_mm > 0 || m.source.sigma_rad > 0;
+        result.files.push_back(ff);
+        it = result.files.end() - 1;
+      }
+      const int rows = residual_rows(m, nj);
+      it->rows += rows;
+      it->chi2 += res1.segment(at, rows).squaredNorm() / (sigma0 * sigma0);
+      at += rows;
+    }
+    for (FileFit& f : result.files)
+      f.normalised_rms = f.rows > 0 ? std::sqrt(f.chi2 / (f.rows * std::max(share, 1e-12))) : 0.0;
   }
   result.values = std::move(x);
   result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

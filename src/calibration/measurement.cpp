@@ -2,6 +2,7 @@
 #include "postproc/calibration/measurement.hpp"
 
 #include <array>
+#include <charconv>
 #include <cmath>
 
 #include <fmt/format.h>
@@ -60,7 +61,124 @@ bool ratio_columns(CsvTable& t, std::array<std::string_view, 3> names, bool requ
   return all || (!required && !any);
 }
 
+/// "1 um", "0.5um", "2 arcsec": a positive value with a unit of q; nullopt if not.
+std::optional<double> quantity_text(std::string_view text, Quantity q) {
+  while (!text.empty() && text.front() == ' ') text.remove_prefix(1);
+  while (!text.empty() && (text.back() == ' ' || text.back() == '\t')) text.remove_suffix(1);
+  double v = 0;
+  const auto [ptr, ec] = std::from_chars(text.data(), text.data() + text.size(), v);
+  if (ec != std::errc() || ptr == text.data()) return std::nullopt;
+  std::string_view unit(ptr, static_cast<std::size_t>(text.data() + text.size() - ptr));
+  while (!unit.empty() && unit.front() == ' ') unit.remove_prefix(1);
+  const auto f = unit_factor(unit, q);
+  if (!f || unit.empty() || !(v > 0) || !std::isfinite(v)) return std::nullopt;
+  return v * *f;
+}
+
+constexpr std::array<std::string_view, 5> kSettings = {"kind", "frame", "registration", "sigma", "sigma_angle"};
+
 }  // namespace
+
+std::string_view registration_name(int k) {
+  static constexpr std::array<std::string_view, 6> names = {"tx", "ty", "tz", "rx", "ry", "rz"};
+  return k >= 0 && k < 6 ? names[static_cast<std::size_t>(k)] : "?";
+}
+
+std::optional<Source> measurement_source(CsvTable& t, std::string_view kind) {
+  Source src;
+  bool ok = true;
+  const bool point = kind == "poses" || kind == "positions" || kind == "struts";
+  if (const auto frame = t.meta("frame")) {
+    std::string_view f = *frame;
+    const auto space = f.find_first_of(" \t");
+    const std::string_view word = f.substr(0, space);
+    std::string_view name = space == std::string_view::npos ? std::string_view{} : f.substr(space + 1);
+    while (!name.empty() && (name.front() == ' ' || name.front() == '\t')) name.remove_prefix(1);
+    if (word == "workpiece" && name.empty()) {
+      // the default
+    } else if (word == "instrument") {
+      if (kind == "struts") {
+        t.meta_error("frame", codes::kCsvHeaderKey,
+                     "strut readings are taken at a known tool pose in the workpiece frame; '# frame: instrument' "
+                     "does not apply to them: remove it");
+        ok = false;
+      }
+      src.frame = name.empty() ? t.file() : std::string(name);
+      src.free = point ? static_cast<std::uint8_t>(kTranslation | kRotation) : kRotation;
+    } else {
+      t.meta_error("frame", codes::kCsvHeaderKey,
+                   fmt::format("'# frame: {}': write '# frame: workpiece' (the default) or '# frame: instrument' "
+                               "(optionally with a name shared by the files measured in the same set-up)",
+                               *frame));
+      ok = false;
+    }
+  }
+  if (const auto reg = t.meta("registration")) {
+    if (src.frame.empty()) {
+      t.meta_error("registration", codes::kCsvHeaderKey,
+                   "'# registration:' names the instrument-frame components to estimate, but the file has no "
+                   "'# frame: instrument' line; add it or remove this one");
+      ok = false;
+    } else {
+      std::uint8_t free = 0;
+      std::string_view rest = *reg;
+      bool bad = false;
+      while (!rest.empty()) {
+        const auto sep = rest.find_first_of(", \t");
+        const std::string_view w = rest.substr(0, sep);
+        rest = sep == std::string_view::npos ? std::string_view{} : rest.substr(sep + 1);
+        if (w.empty()) continue;
+        int k = -1;
+        for (int i = 0; i < 6; ++i)
+          if (w == registration_name(i)) k = i;
+        if (w == "none") continue;
+        if (k < 0) {
+          bad = true;
+          break;
+        }
+        free = static_cast<std::uint8_t>(free | (1u << k));
+      }
+      if (bad) {
+        t.meta_error("registration", codes::kCsvHeaderKey,
+                     fmt::format("'# registration: {}': list the components to estimate from tx, ty, tz (mm) and rx, "
+                                 "ry, rz (rotations), e.g. '# registration: tx, ty, tz, rz', or 'none'",
+                                 *reg));
+        ok = false;
+      } else if (!point && (free & kTranslation) != 0) {
+        t.meta_error("registration", codes::kCsvHeaderKey,
+                     "a translation of the instrument frame does not change a direction, so a directions file cannot "
+                     "estimate tx, ty or tz; list only rx, ry, rz");
+        ok = false;
+      } else {
+        src.free = free;
+      }
+    }
+  }
+  if (const auto sigma = t.meta("sigma")) {
+    if (const auto v = quantity_text(*sigma, Quantity::length)) {
+      src.sigma_mm = *v;
+    } else {
+      t.meta_error("sigma", codes::kCsvHeaderKey,
+                   fmt::format("'# sigma: {}' is not a positive length with a unit; write the standard uncertainty of "
+                               "every length value, e.g. '# sigma: 1 um'",
+                               *sigma));
+      ok = false;
+    }
+  }
+  if (const auto sigma = t.meta("sigma_angle")) {
+    if (const auto v = quantity_text(*sigma, Quantity::angle)) {
+      src.sigma_rad = *v;
+    } else {
+      t.meta_error("sigma_angle", codes::kCsvHeaderKey,
+                   fmt::format("'# sigma_angle: {}' is not a positive angle with a unit; write the standard "
+                               "uncertainty of every angle, e.g. '# sigma_angle: 2 arcsec'",
+                               *sigma));
+      ok = false;
+    }
+  }
+  if (!ok) return std::nullopt;
+  return src;
+}
 
 JointColumns joint_columns(CsvTable& t, const kin::Model& model) {
   JointColumns out;
@@ -139,6 +257,9 @@ bool read_measurements(CsvTable& t, const kin::Model& model, std::vector<Measure
   const auto kind = measurement_file_kind(t);
   if (!kind) return false;
   const std::size_t errors0 = t.sink().count(gcode::Severity::error);
+  if (!t.check_header_keys(kSettings, kInformationalKeys)) return false;
+  const auto source = measurement_source(t, *kind);
+  if (!source) return false;
   const bool hexapod = model.kind().find("hexapod") != std::string::npos;
   if (*kind == "struts" && !hexapod) {
     t.error(CsvTable::kHeader, -1, codes::kCsvColumns,
@@ -184,6 +305,7 @@ bool read_measurements(CsvTable& t, const kin::Model& model, std::vector<Measure
     Measurement m;
     m.file = t.file();
     m.line = t.rows()[r].line;
+    m.source = *source;
     m.label = idcol >= 0 ? t.rows()[r].cells[static_cast<std::size_t>(idcol)] : fmt::format("{}:{}", t.file(), m.line);
     if (setcol >= 0) {
       const std::string& s = t.rows()[r].cells[static_cast<std::size_t>(setcol)];

@@ -152,6 +152,42 @@ std::string report_json(const CalibrationRun& run) {
                  {"initial_cost_mm2", r.initial_cost},
                  {"final_cost_mm2", r.final_cost},
                  {"residual_sigma_mm", number(r.sigma)}};
+  j["solver"]["converged"] = r.converged;
+  j["sigma_reference_mm"] = r.sigma_reference_mm;
+  json frames = json::array();
+  for (const FrameEstimate& f : r.frames) {
+    json free = json::array(), held = json::array(), sd = json::object();
+    for (int k = 0; k < 6; ++k) {
+      const std::string name(registration_name(k));
+      if ((f.free & (1u << k)) != 0) free.push_back(name);
+      if ((f.held & (1u << k)) != 0) held.push_back(name);
+      sd[name + (k < 3 ? "_mm" : "_rad")] = number(f.stddev[static_cast<std::size_t>(k)]);
+    }
+    const Eigen::Vector3d w = f.rotation();
+    const Eigen::AngleAxisd start(f.start_r);
+    const Eigen::Vector3d w0 = start.angle() * start.axis();
+    frames.push_back({{"name", f.name},
+                      {"measurements", f.measurements},
+                      {"free", free},
+                      {"held", held},
+                      {"held_why", f.held_why},
+                      {"translation_mm", {f.t.x(), f.t.y(), f.t.z()}},
+                      {"rotation_vector_rad", {w.x(), w.y(), w.z()}},
+                      {"stddev", sd},
+                      {"start_translation_mm", {f.start_t.x(), f.start_t.y(), f.start_t.z()}},
+                      {"start_rotation_vector_rad", {w0.x(), w0.y(), w0.z()}}});
+  }
+  j["frames"] = frames;
+  json files = json::array();
+  for (const FileFit& f : r.files)
+    files.push_back({{"file", f.file},
+                     {"rows", f.rows},
+                     {"sigma_mm", f.sigma_mm},
+                     {"sigma_angle_rad", f.sigma_rad},
+                     {"declared", f.declared},
+                     {"chi2", f.chi2},
+                     {"normalised_rms", f.normalised_rms}});
+  j["files"] = files;
   j["identifiability"] = {{"start", identifiability(r.start)}, {"solution", identifiability(r.solution)}};
   json params = json::array();
   for (std::size_t k = 0; k < run.start->parameters().size(); ++k) {
@@ -208,7 +244,39 @@ td.l,th.l{text-align:left}.held{color:#b00}.plot{border:1px solid #ccc}
   for (const InputFile& f : run.inputs)
     s += fmt::format("<tr><td class=l>{}</td><td class=l>{}</td><td>{}</td><td class=l>{}</td></tr>\n", html_escape(f.path),
                      f.kind, f.measurements, f.sha256);
-  s += "</table>\n<h2>Residuals</h2><table id=\"figures\"><tr><th class=l>set</th><th>n</th><th>max position before (mm)</th><th>max after (mm)</th><th>rms before (mm)</th><th>rms after (mm)</th><th>max angle before (°)</th><th>max after (°)</th></tr>\n";
+  s += "</table>\n";
+  if (r.files.size() > 1 || std::any_of(r.files.begin(), r.files.end(), [](const FileFit& f) { return f.declared; })) {
+    s += "<h3>Fit per file</h3><p>Residuals weighted by each file's uncertainty: a normalised rms near 1 means the file "
+         "fits as well as its σ says; far above 1, the σ is too small, the file holds outliers or the model misses an "
+         "error.</p><table id=\"files\"><tr><th class=l>file</th><th>σ (µm)</th><th>σ angle (arcsec)</th><th "
+         "class=l>σ from</th><th>rows</th><th>χ²</th><th>normalised rms</th></tr>\n";
+    for (const FileFit& f : r.files)
+      s += fmt::format("<tr><td class=l>{}</td><td>{:g}</td><td>{:.3g}</td><td class=l>{}</td><td>{}</td><td>{:.4g}</td><td>{:.3f}</td></tr>\n",
+                       html_escape(f.file), f.sigma_mm * 1000, f.sigma_rad / kin::kDeg * 3600,
+                       f.declared ? "declared" : "default", f.rows, f.chi2, f.normalised_rms);
+    s += "</table>\n";
+  }
+  if (!r.frames.empty()) {
+    s += "<h3>Instrument frames</h3><p>Estimated with the machine's parameters: P<sub>workpiece</sub> = R·P<sub>instrument</sub> "
+         "+ t. The figures below use the measurements mapped into the workpiece frame.</p><table id=\"frames\"><tr><th "
+         "class=l>frame</th><th>n</th><th>tx (µm)</th><th>ty (µm)</th><th>tz (µm)</th><th>rx (arcsec)</th><th>ry "
+         "(arcsec)</th><th>rz (arcsec)</th><th class=l>held</th></tr>\n";
+    for (const FrameEstimate& f : r.frames) {
+      const Eigen::Vector3d w = f.rotation() / kin::kDeg * 3600;
+      auto v = [&](int k, double value, double scale) {
+        const double sd = f.stddev[static_cast<std::size_t>(k)];
+        return std::isfinite(sd) ? fmt::format("{:.3f} ± {:.2g}", value, sd * scale) : fmt::format("{:.3f}", value);
+      };
+      std::string held;
+      for (const std::string& why : f.held_why) held += (held.empty() ? "" : "; ") + why;
+      s += fmt::format("<tr><td class=l>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td class=l>{}</td></tr>\n",
+                       html_escape(f.name), f.measurements, v(0, f.t.x() * 1000, 1000), v(1, f.t.y() * 1000, 1000),
+                       v(2, f.t.z() * 1000, 1000), v(3, w.x(), 3600 / kin::kDeg), v(4, w.y(), 3600 / kin::kDeg),
+                       v(5, w.z(), 3600 / kin::kDeg), held.empty() ? "–" : html_escape(held));
+    }
+    s += "</table>\n";
+  }
+  s += "<h2>Residuals</h2><table id=\"figures\"><tr><th class=l>set</th><th>n</th><th>max position before (mm)</th><th>max after (mm)</th><th>rms before (mm)</th><th>rms after (mm)</th><th>max angle before (°)</th><th>max after (°)</th></tr>\n";
   auto fig = [](std::size_t n, double v) { return n > 0 ? fmt::format("{:.5f}", v) : std::string("–"); };
   for (const auto& [name, f] : {std::pair<const char*, const SetFigures&>{"fitted", c.fit}, {"held out", c.validation}})
     if (f.count > 0)

@@ -235,6 +235,8 @@ bool add_step_gauge_file(CsvTable& t, StepGaugeData& data, std::string_view text
     else t.error(CsvTable::kHeader, -1, kind ? codes::kCsvColumns : codes::kCsvMissing, msg);
     return false;
   }
+  static constexpr std::array<std::string_view, 5> settings = {"kind", "gauge", "reference", "chain", "reference_error_*"};
+  if (!t.check_header_keys(settings, kInformationalKeys)) return false;
   const auto name = t.meta("gauge");
   if (!name || name->empty()) {
     t.error(CsvTable::kHeader, -1, codes::kCsvMissing,

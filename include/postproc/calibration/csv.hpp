@@ -4,7 +4,9 @@
 /// "travel_um"), '#' comment lines, blank lines ignored. Every problem is a located diagnostic
 /// (file:line:column, the offending text, what to do), codes PP-C001…PP-C006 (docs/measurements.md).
 
+#include <array>
 #include <optional>
+#include <span>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -21,7 +23,12 @@ inline constexpr std::string_view kCsvNumber = "PP-C003";     ///< a cell is not
 inline constexpr std::string_view kCsvUnit = "PP-C004";       ///< a column's unit is missing, unknown or of another dimension
 inline constexpr std::string_view kCsvRange = "PP-C005";      ///< non-physical value (zero vector, stem shorter than travel…)
 inline constexpr std::string_view kCsvColumns = "PP-C006";    ///< unknown or duplicate column, columns that do not fit the machine
+inline constexpr std::string_view kCsvHeaderKey = "PP-C007";  ///< unknown, misplaced or malformed '# key: value' header line
 }  // namespace codes
+
+/// Header keys every measurement file may carry as recorded text (never read as settings).
+inline constexpr std::array<std::string_view, 9> kInformationalKeys = {
+    "note", "comment", "description", "date", "operator", "instrument", "temperature", "noise", "source"};
 
 /// Physical dimension of a column (the unit a value is returned in).
 enum class Quantity {
@@ -64,6 +71,18 @@ class CsvTable {
   [[nodiscard]] const std::vector<std::string>& comments() const { return comments_; }
   /// Value of a "# key: value" header comment, if present.
   [[nodiscard]] std::optional<std::string> meta(std::string_view key) const;
+  /// The 1-based line of the "# key: value" header comment, 0 when absent.
+  [[nodiscard]] std::uint64_t meta_line(std::string_view key) const;
+
+  /// Header keys: a '#' line "key: value" whose key is one word (letters, digits, '_') is a
+  /// setting; any other '#' line is free text. Reports PP-C007, located, for a key that is not in
+  /// `known` (a setting the reader does not know must not be ignored: "# frame: instrument" read
+  /// as a comment fits misregistered data as if registered), for a key given twice and for a key
+  /// after the column header. `settings` are read (each at most once); `informational` keys are
+  /// recorded text (may repeat). Keys ending in '*' match by prefix. False on any error.
+  bool check_header_keys(std::span<const std::string_view> settings, std::span<const std::string_view> informational);
+  /// Reports an error at a header key's line (the whole line).
+  void meta_error(std::string_view key, std::string_view code, std::string message);
 
   /// Index of the column whose base name equals `base` (case-sensitive: joint X, measured x), -1 if none.
   [[nodiscard]] int find(std::string_view base) const;
@@ -89,6 +108,13 @@ class CsvTable {
   Row header_;
   std::vector<Row> rows_;
   std::vector<std::string> comments_;
+  struct CommentLine {
+    std::uint64_t line = 0;
+    std::string raw;   ///< the line as written
+    std::string text;  ///< without '#', trimmed
+    bool after_header = false;
+  };
+  std::vector<CommentLine> comment_lines_;
   std::vector<bool> used_;
   gcode::DiagnosticSink* sink_ = nullptr;
 };

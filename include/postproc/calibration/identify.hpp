@@ -14,10 +14,23 @@
 /// w = orientation_weight (default 180/π mm/rad: 0.01° weighs as much as 0.01 mm, the inverse
 /// ratio of document 001's noise levels ±0.01 mm / ±0.01°).
 ///
+/// Uncertainty (measurement.hpp Source): a file's length rows are weighted by σ₀/σ and its angle
+/// rows by σ₀/σ_angle, with σ = `# sigma:` (default kDefaultSigma), σ_angle = `# sigma_angle:`
+/// (default σ/w) and σ₀ the smallest σ of the fitted files, so residuals and costs stay in mm at
+/// the accuracy of the best file (files without settings: weights 1 and w, as before).
+///
+/// Instrument frames (`# frame: instrument`): P_w = R·P_i + t, R_w = R·R_i per frame, R = exp(ω)·R₀
+/// with R₀, t's start from a rigid fit (Umeyama, no scale) of the measured points (or axes) to
+/// the start model's; the free components of (t, ω) are estimated jointly with the machine's
+/// parameters. A component that the machine's identifiable parameters already explain (its
+/// column in their span) is held and reported: the data cannot tell the instrument's placement
+/// from the machine's error there, and the machine keeps it.
+///
 /// Derivatives: analytic where the model has an identification Jacobian (the 3-PRS hybrid's 33
 /// errors at commanded joints; the hexapod's 42 parameters in strut space), central differences of
 /// the model (with_values) for every other parameter; `numeric_derivatives` forces differences.
 
+#include <array>
 #include <optional>
 #include <span>
 #include <string>
@@ -33,6 +46,8 @@ namespace postproc::cal {
 
 /// mm-equivalent per rad of orientation residual: 0.01° ↔ 0.01 mm.
 inline constexpr double kOrientationWeight = 180.0 / kin::kPi;
+/// Length uncertainty of a file without `# sigma:` (mm).
+inline constexpr double kDefaultSigma = 0.01;
 
 enum class Method {
   /// Plain LM (Ceres's adaptive damping) on the measured components. The default: with the
@@ -105,6 +120,36 @@ struct Identifiability {
 [[nodiscard]] Identifiability analyse(const Eigen::MatrixXd& j, std::span<const int> columns, const kin::Model& model,
                                       double rank_tolerance = 1e-6);
 
+/// An instrument frame's estimated registration: P_workpiece = r·P_instrument + t.
+struct FrameEstimate {
+  std::string name;                        ///< the frame (file path, or the name in `# frame: instrument NAME`)
+  std::uint8_t free = 0;                   ///< components requested (RegistrationBit)
+  std::uint8_t held = 0;                   ///< requested but not identifiable: held at the start
+  std::vector<std::string> held_why;       ///< per held component: "rz: explained by EC0C (+1 rad per rad)"
+  Eigen::Vector3d t = Eigen::Vector3d::Zero();     ///< mm
+  Eigen::Matrix3d r = Eigen::Matrix3d::Identity();
+  Eigen::Vector3d start_t = Eigen::Vector3d::Zero();   ///< the rigid-fit start
+  Eigen::Matrix3d start_r = Eigen::Matrix3d::Identity();
+  /// ±1σ of tx ty tz (mm) and of the rotation about x y z (rad); NaN where not estimated.
+  std::array<double, 6> stddev{};
+  std::size_t measurements = 0;            ///< fitted measurements in this frame
+  /// The rotation as a vector (axis × angle, rad).
+  [[nodiscard]] Eigen::Vector3d rotation() const;
+};
+
+/// The fit of one file: χ² of its residuals weighted by its own uncertainty.
+struct FileFit {
+  std::string file;
+  int rows = 0;              ///< fitted residual components
+  double sigma_mm = 0;       ///< σ used for its length rows (declared or kDefaultSigma)
+  double sigma_rad = 0;      ///< σ_angle used for its angle rows
+  bool declared = false;     ///< `# sigma:` or `# sigma_angle:` given
+  double chi2 = 0;           ///< Σ (residual / σ)² at the solution
+  /// √(χ² / (rows·(1 − p/N))): about 1 when σ is right and the model fits; far above 1 flags a
+  /// σ too small, an outlier or a model error, far below 1 a σ too large.
+  double normalised_rms = 0;
+};
+
 struct IdentifyResult {
   std::vector<double> values;     ///< every parameter of the model (start values where not identified)
   std::vector<int> identified;    ///< indices estimated
@@ -120,7 +165,17 @@ struct IdentifyResult {
   double lambda = 0;              ///< the ridge λ used (0 for other methods)
   bool usable = false;            ///< ceres::Solver::Summary::IsSolutionUsable
   std::string message;            ///< ceres::Solver::Summary::message
+  bool converged = false;         ///< Ceres stopped on a tolerance (not the iteration limit or a failure)
+  std::vector<FrameEstimate> frames;  ///< instrument frames of the fitted data
+  std::vector<FileFit> files;         ///< per file of the fitted data, in order of appearance
+  double sigma_reference_mm = kDefaultSigma;  ///< σ₀: the residuals and costs are in mm at this accuracy
 };
+
+/// The measurements with every instrument-frame value mapped into the workpiece frame by the
+/// estimated registration (Source::frame cleared), for reports and validation. Throws
+/// postproc::Error (usage) for a frame the result does not know (held-out rows of a set-up no
+/// fitted row determines).
+[[nodiscard]] std::vector<Measurement> registered(std::span<const Measurement> data, const IdentifyResult& result);
 
 /// Identifies the parameters from the measurements not marked `validate`, starting from
 /// start_model's values. Throws postproc::Error (usage) for no measurements, a bad index, a

@@ -12,6 +12,11 @@
 /// - `struts` (hexapod): the strut coordinates the NC recorded (the joints) with the known tool
 ///   pose the setting tool was placed at (x y z, i j k, ui uj uk) (document 003).
 /// Optional columns: `id` (a label for reports), `set` (`fit` or `validate`: held-out data).
+/// Header settings ('# key: value' lines before the column header; an unknown key is an error):
+/// `kind`, `frame` (`workpiece`, the default, or `instrument [NAME]`), `registration` (the
+/// instrument-frame components to estimate), `sigma` (length uncertainty, e.g. `1 um`),
+/// `sigma_angle` (e.g. `2 arcsec`); informational: note, comment, description, date, operator,
+/// instrument, temperature, noise, source.
 
 #include <optional>
 #include <span>
@@ -31,12 +36,32 @@ enum class MeasurementKind : std::uint8_t {
 };
 [[nodiscard]] std::string_view to_string(MeasurementKind k);
 
+/// Registration components of an instrument frame, as bits of Source::free.
+enum RegistrationBit : std::uint8_t { kTx = 1, kTy = 2, kTz = 4, kRx = 8, kRy = 16, kRz = 32 };
+inline constexpr std::uint8_t kTranslation = kTx | kTy | kTz;
+inline constexpr std::uint8_t kRotation = kRx | kRy | kRz;
+/// "tx", "ty", "tz", "rx", "ry", "rz" for component k (0…5).
+[[nodiscard]] std::string_view registration_name(int k);
+
+/// Where a file's values are and how well they are known (its header settings).
+struct Source {
+  /// Empty: the values are in the workpiece frame. Otherwise the instrument frame they are in (the
+  /// file's path, or the NAME of `# frame: instrument NAME`, shared by the files that name it):
+  /// P_workpiece = R·P_instrument + t and R_workpiece = R·R_instrument, R and t estimated with the
+  /// machine's parameters (identify.hpp).
+  std::string frame;
+  std::uint8_t free = 0;  ///< registration components estimated (RegistrationBit)
+  double sigma_mm = 0;    ///< `# sigma:` standard uncertainty of every length value, mm; 0: not given
+  double sigma_rad = 0;   ///< `# sigma_angle:` standard uncertainty of every angle, rad; 0: not given
+};
+
 struct Measurement {
   MeasurementKind kind = MeasurementKind::pose;
   kin::JointVector q;       ///< commanded joint values (mm / deg); struts: the recorded strut coordinates
   kin::Pose measured;       ///< measured tool pose, workpiece frame (only the parts the kind has)
   bool has_torsion = true;  ///< pose and struts: measured.r is complete (else only its axis)
   bool validate = false;    ///< held out: not fitted, only checked
+  Source source;            ///< the file's frame and uncertainty
   std::string label;        ///< id column, or file:line
   std::string file;
   std::uint64_t line = 0;
@@ -65,6 +90,10 @@ struct JointColumns {
 /// Reads the measurements of one parsed file for `model` (its joint names are the joint
 /// columns). Reports located diagnostics (PP-C0xx) and returns false on any error; appends to out.
 bool read_measurements(CsvTable& table, const kin::Model& model, std::vector<Measurement>& out);
+
+/// The file's frame and uncertainty settings for measurements of `kind` (poses, positions, …);
+/// nullopt after reporting a bad or unknown setting (PP-C007, located).
+[[nodiscard]] std::optional<Source> measurement_source(CsvTable& table, std::string_view kind);
 
 /// The file's `# kind:`; nullopt when absent (reported) or unknown (reported).
 [[nodiscard]] std::optional<std::string> measurement_file_kind(CsvTable& table);
