@@ -100,15 +100,26 @@ constexpr double kPoorFit = 3;
 void print_summary(const cal::CalibrationRun& run, const cal::Comparison& c) {
   const auto& r = run.result;
   const auto& params = run.start->parameters();
+  int registration = 0;
+  for (const cal::FrameEstimate& f : r.frames)
+    for (int k = 0; k < 6; ++k) registration += ((f.free & ~f.held) >> k) & 1;
   std::string out = fmt::format("postproc: {} measurements ({} fitted, {} held out); method {}{}; {} of {} parameters "
-                                "identified, {} Ceres iterations, {:.3f} s\n",
+                                "identified{}, {} Ceres iterations, {:.3f} s\n",
                                 run.data.size(), c.fit.count, c.validation.count, cal::to_string(run.options.method),
                                 r.lambda > 0 ? fmt::format(" (λ = {:.3g})", r.lambda) : "", r.identified.size(),
-                                r.start.parameters, r.iterations, r.seconds);
+                                r.identified.size() + r.held.size(),
+                                registration > 0 ? fmt::format(" (and {} instrument-frame components)", registration) : "",
+                                r.iterations, r.seconds);
   out += fmt::format("postproc: identifiability: rank {} of {}, condition {:.4g}, O1 {:.4g}, O3 {:.4g}, O4 {:.4g}\n",
                      r.start.rank, r.start.parameters, r.start.condition, r.start.o1, r.start.o3, r.start.o4);
   for (const std::string& comb : r.start.combinations)
     out += fmt::format("postproc: not identifiable (held at the start value): {}\n", comb);
+  for (const std::string& why : r.held_why) out += fmt::format("postproc: held: {}\n", why);
+  if (!r.held_why.empty())
+    out += fmt::format("postproc: warning: {} machine parameters keep the machine file's values because an instrument "
+                       "frame's unknown placement imitates them exactly; if those values are not known, add measurements "
+                       "taken in the workpiece frame (a registered instrument) so they can be identified\n",
+                       r.held_why.size());
   for (int k : r.start.unobserved)
     out += fmt::format("postproc: no measurement depends on {} (held at the start value)\n", params[static_cast<std::size_t>(k)].name);
   auto figures = [](std::string_view set, const cal::SetFigures& f) {
@@ -320,6 +331,9 @@ void run_calibrate(const CalibrateArgs& a, int& rc) {
                                 run.result.start.unobserved.end()
                             ? "no measurement depends on it"
                             : "see the unidentifiable combinations in the report";
+      const std::string& name = start.parameters()[static_cast<std::size_t>(k)].name;
+      for (const std::string& w : run.result.held_why)
+        if (w.starts_with(name + ":")) why = "the instrument frame's placement explains it";
       t.held.emplace_back(k, why);
     }
     out_text = cal::replace_toml_table(out_text, "errors", cal::errors_table_toml(t));

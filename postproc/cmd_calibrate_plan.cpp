@@ -1,6 +1,7 @@
 // postproc calibrate plan: choose measuring poses (D-optimal) and write the pose list and the NC
 // program that visits them. postproc calibrate simulate: synthetic measurement files from a
 // machine file with known errors plus noise.
+#include <cmath>
 #include <memory>
 
 #include <fmt/format.h>
@@ -89,6 +90,7 @@ struct SimulateArgs {
   int poses = 30, validate_every = 0;
   std::uint64_t seed = 1;
   double noise_um = 10, noise_arcsec = 36;
+  std::vector<double> frame_offset_um, frame_rotation_arcsec;  ///< an instrument frame (empty: the workpiece frame)
 };
 
 /// Step-gauge files (document 002) for the machine's volumetric map: one plate per z level of its
@@ -181,6 +183,14 @@ void setup_calibrate_simulate(CLI::App& calibrate, int& rc) {
   cmd->add_option("--validate-every", a->validate_every, "mark every k-th measurement as held out (0 = none)")
       ->capture_default_str();
   cmd->add_option("--seed", a->seed, "random seed")->capture_default_str();
+  cmd->add_option("--frame-offset", a->frame_offset_um,
+                  "write the values in an instrument frame moved by X,Y,Z µm from the workpiece frame ('# frame: instrument')")
+      ->delimiter(',')
+      ->expected(3);
+  cmd->add_option("--frame-rotation", a->frame_rotation_arcsec,
+                  "… and turned by the rotation vector RX,RY,RZ arcsec")
+      ->delimiter(',')
+      ->expected(3);
   cmd->add_option("-o,--output", a->output,
                   "measurement file to write (step-gauge: a path prefix; PREFIX_<gauge>.csv and PREFIX_<gauge>_edges.csv)")
       ->required();
@@ -210,13 +220,37 @@ void setup_calibrate_simulate(CLI::App& calibrate, int& rc) {
     opt.noise_deg = a->noise_arcsec / 3600.0;
     opt.validate_every = a->validate_every;
     opt.seed = a->seed;
-    const auto data = cal::simulate_measurements(*m.actual, *m.nominal, joints, opt);
+    auto data = cal::simulate_measurements(*m.actual, *m.nominal, joints, opt);
+    std::vector<std::string> header{
+        fmt::format("simulated by postproc {} calibrate simulate from {} (sha256 {})", POSTPROC_VERSION, a->machine, m.sha256),
+        fmt::format("noise: uniform ±{} um per position component, ±{} arcsec per rotation component; seed {}", a->noise_um,
+                    a->noise_arcsec, a->seed)};
+    // The standard uncertainty of uniform noise ±a is a/√3.
+    if (a->noise_um > 0) header.push_back(fmt::format("sigma: {:.6g} um", a->noise_um / std::sqrt(3.0)));
+    if (a->noise_arcsec > 0 && k.kind != cal::MeasurementKind::position && k.kind != cal::MeasurementKind::struts)
+      header.push_back(fmt::format("sigma_angle: {:.6g} arcsec", a->noise_arcsec / std::sqrt(3.0)));
+    if (!a->frame_offset_um.empty() || !a->frame_rotation_arcsec.empty()) {
+      if (k.kind == cal::MeasurementKind::struts)
+        throw Error(ExitCode::usage, "--frame-offset/--frame-rotation: strut readings are taken at poses in the workpiece frame");
+      // The instrument frame is the workpiece frame moved by (r, t): P_i = rᵀ·(P_w − t), R_i = rᵀ·R_w.
+      Eigen::Vector3d t = Eigen::Vector3d::Zero(), w = Eigen::Vector3d::Zero();
+      for (std::size_t i = 0; i < a->frame_offset_um.size(); ++i) t[static_cast<Eigen::Index>(i)] = a->frame_offset_um[i] / 1000;
+      for (std::size_t i = 0; i < a->frame_rotation_arcsec.size(); ++i)
+        w[static_cast<Eigen::Index>(i)] = a->frame_rotation_arcsec[i] / 3600 * kin::kDeg;
+      const Eigen::Matrix3d r = w.norm() > 0 ? Eigen::AngleAxisd(w.norm(), w.normalized()).toRotationMatrix()
+                                             : Eigen::Matrix3d::Identity();
+      for (cal::Measurement& d : data) {
+        d.measured.p = r.transpose() * (d.measured.p - t);
+        d.measured.r = r.transpose() * d.measured.r;
+      }
+      header.push_back("frame: instrument");
+      header.push_back(fmt::format("note: the instrument frame is the workpiece frame moved by ({:g}, {:g}, {:g}) um and "
+                                   "turned by ({:g}, {:g}, {:g}) arcsec (rotation vector)",
+                                   t.x() * 1000, t.y() * 1000, t.z() * 1000, w.x() / kin::kDeg * 3600,
+                                   w.y() / kin::kDeg * 3600, w.z() / kin::kDeg * 3600));
+    }
     io::OutputFile out(a->output, a->machine, false);
-    out.write(cal::write_measurements(
-        data, *m.actual,
-        {fmt::format("simulated by postproc {} calibrate simulate from {} (sha256 {})", POSTPROC_VERSION, a->machine, m.sha256),
-         fmt::format("noise: uniform ±{} um per position component, ±{} arcsec per rotation component; seed {}", a->noise_um,
-                     a->noise_arcsec, a->seed)}));
+    out.write(cal::write_measurements(data, *m.actual, header));
     out.commit();
     std::fputs(fmt::format("postproc: wrote {} simulated {} measurements to {}\n", data.size(), a->kind, a->output).c_str(),
                stderr);

@@ -589,59 +589,90 @@ void start_registration(const kin::Model& model, std::span<const Measurement> fi
   }
 }
 
-/// Holds the registration components the machine's identified parameters already explain: a
-/// component whose column-scaled Jacobian column lies within `tolerance` of the span of the
-/// identified machine columns (and of the components kept before it). Records why.
-void hold_confounded(const Eigen::MatrixXd& machine, std::span<const int> machine_params, const kin::Model& model,
-                     const Eigen::MatrixXd& reg, std::span<const std::pair<int, int>> reg_of, double tolerance,
-                     std::vector<FrameState>& frames, std::vector<std::vector<std::string>>& why) {
-  const Eigen::Index rows = machine.rows();
-  Eigen::MatrixXd q(rows, 0);
-  Eigen::VectorXd mscale(machine.cols());
-  Eigen::MatrixXd ms(rows, machine.cols());
-  for (Eigen::Index c = 0; c < machine.cols(); ++c) {
-    mscale[c] = std::max(machine.col(c).norm(), 1e-300);
-    ms.col(c) = machine.col(c) / mscale[c];
+/// Unit-norm columns and their norms.
+Eigen::MatrixXd unit_columns(const Eigen::MatrixXd& j, Eigen::VectorXd& norms) {
+  norms.resize(j.cols());
+  Eigen::MatrixXd out(j.rows(), j.cols());
+  for (Eigen::Index c = 0; c < j.cols(); ++c) {
+    norms[c] = j.col(c).norm();
+    out.col(c) = norms[c] > 1e-300 ? Eigen::VectorXd(j.col(c) / norms[c]) : Eigen::VectorXd::Zero(j.rows());
   }
-  if (ms.cols() > 0) {
-    const Eigen::HouseholderQR<Eigen::MatrixXd> qr(ms);
-    q = qr.householderQ() * Eigen::MatrixXd::Identity(rows, ms.cols());
-  }
+  return out;
+}
+
+/// The instrument frames come first: a registration component is estimated unless no
+/// measurement depends on it or the frames' components before it already explain it; a machine
+/// parameter that the registration (and the machine parameters kept before it) explains within
+/// `tolerance` (residual norm of its unit column) is held at its start value. The data cannot
+/// tell such a parameter from where the instrument stood, so the machine file's value stays and
+/// the unknown placement takes the difference (attributing it to the machine instead would move
+/// the machine's model by the instrument's misregistration). Records why.
+void separate_registration(const Eigen::MatrixXd& machine, const Eigen::MatrixXd& reg, std::span<const std::pair<int, int>> reg_of,
+                           const kin::Model& model, std::vector<int>& identified, std::vector<int>& held,
+                           std::vector<int>& dependent, std::vector<std::string>& machine_why,
+                           std::vector<FrameState>& frames, std::vector<std::vector<std::string>>& frame_why,
+                           double tolerance) {
+  Eigen::VectorXd rnorm, mnorm;
+  const Eigen::MatrixXd ru = unit_columns(reg, rnorm), mu = unit_columns(machine, mnorm);
+  Eigen::MatrixXd q(reg.rows(), 0);
+  std::vector<std::pair<int, int>> kept;  // registration components in the basis
+  auto residual = [&](const Eigen::VectorXd& col) -> Eigen::VectorXd { return col - q * (q.transpose() * col); };
+  auto add = [&](const Eigen::VectorXd& r) {
+    q.conservativeResize(Eigen::NoChange, q.cols() + 1);
+    q.col(q.cols() - 1) = r / r.norm();
+  };
   for (Eigen::Index c = 0; c < reg.cols(); ++c) {
     const auto [f, k] = reg_of[static_cast<std::size_t>(c)];
-    const double norm = reg.col(c).norm();
     FrameState& fr = frames[static_cast<std::size_t>(f)];
-    if (norm <= 1e-300) {
-      fr.held = static_cast<std::uint8_t>(fr.held | (1u << k));
-      why[static_cast<std::size_t>(f)].push_back(fmt::format("{}: no measurement depends on it", registration_name(k)));
-      continue;
-    }
-    const Eigen::VectorXd col = reg.col(c) / norm;
-    const Eigen::VectorXd r = col - q * (q.transpose() * col);
-    if (r.norm() > tolerance) {
-      q.conservativeResize(Eigen::NoChange, q.cols() + 1);
-      q.col(q.cols() - 1) = r / r.norm();
+    const bool zero = rnorm[c] <= 1e-300;
+    const Eigen::VectorXd r = zero ? Eigen::VectorXd() : residual(ru.col(c));
+    if (!zero && r.norm() > tolerance) {
+      add(r);
+      kept.emplace_back(f, k);
       continue;
     }
     fr.held = static_cast<std::uint8_t>(fr.held | (1u << k));
-    // Which machine parameters explain it: the least-squares combination of their columns.
+    frame_why[static_cast<std::size_t>(f)].push_back(
+        zero ? fmt::format("{}: no measurement depends on it (held)", registration_name(k))
+             : fmt::format("{}: the frame's other components already explain it (held)", registration_name(k)));
+  }
+  const Eigen::Index nreg = q.cols();
+  std::vector<int> keep;
+  for (std::size_t i = 0; i < identified.size(); ++i) {
+    const Eigen::VectorXd col = mu.col(static_cast<Eigen::Index>(i));
+    const Eigen::VectorXd r = residual(col);
+    if (r.norm() > tolerance) {
+      add(r);
+      keep.push_back(identified[i]);
+      continue;
+    }
+    // Which registration components explain it: the least-squares fit by the registration part.
     std::string text;
-    if (ms.cols() > 0) {
-      const Eigen::VectorXd coef = ms.colPivHouseholderQr().solve(col);
+    if (nreg > 0) {
+      Eigen::MatrixXd basis(reg.rows(), static_cast<Eigen::Index>(kept.size()));
+      for (std::size_t c = 0; c < kept.size(); ++c) {
+        const auto at = std::find(reg_of.begin(), reg_of.end(), kept[c]) - reg_of.begin();
+        basis.col(static_cast<Eigen::Index>(c)) = ru.col(at);
+      }
+      const Eigen::VectorXd coef = basis.colPivHouseholderQr().solve(col);
       Eigen::Index big = 0;
-      coef.cwiseAbs().maxCoeff(&big);
-      for (Eigen::Index i = 0; i < coef.size(); ++i) {
-        if (std::abs(coef[i]) < 0.2 * std::abs(coef[big])) continue;
-        const kin::Parameter& p = model.parameters()[static_cast<std::size_t>(machine_params[static_cast<std::size_t>(i)])];
-        text += fmt::format("{}{} ({:+.3g} {} per {})", text.empty() ? "" : ", ", p.name, coef[i] * norm / mscale[i],
-                            unit_text(p), k < 3 ? "mm" : "rad");
+      if (coef.size() > 0) coef.cwiseAbs().maxCoeff(&big);
+      for (Eigen::Index c = 0; c < coef.size(); ++c) {
+        if (std::abs(coef[c]) < 0.2 * std::abs(coef[big])) continue;
+        const auto [f, k] = kept[static_cast<std::size_t>(c)];
+        text += fmt::format("{}{}[{}]", text.empty() ? "" : ", ", registration_name(k), frames[static_cast<std::size_t>(f)].name);
       }
     }
-    why[static_cast<std::size_t>(f)].push_back(
-        fmt::format("{}: explained by the machine's {} (held; the data cannot tell the instrument's placement from "
-                    "the machine's error here)",
-                    registration_name(k), text.empty() ? "parameters" : text));
+    const kin::Parameter& p = model.parameters()[static_cast<std::size_t>(identified[i])];
+    held.push_back(identified[i]);
+    dependent.push_back(identified[i]);
+    machine_why.push_back(fmt::format("{}: explained by the instrument frame's placement{}{} (held at the machine "
+                                      "file's value: the data cannot tell them apart)",
+                                      p.name, text.empty() ? "" : " ", text));
   }
+  identified = keep;
+  std::sort(held.begin(), held.end());
+  std::sort(dependent.begin(), dependent.end());
 }
 
 }  // namespace
@@ -807,24 +838,33 @@ IdentifyResult identify(const kin::Model& start_model, std::span<const Measureme
     Eigen::MatrixXd ji(jall.rows(), static_cast<Eigen::Index>(result.identified.size()));
     for (std::size_t c = 0; c < result.identified.size(); ++c)
       ji.col(static_cast<Eigen::Index>(c)) = jall.col(std::find(free.begin(), free.end(), result.identified[c]) - free.begin());
-    // A registration column 99.9995 % inside the machine's span (residual norm 1e-3 of the
-    // column) would be estimated with a noise amplification of 1000: held instead.
-    hold_confounded(ji, result.identified, start_model, jall.rightCols(jall.cols() - nfree), reg_of, 1e-3, frames, held_why);
-    // The report's figures cover everything fitted together: the machine's requested parameters
-    // and the registration components.
-    std::vector<Label> labels = labels_of(start_model, free);
-    for (const auto& [f, k] : reg_of)
+    // A column 99.9995 % inside the span of those before it (residual norm 1e-3 of the column)
+    // would be estimated with a noise amplification of 1000: held instead.
+    separate_registration(ji, jall.rightCols(jall.cols() - nfree), reg_of, start_model, result.identified, result.held,
+                          result.start.dependent, result.held_why, frames, held_why, 1e-3);
+    // The report's figures cover what is fitted together: the machine's identified parameters
+    // and the estimated registration components (the machine-only null directions stay named).
+    std::vector<Label> labels = labels_of(start_model, result.identified);
+    Eigen::MatrixXd jf(jall.rows(), static_cast<Eigen::Index>(result.identified.size()));
+    for (std::size_t c = 0; c < result.identified.size(); ++c)
+      jf.col(static_cast<Eigen::Index>(c)) = jall.col(std::find(free.begin(), free.end(), result.identified[c]) - free.begin());
+    for (std::size_t c = 0; c < reg_of.size(); ++c) {
+      const auto [f, k] = reg_of[c];
+      if ((frames[static_cast<std::size_t>(f)].held & (1u << k)) != 0) continue;
+      jf.conservativeResize(Eigen::NoChange, jf.cols() + 1);
+      jf.col(jf.cols() - 1) = jall.col(nfree + static_cast<Eigen::Index>(c));
       labels.push_back({fmt::format("{}[{}]", registration_name(k), frames[static_cast<std::size_t>(f)].name), k < 3 ? "mm" : "rad"});
-    const Identifiability joint = analyse_labelled(jall, labels, options.rank_tolerance);
+    }
+    const Identifiability joint = analyse_labelled(jf, labels, options.rank_tolerance);
     result.start.rows = joint.rows;
-    result.start.parameters = joint.parameters;
+    result.start.parameters = static_cast<int>(free.size() + reg_of.size());
     result.start.rank = joint.rank;
     result.start.condition = joint.condition;
     result.start.o1 = joint.o1;
     result.start.o3 = joint.o3;
     result.start.o4 = joint.o4;
     result.start.singular_values = joint.singular_values;
-    result.start.combinations = joint.combinations;
+    result.start.combinations.insert(result.start.combinations.end(), joint.combinations.begin(), joint.combinations.end());
   }
   std::vector<FrameColumns> est_columns(frames.size());
   int estimated_registration = 0;

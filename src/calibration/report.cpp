@@ -178,6 +178,7 @@ std::string report_json(const CalibrationRun& run) {
                       {"start_rotation_vector_rad", {w0.x(), w0.y(), w0.z()}}});
   }
   j["frames"] = frames;
+  j["held_by_registration"] = r.held_why;
   json files = json::array();
   for (const FileFit& f : r.files)
     files.push_back({{"file", f.file},

@@ -22,9 +22,10 @@
 /// Instrument frames (`# frame: instrument`): P_w = R·P_i + t, R_w = R·R_i per frame, R = exp(ω)·R₀
 /// with R₀, t's start from a rigid fit (Umeyama, no scale) of the measured points (or axes) to
 /// the start model's; the free components of (t, ω) are estimated jointly with the machine's
-/// parameters. A component that the machine's identifiable parameters already explain (its
-/// column in their span) is held and reported: the data cannot tell the instrument's placement
-/// from the machine's error there, and the machine keeps it.
+/// parameters. A machine parameter that the registration explains (its column in their span: a
+/// workpiece-frame offset such as EX0C + EX0X on a trunnion) is held at the machine file's value
+/// and reported: the data cannot tell it from where the instrument stood, and attributing the
+/// instrument's misregistration to the machine would move every corrected block by it.
 ///
 /// Derivatives: analytic where the model has an identification Jacobian (the 3-PRS hybrid's 33
 /// errors at commanded joints; the hexapod's 42 parameters in strut space), central differences of
@@ -167,6 +168,8 @@ struct IdentifyResult {
   std::string message;            ///< ceres::Solver::Summary::message
   bool converged = false;         ///< Ceres stopped on a tolerance (not the iteration limit or a failure)
   std::vector<FrameEstimate> frames;  ///< instrument frames of the fitted data
+  /// Machine parameters held because an instrument frame's placement explains them, with why.
+  std::vector<std::string> held_why;
   std::vector<FileFit> files;         ///< per file of the fitted data, in order of appearance
   double sigma_reference_mm = kDefaultSigma;  ///< σ₀: the residuals and costs are in mm at this accuracy
 };
