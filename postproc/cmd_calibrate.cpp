@@ -183,9 +183,9 @@ void print_summary(const cal::CalibrationRun& run, const cal::Comparison& c) {
                        r.message);
   if (r.start.condition > kPoorCondition)
     out += fmt::format("postproc: warning: condition number {:.4g} (above {:g}): these measurements determine some "
-                       "parameters poorly, their estimates follow the noise — add poses that move those parameters "
-                       "(postproc calibrate plan) or fix them (--fix)\n",
-                       r.start.condition, kPoorCondition);
+                       "parameters poorly, their estimates follow the noise (the weakest combination: {}) — add poses "
+                       "that move those parameters (postproc calibrate plan) or fix them (--fix)\n",
+                       r.start.condition, kPoorCondition, r.start.weakest);
   std::fputs(out.c_str(), stderr);
 }
 
@@ -313,10 +313,19 @@ void run_calibrate(const CalibrateArgs& a, int& rc) {
     run.start = &start;
     run.solved = solved.get();
     // Instrument-frame values in the workpiece frame (estimated registration), for every figure.
+    const std::vector<cal::Measurement> original = data;
     data = cal::registered(data, run.result);
     run.data = data;
     const cal::Comparison c = cal::compare(run);
     print_summary(run, c);
+    for (const cal::SignHint& h : cal::opposite_sign_hints(start, original, opt, run.result))
+      std::fputs(fmt::format("postproc: warning: the data fit {:.3g} times better (residual σ {:.5f} mm) with the sign "
+                             "of axis {} reversed: the measurements and the machine file use opposite rotary sign "
+                             "conventions (docs/measurements.md, 'Rotary sign convention'); check the joint column or "
+                             "the axis's direction in the machine file\n",
+                             h.cost_ratio, h.sigma_mm, h.joint)
+                     .c_str(),
+                 stderr);
     if (!run.result.usable)
       throw Error(ExitCode::refused, fmt::format("the solver gave no usable solution ({}); nothing was written", run.result.message));
     cal::ErrorsTable t;

@@ -118,7 +118,8 @@ grep -q "bad.csv:3:13: error: PP-C003" "$T/bad.err" || { fail "bad data: no loca
   -o "$T/limit.toml" 2> "$T/limit.err" || fail "iteration limit: calibrate exited non-zero"
 grep -q "warning: the solver stopped at its iteration limit (--max-iterations 1)" "$T/limit.err" ||
   fail "iteration limit: no warning"
-grep -q "warning: condition number 5.89.e+04" "$T/limit.err" || fail "condition: no warning for the 3-PRS 5-DoF set"
+grep -q "warning: condition number 5.89.e+04 .*(the weakest combination: .*limb" "$T/limit.err" ||
+  fail "condition: no warning naming the weakest combination for the 3-PRS 5-DoF set"
 "$P" calibrate -m "$M/trunnion_bc_fanuc_nominal.toml" "$D/trunnion_bc_positions.csv" -o "$T/well.toml" 2> "$T/well.err"
 grep -q "warning" "$T/well.err" && fail "a well-conditioned, converged calibration is warned about"
 
@@ -157,6 +158,13 @@ held_u=$(json_in "$T/undeclared.json" validation max_position_after_mm)
 le 0.003 "$held_u" || fail "undeclared misregistration: held-out $held_u mm, expected the misregistration to show"
 grep -q "undeclared.csv fits .* times worse than its declared sigma" "$T/undeclared.err" ||
   fail "undeclared misregistration: the file's poor fit is not warned about"
+
+# A rotary axis recorded with the opposite sign convention is named (issue 19, honest stops).
+awk -F, 'BEGIN {OFS = ","} /^#/ || /^id/ {print; next} {$3 = -$3; print}' "$D/trunnion_bc_positions.csv" > "$T/flipC.csv"
+"$P" calibrate -m "$M/trunnion_bc_fanuc_nominal.toml" "$T/flipC.csv" -o "$T/flip.toml" 2> "$T/flip.err"
+grep -q "warning: the data fit .* times better .* with the sign of axis C reversed" "$T/flip.err" ||
+  fail "sign convention: a reversed C is not named"
+grep -q "with the sign of axis B reversed" "$T/flip.err" && fail "sign convention: B named although only C is reversed"
 
 # A setting postproc does not know is refused, located, never ignored.
 { echo '# kind: positions'; echo '# frame_of_reference: instrument'; sed '/^# kind/d' "$D/trunnion_bc_positions.csv"; } > "$T/key.csv"

@@ -447,7 +447,7 @@ Identifiability analyse_labelled(const Eigen::MatrixXd& j, std::span<const Label
   }
   // Null directions: the columns of V beyond the rank (and all of them when rows < columns).
   const Eigen::MatrixXd v = svd.matrixV();
-  for (Eigen::Index i = a.rank; i < v.cols(); ++i) {
+  auto combination = [&](Eigen::Index i) {
     Eigen::Index big = 0;
     v.col(i).cwiseAbs().maxCoeff(&big);
     const double ref = v(big, i) / scale[static_cast<std::size_t>(big)];
@@ -458,8 +458,10 @@ Identifiability analyse_labelled(const Eigen::MatrixXd& j, std::span<const Label
       text += fmt::format("{}{:+.3g} {} {}", text.empty() ? "" : ", ", v(c, i) / scale[static_cast<std::size_t>(c)] / ref,
                           l.unit, l.name);
     }
-    a.combinations.push_back(text);
-  }
+    return text;
+  };
+  for (Eigen::Index i = a.rank; i < v.cols(); ++i) a.combinations.push_back(combination(i));
+  if (a.rank > 0) a.weakest = combination(a.rank - 1);
   // Which parameters to hold: the columns a rank-revealing QR puts last.
   const int nullity = static_cast<int>(observed.size()) - a.rank;
   if (nullity > 0) {
@@ -865,6 +867,7 @@ IdentifyResult identify(const kin::Model& start_model, std::span<const Measureme
     result.start.o4 = joint.o4;
     result.start.singular_values = joint.singular_values;
     result.start.combinations.insert(result.start.combinations.end(), joint.combinations.begin(), joint.combinations.end());
+    result.start.weakest = joint.weakest;
   }
   std::vector<FrameColumns> est_columns(frames.size());
   int estimated_registration = 0;
@@ -1051,6 +1054,37 @@ IdentifyResult identify(const kin::Model& start_model, std::span<const Measureme
   result.values = std::move(x);
   result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return result;
+}
+
+std::vector<SignHint> opposite_sign_hints(const kin::Model& start_model, std::span<const Measurement> data,
+                                          const IdentifyOptions& options, const IdentifyResult& result) {
+  std::vector<SignHint> out;
+  // A converged fit within 3σ₀ with angular errors of machine size is not questioned: a wrong sign
+  // leaves residuals of the order of the rotation times the radius (millimetres), or the solver
+  // explains it with a half-turn error parameter, or does not converge.
+  bool suspicious = !(result.sigma <= 3 * result.sigma_reference_mm) || !result.converged;
+  for (int k : result.identified) {
+    const kin::Parameter& p = start_model.parameters()[static_cast<std::size_t>(k)];
+    if (p.error && p.unit == "rad" && std::abs(result.values[static_cast<std::size_t>(k)] - p.nominal) > 0.05)
+      suspicious = true;
+  }
+  if (!suspicious) return out;
+  IdentifyOptions o = options;
+  o.progress = nullptr;
+  for (int j = 0; j < start_model.joint_count(); ++j) {
+    const kin::Joint& joint = start_model.joints()[static_cast<std::size_t>(j)];
+    if (joint.type != kin::JointType::rotary) continue;
+    std::vector<Measurement> flipped(data.begin(), data.end());
+    for (Measurement& m : flipped) m.q[j] = -m.q[j];
+    try {
+      const IdentifyResult r = identify(start_model, flipped, o);
+      if (r.usable && r.final_cost * 10 < result.final_cost)
+        out.push_back({joint.name, result.final_cost / std::max(r.final_cost, 1e-300), r.sigma});
+    } catch (const Error&) {
+      // the flipped data cannot even be evaluated: not a better explanation
+    }
+  }
+  return out;
 }
 
 MeasurementError measurement_error(const kin::Model& model, const Measurement& m) {

@@ -50,7 +50,8 @@ json identifiability(const Identifiability& a) {
   for (Eigen::Index i = 0; i < a.singular_values.size(); ++i) sv.push_back(a.singular_values[i]);
   return {{"rows", a.rows},       {"parameters", a.parameters}, {"rank", a.rank},
           {"condition", a.condition}, {"O1", a.o1},             {"O3", a.o3},
-          {"O4", a.o4},            {"singular_values_scaled", sv}, {"unidentifiable_combinations", a.combinations}};
+          {"O4", a.o4},            {"singular_values_scaled", sv}, {"unidentifiable_combinations", a.combinations},
+          {"weakest_combination", a.weakest}};
 }
 
 std::string status_of(const CalibrationRun& run, int k) {

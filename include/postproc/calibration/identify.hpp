@@ -111,6 +111,9 @@ struct Identifiability {
   /// Unidentifiable combinations, one per null direction: "limb1.db_y +1 mm, limb2.db_y -0.98 mm"
   /// (the parameter change, in each parameter's unit, that changes no measurement).
   std::vector<std::string> combinations;
+  /// The best determined direction's opposite: the combination along the smallest identifiable
+  /// singular value (the one the noise moves most), in the same form.
+  std::string weakest;
   /// Parameters with a zero column: no measurement depends on them.
   std::vector<int> unobserved;
   /// The parameters to hold so that the rest is identifiable (one per null direction + unobserved).
@@ -186,6 +189,20 @@ struct IdentifyResult {
 /// residual components.
 [[nodiscard]] IdentifyResult identify(const kin::Model& start_model, std::span<const Measurement> data,
                                       const IdentifyOptions& options = {});
+
+/// A rotary joint whose values fit far better with the opposite sign (a sign convention that
+/// differs between the instrument's records and the machine file: ISO 841 table axes turn the
+/// other way than the head's).
+struct SignHint {
+  std::string joint;
+  double cost_ratio = 0;   ///< final cost as given / final cost with the sign reversed
+  double sigma_mm = 0;     ///< residual σ with the sign reversed
+};
+/// When `result` is suspicious (σ above 3σ₀, not converged, or an angular error parameter beyond
+/// 0.05 rad), identifies again with each rotary joint's values
+/// negated and returns those that fit at least 10 times better (cost). Empty otherwise.
+[[nodiscard]] std::vector<SignHint> opposite_sign_hints(const kin::Model& start_model, std::span<const Measurement> data,
+                                                        const IdentifyOptions& options, const IdentifyResult& result);
 
 /// The residual of one measurement against a model (residual_rows() entries, mm-equivalent, as
 /// the file comment says); false when the model cannot evaluate it (forward/inverse fails).
