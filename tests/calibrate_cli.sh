@@ -159,6 +159,15 @@ le 0.003 "$held_u" || fail "undeclared misregistration: held-out $held_u mm, exp
 grep -q "undeclared.csv fits .* times worse than its declared sigma" "$T/undeclared.err" ||
   fail "undeclared misregistration: the file's poor fit is not warned about"
 
+# Dial-indicator attitudes without their Y records (a tool tilted in XZ): one cosine per record,
+# and the 3-PRS head still calibrates to the same held-out error (issue 19).
+awk -F, 'BEGIN {OFS = ","} /^#/ || /^id/ {print; next} {$9 = ""; $10 = ""; print}' "$D/hybrid_3prs_attitudes.csv" > "$T/att_xz.csv"
+"$P" calibrate -m "$M/hybrid_3prs_doc001_nominal.toml" "$D/hybrid_3prs_poses5.csv" "$T/att_xz.csv" -o "$T/xz.toml" \
+  --report "$T/xz.json" 2> "$T/xz.err" || fail "attitudes without Y records: calibrate failed"
+held=$(json_in "$T/xz.json" validation max_position_after_mm)
+le "$held" 0.005 || fail "attitudes without Y records: held-out max error $held mm > 0.005"
+grep -q '"kind": "axis-cosine"' "$T/xz.json" || fail "attitudes without Y records: no single-cosine rows in the report"
+
 # A rotary axis recorded with the opposite sign convention is named (issue 19, honest stops).
 awk -F, 'BEGIN {OFS = ","} /^#/ || /^id/ {print; next} {$3 = -$3; print}' "$D/trunnion_bc_positions.csv" > "$T/flipC.csv"
 "$P" calibrate -m "$M/trunnion_bc_fanuc_nominal.toml" "$T/flipC.csv" -o "$T/flip.toml" 2> "$T/flip.err"

@@ -161,6 +161,70 @@ TEST(MeasurementFiles, AttitudesGiveTheToolAxis) {
   }
 }
 
+TEST(MeasurementFiles, SingleIndicatorRecordsGiveOneCosineEach) {
+  // A tool tilted in XZ has no usable Y record: X alone, or X and Z, give one cosine per record
+  // (X and Z leave the sign of the Y cosine open); X and Y give the direction as before.
+  const auto mach = load("machines/hybrid_3prs_doc001.toml");
+  const Eigen::Vector3d stem = Eigen::Vector3d(0.3, -0.2, -1).normalized();
+  const std::string text = fmt::format(
+      "# kind: attitudes\nX_mm,Y_mm,q1_mm,q2_mm,q3_mm,travel_x_mm,stem_x_mm,travel_y_mm,stem_y_mm,travel_z_mm,stem_z_mm\n"
+      "0,0,100,110,120,1,{0:.12f},,,,\n"
+      "0,0,100,110,120,1,{0:.12f},,,2,{1:.12f}\n"
+      "0,0,100,110,120,1,{0:.12f},1,{2:.12f},,\n"
+      "0,0,100,110,120,,,,,,\n",
+      1 / stem.x(), 2 / stem.z(), 1 / stem.y());
+  gcode::DiagnosticSink sink;
+  auto t = cal::CsvTable::parse("att.csv", text, sink);
+  ASSERT_TRUE(t);
+  std::vector<Measurement> out;
+  EXPECT_FALSE(cal::read_measurements(*t, *mach.actual, out)) << "the row without any record is refused";
+  ASSERT_EQ(sink.stored().size(), 1u);
+  EXPECT_EQ(sink.stored()[0].where.line, 6u);
+  ASSERT_EQ(out.size(), 4u);
+  const Eigen::Vector3d o = -stem;  // the tool axis
+  EXPECT_EQ(out[0].kind, MeasurementKind::axis_cosine);
+  EXPECT_NEAR(out[0].cosine, o.x(), 1e-12);
+  EXPECT_LT((out[0].measured.r.col(0) - Eigen::Vector3d::UnitX()).norm(), 1e-15);
+  EXPECT_EQ(out[1].kind, MeasurementKind::axis_cosine);
+  EXPECT_EQ(out[2].kind, MeasurementKind::axis_cosine);
+  EXPECT_NEAR(out[2].cosine, o.z(), 1e-12);
+  EXPECT_LT((out[2].measured.r.col(0) - Eigen::Vector3d::UnitZ()).norm(), 1e-15);
+  EXPECT_EQ(out[3].kind, MeasurementKind::direction);
+  EXPECT_LT((out[3].measured.axis() - o).norm(), 1e-9);
+  for (const auto& m : out) EXPECT_NEAR(m.measured.r.determinant(), 1, 1e-12);
+}
+
+TEST(Identify, SingleCosineRowsLineariseExactly) {
+  // The analytic rows of a single-cosine measurement against central differences of the residual.
+  const auto mach = load("machines/hybrid_3prs_doc001.toml");
+  const kin::Model& model = *mach.actual;
+  Measurement m;
+  m.kind = MeasurementKind::axis_cosine;
+  m.q = kin::JointVector::Zero(model.joint_count());
+  m.q << 20, -30, 100, 120, 90;
+  m.measured.r.col(0) = Eigen::Vector3d(1, 2, -1).normalized();
+  m.measured.r.col(2) = m.measured.r.col(0).unitOrthogonal();
+  m.measured.r.col(1) = m.measured.r.col(2).cross(m.measured.r.col(0));
+  m.cosine = 0.3;
+  std::vector<int> cols;
+  for (int k = 0; k < static_cast<int>(model.parameters().size()); ++k)
+    if (model.parameters()[static_cast<std::size_t>(k)].error) cols.push_back(k);
+  Eigen::VectorXd res;
+  Eigen::MatrixXd jac;
+  cal::linearise(model, std::span<const Measurement>(&m, 1), cols, res, jac);
+  ASSERT_EQ(res.size(), 1);
+  for (std::size_t c = 0; c < cols.size(); ++c) {
+    const double h = model.parameters()[static_cast<std::size_t>(cols[c])].unit == "rad" ? 1e-7 : 1e-5;
+    std::vector<double> a = model.values(), b = model.values();
+    a[static_cast<std::size_t>(cols[c])] += h;
+    b[static_cast<std::size_t>(cols[c])] -= h;
+    const double fd = (cal::residuals(*model.with_values(a), std::span<const Measurement>(&m, 1))[0] -
+                       cal::residuals(*model.with_values(b), std::span<const Measurement>(&m, 1))[0]) /
+                      (2 * h);
+    EXPECT_NEAR(jac(0, static_cast<Eigen::Index>(c)), fd, 1e-6 * std::max(1.0, std::abs(fd))) << cols[c];
+  }
+}
+
 TEST(MeasurementFiles, EveryLineEndIsALineEnd) {
   // LF, CR LF and a CR alone (old Mac exports) give the same rows, with the same line numbers.
   const auto mach = load("machines/trunnion_bc_fanuc.toml");

@@ -84,6 +84,10 @@ void residual_from(const Measurement& m, const kin::Pose& measured, const Predic
     for (int i = 0; i < m.q.size(); ++i) res[i] = w.length * (m.q[i] - p.q[i]);
     return;
   }
+  if (m.kind == MeasurementKind::axis_cosine) {
+    res[0] = w.angle * (m.cosine - measured.r.col(0).dot(p.pose.axis()));
+    return;
+  }
   int at = 0;
   if (m.kind != MeasurementKind::direction) {
     const Vec3 dp = measured.p - p.pose.p;
@@ -253,6 +257,11 @@ void residual_jacobian(const Measurement& m, const kin::Pose& measured, const Pr
   };
   if (m.kind == MeasurementKind::struts) {
     for (Eigen::Index i = 0; i < d.rows(); ++i) put(-w.length * d.row(i));
+    return;
+  }
+  if (m.kind == MeasurementKind::axis_cosine) {
+    // d·O moves by d·(dθ × O) = (O × d)·dθ.
+    put(-w.angle * (p.pose.axis().cross(Vec3(measured.r.col(0)))).transpose() * d.bottomRows(3));
     return;
   }
   if (m.kind != MeasurementKind::direction)
@@ -1103,6 +1112,7 @@ MeasurementError measurement_error(const kin::Model& model, const Measurement& m
     }
     case MeasurementKind::position: e.position_mm = Vec3(r[0], r[1], r[2]).norm(); break;
     case MeasurementKind::direction: e.angle_deg = std::hypot(r[0], r[1]) / kin::kDeg; break;
+    case MeasurementKind::axis_cosine: e.angle_deg = std::abs(r[0]) / kin::kDeg; break;  // the cosine's error, as an angle
     case MeasurementKind::pose:
       e.position_mm = Vec3(r[0], r[1], r[2]).norm();
       e.angle_deg = (m.has_torsion ? Vec3(r[3], r[4], r[5]).norm() : std::hypot(r[3], r[4])) / kin::kDeg;

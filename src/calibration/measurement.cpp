@@ -7,6 +7,8 @@
 
 #include <fmt/format.h>
 
+#include "postproc/error.hpp"
+
 namespace postproc::cal {
 namespace {
 
@@ -220,6 +222,7 @@ std::string_view to_string(MeasurementKind k) {
     case MeasurementKind::pose: return "pose";
     case MeasurementKind::position: return "position";
     case MeasurementKind::direction: return "direction";
+    case MeasurementKind::axis_cosine: return "axis-cosine";
     case MeasurementKind::struts: return "struts";
   }
   return "?";
@@ -230,6 +233,7 @@ int residual_rows(const Measurement& m, int joints) {
     case MeasurementKind::pose: return m.has_torsion ? 6 : 5;
     case MeasurementKind::position: return 3;
     case MeasurementKind::direction: return 2;
+    case MeasurementKind::axis_cosine: return 1;
     case MeasurementKind::struts: return joints;
   }
   return 0;
@@ -283,13 +287,19 @@ bool read_measurements(CsvTable& t, const kin::Model& model, std::vector<Measure
   std::array<int, 3> travel{-1, -1, -1}, stem{-1, -1, -1};
   std::array<double, 3> tscale{1, 1, 1}, sscale{1, 1, 1};
   if (*kind == "attitudes") {
+    // Any of the three indicator directions; at least one (a tool tilted in XZ has no usable Y record).
     for (std::size_t k = 0; k < 3; ++k) {
       const std::string axis(1, "xyz"[k]);
-      const bool required = k < 2;
-      if (required || t.find("travel_" + axis) >= 0 || t.find("stem_" + axis) >= 0) {
+      if (t.find("travel_" + axis) >= 0 || t.find("stem_" + axis) >= 0) {
         travel[k] = t.quantity_column("travel_" + axis, Quantity::length, true, tscale[k]);
         stem[k] = t.quantity_column("stem_" + axis, Quantity::length, true, sscale[k]);
       }
+    }
+    if (t.find("travel_x") < 0 && t.find("travel_y") < 0 && t.find("travel_z") < 0 && t.find("stem_x") < 0 &&
+        t.find("stem_y") < 0 && t.find("stem_z") < 0) {
+      double unused_scale = 1;
+      (void)t.quantity_column("travel_x", Quantity::length, true, unused_scale);
+      (void)t.quantity_column("stem_x", Quantity::length, true, unused_scale);
     }
   }
   double unused = 1;
@@ -348,10 +358,14 @@ bool read_measurements(CsvTable& t, const kin::Model& model, std::vector<Measure
       m.measured.r = frame_with_axis(*o, x);
     }
     if (*kind == "attitudes") {
+      // Per indicator direction: both cells empty = not recorded in this row.
       Vec3 c = Vec3::Zero();
-      int given = 0;
+      std::array<bool, 3> given{};
       for (std::size_t k = 0; k < 3 && ok; ++k) {
         if (travel[k] < 0) continue;
+        const bool empty_t = t.rows()[r].cells[static_cast<std::size_t>(travel[k])].empty();
+        const bool empty_s = t.rows()[r].cells[static_cast<std::size_t>(stem[k])].empty();
+        if (empty_t && empty_s) continue;
         const auto d = t.number(r, travel[k], tscale[k]);
         const auto l = t.number(r, stem[k], sscale[k]);
         if (!d || !l) {
@@ -367,10 +381,31 @@ bool read_measurements(CsvTable& t, const kin::Model& model, std::vector<Measure
           break;
         }
         c[static_cast<Eigen::Index>(k)] = *d / *l;
-        ++given;
+        given[k] = true;
       }
       if (!ok) continue;
-      if (given == 2) {
+      const int count = static_cast<int>(given[0]) + static_cast<int>(given[1]) + static_cast<int>(given[2]);
+      if (count == 0) {
+        t.error(r, -1, codes::kCsvRange, "no indicator record in this row; give travel and stem of at least one axis");
+        continue;
+      }
+      if (count == 1 || (count == 2 && given[2])) {
+        // One direction cosine per record: the stem (= −tool axis) against the travel direction.
+        // A tool tilted in XZ has no usable Y record; X and Z alone leave the sign of the Y cosine open.
+        for (std::size_t k = 0; k < 3; ++k) {
+          if (!given[k]) continue;
+          Measurement one = m;
+          one.kind = MeasurementKind::axis_cosine;
+          const Vec3 d = Vec3::Unit(static_cast<Eigen::Index>(k));
+          one.measured.r = frame_with_axis(d.unitOrthogonal());
+          one.measured.r.col(0) = d;
+          one.measured.r.col(1) = one.measured.r.col(2).cross(d);
+          one.cosine = -c[static_cast<Eigen::Index>(k)];  // tool axis O = −stem direction
+          out.push_back(std::move(one));
+        }
+        continue;
+      }
+      if (!given[2]) {
         const double rest = 1 - c.x() * c.x() - c.y() * c.y();
         if (rest < 0) {
           t.error(r, travel[0], codes::kCsvRange, "cos²α + cos²β > 1: the X and Y records contradict each other");
@@ -409,6 +444,8 @@ std::string write_measurements(std::span<const Measurement> data, const kin::Mod
     case MeasurementKind::pose: kind = "poses"; break;
     case MeasurementKind::position: kind = "positions"; break;
     case MeasurementKind::direction: kind = "directions"; break;
+    case MeasurementKind::axis_cosine:
+      throw Error(ExitCode::usage, "single indicator records are written as attitudes files, not by write_measurements");
     case MeasurementKind::struts: kind = "struts"; break;
   }
   std::string s = fmt::format("# kind: {}\n", kind);

@@ -33,6 +33,9 @@ enum class MeasurementKind : std::uint8_t {
   position,   ///< tool tip only
   direction,  ///< tool axis only (also from dial-indicator attitudes)
   struts,     ///< joint (strut) values recorded at a known tool pose; compared in joint space
+  /// One direction cosine of the tool axis, `cosine` = d·O with d = measured.r.col(0) (a unit
+  /// travel direction): a dial-indicator record without its partners (attitudes files).
+  axis_cosine,
 };
 [[nodiscard]] std::string_view to_string(MeasurementKind k);
 
@@ -62,13 +65,14 @@ struct Measurement {
   bool has_torsion = true;  ///< pose and struts: measured.r is complete (else only its axis)
   bool validate = false;    ///< held out: not fitted, only checked
   Source source;            ///< the file's frame and uncertainty
+  double cosine = 0;        ///< axis_cosine: the measured d·O
   std::string label;        ///< id column, or file:line
   std::string file;
   std::uint64_t line = 0;
 };
 
 /// Rows of the residual of one measurement (see identify.hpp): pose 6 / 5, position 3,
-/// direction 2, struts = joint count.
+/// direction 2, axis cosine 1, struts = joint count.
 [[nodiscard]] int residual_rows(const Measurement& m, int joints);
 
 /// The joint columns of a file: one per model joint, named like the joint, with a length unit
