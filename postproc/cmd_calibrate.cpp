@@ -346,6 +346,14 @@ void run_calibrate(const CalibrateArgs& a, int& rc) {
       t.held.emplace_back(k, why);
     }
     out_text = cal::replace_toml_table(out_text, "errors", cal::errors_table_toml(t));
+    if (!run.result.identified.empty()) {
+      std::vector<kin::JointVector> fitted;
+      for (const cal::Measurement& m : original)
+        if (!m.validate) fitted.push_back(m.q);
+      out_text = cal::replace_toml_table(
+          out_text, "uncertainty",
+          cal::uncertainty_table_toml(start, run.result.identified, run.result.covariance, fitted));
+    }
     for (const cal::FrameEstimate& f : run.result.frames) {
       const Eigen::Vector3d w = f.rotation() / kin::kDeg * 3600;
       header.push_back(fmt::format("  instrument frame {}: translation ({:.4f}, {:.4f}, {:.4f}) um, rotation ({:.3f}, "

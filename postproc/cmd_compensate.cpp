@@ -10,6 +10,7 @@
 #include "common.hpp"
 #include "progress_bar.hpp"
 #include "postproc/compensation/compensate.hpp"
+#include "postproc/compensation/residual_bounds.hpp"
 #include "postproc/compensation/result_json.hpp"
 #include "postproc/contour/report.hpp"
 #include "postproc/gcode/detect.hpp"
@@ -40,7 +41,68 @@ struct CompensateArgs {
   bool allow_recompensation = false;
   unsigned jobs = 0;
   ResolveArgs resolve;
+  std::string bounds_csv;         ///< --bounds-csv: the 95 % bound per motion
+  double bound_limit_um = 0;      ///< --bound-limit: warn where the tip bound exceeds it (0: no limit)
 };
+
+/// The bounds of the written program (residual_bounds.hpp) and their located warnings: PP-W640
+/// where a block leaves the region the calibration was measured in, PP-W641 where the tip bound
+/// exceeds --bound-limit. Located at the input line each written line came from.
+comp::BoundsResult bound_written(const CompensateArgs& a, std::string_view written,
+                                 const std::vector<std::uint64_t>& line_map, const gcode::Dialect& d,
+                                 const machine::Machine& m, gcode::DiagnosticSink& sink) {
+  comp::BoundsResult b = comp::residual_bounds(written, d, m);
+  // The input's lines, for the source echo of the warnings (a file; standard input is gone).
+  std::string source;
+  std::vector<std::size_t> starts;
+  auto line_text = [&](std::uint64_t line) -> std::string_view {
+    if (a.input == "-") return {};
+    if (starts.empty()) {
+      source = io::read_file(a.input, "NC program");
+      starts.push_back(0);
+      for (std::size_t i = 0; i < source.size(); ++i)
+        if (source[i] == '\n') starts.push_back(i + 1);
+    }
+    if (line == 0 || line > starts.size()) return {};
+    const std::size_t from = starts[line - 1];
+    std::size_t to = line < starts.size() ? starts[line] - 1 : source.size();
+    if (to > from && source[to - 1] == '\r') --to;
+    return std::string_view(source).substr(from, to - from);
+  };
+  auto warn = [&](std::uint64_t written_line, std::string_view code, std::string message) {
+    const std::uint64_t line = written_line >= 1 && written_line <= line_map.size() ? line_map[written_line - 1] : 0;
+    if (line == 0) return;
+    gcode::Diagnostic w;
+    w.severity = gcode::Severity::warning;
+    w.code = std::string(code);
+    w.file = a.input;
+    w.where = {line, 1};
+    w.message = std::move(message);
+    const std::string_view text = line_text(line);
+    gcode::set_source_line(w, text);
+    w.length = static_cast<std::uint32_t>(std::max<std::size_t>(1, text.size()));
+    sink.report(std::move(w));
+  };
+  const machine::Uncertainty& u = *m.uncertainty;
+  for (const comp::BlockBound& bb : b.blocks) {
+    if (bb.outside_region) {
+      const auto j = static_cast<std::size_t>(bb.outside_joint);
+      const kin::Joint& joint = m.actual->joints()[j];
+      const char* unit = joint.type == kin::JointType::rotary ? "deg" : "mm";
+      warn(bb.line, "PP-W640",
+           fmt::format("this block moves {} outside the range the calibration was measured in ({:g} … {:g} {}): its "
+                       "correction extrapolates the calibration; measure poses that cover the program's range",
+                       joint.name, u.region_min[j], u.region_max[j], unit));
+    }
+    if (a.bound_limit_um > 0 && bb.tip_mm * 1000 > a.bound_limit_um)
+      warn(bb.line, "PP-W641",
+           fmt::format("the 95 % bound of the tool-tip error left after compensation is {:.2f} µm here, above "
+                       "--bound-limit {:g} µm; the calibration does not know the machine well enough at this pose "
+                       "(more or better-placed measurements: postproc calibrate plan)",
+                       bb.tip_mm * 1000, a.bound_limit_um));
+  }
+  return b;
+}
 
 nlohmann::json report_json(const CompensateArgs& a, const machine::Machine& m, const comp::CompensateResult& r,
                            const comp::ContourDetails& contour, double seconds, bool ok, const gcode::DiagnosticSink& sink) {
@@ -108,6 +170,12 @@ void setup_compensate(CLI::App& app, int& rc) {
                   "written program (0: none)")
       ->capture_default_str()
       ->check(CLI::NonNegativeNumber);
+  cmd->add_option("--bounds-csv", o->bounds_csv,
+                  "write the 95 % bound of the tool-tip (mm) and tool-axis (rad) error left after compensation, one "
+                  "row per motion of the written program (needs the machine file's [uncertainty] from calibrate)");
+  cmd->add_option("--bound-limit", o->bound_limit_um,
+                  "warn (PP-W641, located) where the tool-tip bound exceeds this many µm (implies the bounds)")
+      ->check(CLI::NonNegativeNumber);
   cmd->add_flag("-q,--quiet", o->quiet, "diagnostics only, no summary lines");
   cmd->add_flag("--flatten", o->flatten,
                 "programs with parameters, expressions, subprograms or loops: write the resolved program as literal "
@@ -168,6 +236,17 @@ void setup_compensate(CLI::App& app, int& rc) {
       std::error_code ec;
       if (o->input != "-") opt.input_bytes = std::filesystem::file_size(o->input, ec);
     }
+    const bool bounds = !o->bounds_csv.empty() || o->bound_limit_um > 0;
+    if (bounds && !machine->uncertainty)
+      throw Error(ExitCode::usage,
+                  fmt::format("--bounds-csv/--bound-limit: {} has no [uncertainty] table, so nothing says how well its "
+                              "errors are known; write it with postproc calibrate",
+                              o->machine));
+    // With bounds the written program is read back: it is held in memory first.
+    io::OutputFile held = io::OutputFile::memory();
+    io::OutputFile& target = bounds ? held : out;
+    std::vector<std::uint64_t> line_map;
+    if (bounds) opt.line_map = &line_map;
     comp::CompensateResult r;
     comp::ContourDetails contour;
     const bool servo = o->mode != "geometric";
@@ -181,7 +260,7 @@ void setup_compensate(CLI::App& app, int& rc) {
     }
     if (streaming) {
       gcode::LineReader reader(o->input);
-      r = comp::compensate(reader, o->input, d, *machine, opt, out, sink);
+      r = comp::compensate(reader, o->input, d, *machine, opt, target, sink);
     } else {
       // The contour stage reads the program twice (path, then writing): it is held in memory.
       // So is a program to resolve.
@@ -189,16 +268,33 @@ void setup_compensate(CLI::App& app, int& rc) {
       contour::PrecompensateOptions popt;
       popt.max_iterations = o->iterations;
       popt.learning_iterations = o->refine_iterations;
-      r = comp::compensate_program(text, o->input, d, *machine, opt, popt, out, sink, &contour);
+      r = comp::compensate_program(text, o->input, d, *machine, opt, popt, target, sink, &contour);
     }
     bar.finish();
+    std::optional<comp::BoundsResult> bound;
+    if (bounds && !sink.has_errors()) {
+      const std::string written = held.take();
+      bound = bound_written(*o, written, line_map, d, *machine, sink);
+      out.write(written);
+    }
     printer.finish();
     const bool ok = !sink.has_errors();
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     OutputSet outputs;
     if (!o->report.empty()) {
-      outputs.add(o->report, report_json(*o, *machine, r, contour, seconds, ok, sink).dump(2) + "\n");
+      nlohmann::json j = report_json(*o, *machine, r, contour, seconds, ok, sink);
+      if (bound)
+        j["uncertainty"] = {{"confidence", 0.95},
+                            {"parameters", bound->parameters},
+                            {"k", bound->k},
+                            {"blocks", bound->blocks.size()},
+                            {"max_bound_tip_mm", bound->max_tip_mm},
+                            {"max_bound_axis_rad", bound->max_axis_rad},
+                            {"blocks_outside_calibrated_region", bound->outside_region},
+                            {"skipped", bound->skipped}};
+      outputs.add(o->report, j.dump(2) + "\n");
     }
+    if (bound && ok && !o->bounds_csv.empty()) outputs.add(o->bounds_csv, comp::bounds_csv(*bound));
     if (!o->html.empty() && ok) {
       contour::ContourReport cr;
       cr.title = fmt::format("compensate --mode {} {}", o->mode, o->input);
@@ -228,6 +324,17 @@ void setup_compensate(CLI::App& app, int& rc) {
       rc = 0;
       return;
     }
+    if (bound)
+      std::fputs(fmt::format("postproc: 95 % bound of the error left after compensation (calibration covariance of {} "
+                             "parameters, k = {:.3f}, plus rounding): tool tip ≤ {:.3f} µm, tool axis ≤ {:.2f} arcsec over "
+                             "{} motions{}\n",
+                             bound->parameters, bound->k, bound->max_tip_mm * 1000,
+                             bound->max_axis_rad * 180 / 3.14159265358979323846 * 3600, bound->blocks.size(),
+                             bound->outside_region > 0
+                                 ? fmt::format("; {} outside the calibrated region (PP-W640)", bound->outside_region)
+                                 : "")
+                     .c_str(),
+                 stderr);
     if (o->mode == "contour")
       std::fputs(fmt::format("postproc: {} blocks, {} moves, {} blocks changed ({} words changed, {} inserted); largest "
                              "correction {:.4f} mm / {:.5f} deg\n",

@@ -175,6 +175,24 @@ grep -q "warning: the data fit .* times better .* with the sign of axis C revers
   fail "sign convention: a reversed C is not named"
 grep -q "with the sign of axis B reversed" "$T/flip.err" && fail "sign convention: B named although only C is reversed"
 
+# Uncertainty to the cut (issue 19): the calibrated file carries [uncertainty]; compensate turns it
+# into a 95 % bound per motion (--bounds-csv), warns located above --bound-limit, and refuses bounds
+# for a machine file without the table.
+grep -q '^\[uncertainty\]$' "$T/frame.toml" || fail "bounds: no [uncertainty] table in the calibrated file"
+"$P" compensate "$SRC/samples/programs/impeller_axes_bc.nc" -m "$T/frame.toml" -o "$T/imp.nc" --bounds-csv "$T/b.csv" \
+  --report "$T/imp.json" --bound-limit 0.5 --max-per-code 1 2> "$T/imp.err" || fail "bounds: compensate failed"
+head -1 "$T/b.csv" | grep -qx 'line,bound_tip_mm,bound_axis_rad' || fail "bounds: CSV header"
+rows=$(($(wc -l < "$T/b.csv") - 1))
+[ "$rows" -gt 100 ] || fail "bounds: $rows rows"
+awk -F, 'NR > 1 && !($2 > 0 && $2 < 0.01 && $3 >= 0) {bad = 1} END {exit bad}' "$T/b.csv" || fail "bounds: values out of range"
+grep -q '"max_bound_tip_mm"' "$T/imp.json" || fail "bounds: not in the report"
+grep -q 'impeller_axes_bc.nc:[0-9]*:1: warning: PP-W641: the 95 % bound' "$T/imp.err" || fail "bounds: no located PP-W641"
+"$P" compensate "$SRC/samples/programs/impeller_axes_bc.nc" -m "$M/trunnion_bc_fanuc.toml" -o "$T/imp2.nc" \
+  --bounds-csv "$T/b2.csv" 2> "$T/b2.err"
+[ $? = 64 ] || fail "bounds without [uncertainty]: expected exit 64"
+grep -q 'has no \[uncertainty\] table' "$T/b2.err" || fail "bounds without [uncertainty]: no reason given"
+[ -e "$T/imp2.nc" ] && fail "bounds without [uncertainty]: a program was written"
+
 # A setting postproc does not know is refused, located, never ignored.
 { echo '# kind: positions'; echo '# frame_of_reference: instrument'; sed '/^# kind/d' "$D/trunnion_bc_positions.csv"; } > "$T/key.csv"
 "$P" calibrate -m "$M/trunnion_bc_fanuc_nominal.toml" "$T/key.csv" -o "$T/key.toml" 2> "$T/key.err"

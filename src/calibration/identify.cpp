@@ -1008,6 +1008,13 @@ IdentifyResult identify(const kin::Model& start_model, std::span<const Measureme
     }
     for (std::size_t c = 0; c < result.identified.size(); ++c)
       result.stddev[static_cast<std::size_t>(result.identified[c])] = column_stddev[c];
+    // The machine parameters' block of σ̂²(JᵀJ)⁻¹ (the registration marginalised out).
+    const auto ni = static_cast<Eigen::Index>(result.identified.size());
+    Eigen::MatrixXd vs = Eigen::MatrixXd::Zero(ni, s.size());
+    for (Eigen::Index i = 0; i < s.size(); ++i)
+      if (s[i] > options.rank_tolerance * s[0]) vs.col(i) = svd.matrixV().topRows(ni).col(i) / s[i];
+    const Eigen::VectorXd inv_scale = scale.head(ni).cwiseInverse();
+    result.covariance = result.sigma * result.sigma * inv_scale.asDiagonal() * (vs * vs.transpose()) * inv_scale.asDiagonal();
   }
   for (std::size_t f = 0; f < frames.size(); ++f) {
     const FrameState& fr = frames[f];

@@ -5,6 +5,8 @@
 #include <cctype>
 #include <cmath>
 
+#include <limits>
+
 #include <fmt/format.h>
 
 #include "postproc/error.hpp"
@@ -100,6 +102,36 @@ std::string errors_table_toml(const ErrorsTable& t) {
   for (const auto& [k, why] : t.held)
     s += fmt::format("# {}: not identifiable from these measurements, kept at its start value ({})\n",
                      m.parameters()[static_cast<std::size_t>(k)].name, why);
+  return s;
+}
+
+std::string uncertainty_table_toml(const kin::Model& model, std::span<const int> identified,
+                                   const Eigen::MatrixXd& covariance, std::span<const kin::JointVector> fitted_joints) {
+  std::string s = "[uncertainty]\n# written by postproc calibrate: the covariance of the identified parameters (mm, rad) "
+                  "and the joint range\n# of the fitted measurements (mm, deg); compensate --bounds-csv turns them into a "
+                  "95 % bound per block\nparameters = [";
+  for (std::size_t i = 0; i < identified.size(); ++i)
+    s += fmt::format("{}\"{}\"", i == 0 ? "" : ", ", model.parameters()[static_cast<std::size_t>(identified[i])].name);
+  s += "]\ncovariance = [\n";
+  for (Eigen::Index i = 0; i < covariance.rows(); ++i) {
+    s += "  [";
+    for (Eigen::Index j = 0; j < covariance.cols(); ++j)
+      s += fmt::format("{}{:.17g}", j == 0 ? "" : ", ", 0.5 * (covariance(i, j) + covariance(j, i)));
+    s += "],\n";
+  }
+  s += "]\n";
+  if (!fitted_joints.empty()) {
+    s += "region = { ";
+    for (int j = 0; j < model.joint_count(); ++j) {
+      double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+      for (const kin::JointVector& q : fitted_joints) {
+        lo = std::min(lo, q[j]);
+        hi = std::max(hi, q[j]);
+      }
+      s += fmt::format("{}{} = [{:.6f}, {:.6f}]", j == 0 ? "" : ", ", key(model.joints()[static_cast<std::size_t>(j)].name), lo, hi);
+    }
+    s += " }\n";
+  }
   return s;
 }
 

@@ -1,6 +1,7 @@
 // compensate: models per tool length; writing corrected words in the program's own style.
 #include "src/compensation/compensate_support.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 #include <fmt/format.h>
@@ -30,6 +31,33 @@ double program_units(int a, double v, const Motion& m) {
 
 int program_decimals(const machine::Machine& mc, int a, const Motion& m) {
   return mc.decimals(a) + (m.inch_source && !gcode::is_rotary(a) ? 1 : 0);
+}
+
+RoundingBound rounding_bound(const machine::Machine& m, const ProgramMap& map, const gcode::Motion& mc,
+                             gcode::AxisMask need, machine::Form f, const kin::JointVector& start, const kin::Pose& got) {
+  RoundingBound b;
+  for (int a = 0; a < gcode::kAxisCount; ++a) {
+    if (!((need >> a) & 1u)) continue;
+    const double h = 0.5 * std::pow(10.0, -m.decimals(a)) * unit_scale(a, mc);
+    double worst = 0, worst_angle = 0;
+    for (double sgn : {-1.0, 1.0}) {
+      Command c{mc.end, mc.tool_vector};
+      c.c[a] += sgn * h;
+      kin::Pose p;
+      kin::JointVector qq;
+      if (map.real(c, start, p, qq).ok()) {
+        worst = std::max(worst, (p.p - got.p).norm());
+        worst_angle = std::max(worst_angle, std::acos(std::clamp(p.axis().dot(got.axis()), -1.0, 1.0)));
+      }
+    }
+    b.tip_mm += worst;
+    b.axis_rad += worst_angle;
+  }
+  if (f == machine::Form::tcp_vector) {
+    b.tip_mm += 3 * 0.5e-6 * 200.0;  // 6-decimal vector components, 200 mm lever
+    b.axis_rad += 3 * 0.5e-6;
+  }
+  return b;
 }
 
 void MotionCollector::block(const gcode::Block& b, std::span<const gcode::Motion> motions, bool) {

@@ -48,6 +48,18 @@ inline constexpr std::string_view kContourUnverified = "PP-W621";  // the writte
 [[nodiscard]] std::string word_separator(const gcode::Block& b);
 using machine::kToolLengthError;  // PP-E621
 
+/// The rounding bound of a written motion: half a unit of the last decimal of each written axis
+/// (`need`), carried through the controller's map to the tool tip (sum over the axes of the
+/// largest tip distance, mm) and the tool axis (rad); tool vectors add their 6-decimal components
+/// (200 mm lever). `got`: the real pose of the motion as written, `start` its branch.
+struct RoundingBound {
+  double tip_mm = 0;
+  double axis_rad = 0;
+};
+[[nodiscard]] RoundingBound rounding_bound(const machine::Machine& m, const ProgramMap& map, const gcode::Motion& mc,
+                                           gcode::AxisMask need, machine::Form f, const kin::JointVector& start,
+                                           const kin::Pose& got);
+
 /// One block's single motion as read back (tool vector carried modally).
 struct CollectedMotion {
   gcode::Motion motion;

@@ -63,21 +63,7 @@ VerifyResult verify(std::string_view original, std::string_view corrected, const
     if (map_o->real(Command{mo.end, mo.tool_vector}, start, before, q3).ok())
       v.max_error_before_mm = std::max(v.max_error_before_mm, (before.p - want.p).norm());
     // The rounding bound: half a unit of each written axis, carried to the tool tip.
-    double bound = 0;
-    for (int a = 0; a < gcode::kAxisCount; ++a) {
-      if (!((need >> a) & 1u)) continue;
-      const double h = 0.5 * std::pow(10.0, -m.decimals(a)) * unit_scale(a, mc);
-      double worst = 0;
-      for (double sgn : {-1.0, 1.0}) {
-        Command c{mc.end, mc.tool_vector};
-        c.c[a] += sgn * h;
-        kin::Pose p;
-        kin::JointVector qq;
-        if (map_c->real(c, start, p, qq).ok()) worst = std::max(worst, (p.p - got.p).norm());
-      }
-      bound += worst;
-    }
-    if (f == Form::tcp_vector) bound += 3 * 0.5e-6 * 200.0;  // 6-decimal vector components, 200 mm lever
+    const double bound = rounding_bound(m, *map_c, mc, need, f, start, got).tip_mm;
     const double err = (got.p - want.p).norm();
     const double ang = std::acos(std::clamp(got.axis().dot(want.axis()), -1.0, 1.0));
     ++v.compared;

@@ -3,6 +3,10 @@
 #include "postproc/machine/machine.hpp"
 
 
+#include <cmath>
+#include <limits>
+
+#include <Eigen/Eigenvalues>
 #include <fmt/format.h>
 #include <openssl/evp.h>
 
@@ -109,6 +113,91 @@ void read_tool(TomlDoc& doc, Fields& f, Machine& m) {
   read_tool_numbers(doc, f, "lengths", m.tool_lengths);
   read_tool_numbers(doc, f, "radii", m.tool_radii);
   f.finish();
+}
+
+/// [uncertainty] parameters = [names], covariance = [[…]] (mm, rad), [uncertainty.region]
+/// JOINT = [min, max] (mm / deg). The covariance must be square, symmetric and positive
+/// semi-definite (a file edited by hand is checked, not trusted).
+void read_uncertainty(TomlDoc& doc, const toml::table& t, const kin::Model& model, Machine& m) {
+  Fields f(doc, t, "uncertainty");
+  Uncertainty u;
+  bool ok = true;
+  if (const toml::array* names = f.array("parameters", true)) {
+    for (const toml::node& n : *names) {
+      const auto* s = n.as_string();
+      const int k = s != nullptr ? model.parameter_index(s->get()) : -1;
+      if (k < 0) {
+        doc.error(n.source(), codes::kUnknownKey,
+                  "[uncertainty] parameters must name parameters of this machine (as [errors] does); this one is not");
+        ok = false;
+        continue;
+      }
+      u.parameters.push_back(k);
+    }
+  }
+  const auto p = static_cast<Eigen::Index>(u.parameters.size());
+  u.covariance = Eigen::MatrixXd::Zero(p, p);
+  if (const toml::array* rows = f.array("covariance", true)) {
+    if (static_cast<Eigen::Index>(rows->size()) != p) {
+      f.error_at("covariance", codes::kInconsistent,
+                 fmt::format("[uncertainty] covariance has {} rows for {} parameters; it must be {}×{}", rows->size(), p, p, p));
+      ok = false;
+    } else {
+      for (Eigen::Index i = 0; i < p && ok; ++i) {
+        const toml::array* row = (*rows)[static_cast<std::size_t>(i)].as_array();
+        if (row == nullptr || static_cast<Eigen::Index>(row->size()) != p) {
+          f.error_at("covariance", codes::kInconsistent,
+                     fmt::format("[uncertainty] covariance row {} must be an array of {} numbers", i + 1, p));
+          ok = false;
+          break;
+        }
+        for (Eigen::Index j = 0; j < p; ++j) {
+          const auto v = (*row)[static_cast<std::size_t>(j)].value<double>();
+          if (!v || !std::isfinite(*v)) {
+            f.error_at("covariance", codes::kRange,
+                       fmt::format("[uncertainty] covariance[{}][{}] is not a finite number", i + 1, j + 1));
+            ok = false;
+            break;
+          }
+          u.covariance(i, j) = *v;
+        }
+      }
+      if (ok && p > 0) {
+        const double scale = std::max(u.covariance.cwiseAbs().maxCoeff(), 1e-300);
+        const bool symmetric = (u.covariance - u.covariance.transpose()).cwiseAbs().maxCoeff() <= 1e-9 * scale;
+        const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(u.covariance);
+        if (!symmetric || eig.eigenvalues().minCoeff() < -1e-9 * scale) {
+          f.error_at("covariance", codes::kInconsistent,
+                     "[uncertainty] covariance is not a covariance (symmetric, positive semi-definite); write it again "
+                     "with postproc calibrate");
+          ok = false;
+        }
+      }
+    }
+  }
+  if (const toml::table* region = f.table("region", false)) {
+    Fields rf(doc, *region, "uncertainty.region");
+    u.region_min.assign(static_cast<std::size_t>(model.joint_count()), -std::numeric_limits<double>::infinity());
+    u.region_max.assign(static_cast<std::size_t>(model.joint_count()), std::numeric_limits<double>::infinity());
+    for (int j = 0; j < model.joint_count(); ++j) {
+      const kin::Joint& joint = model.joints()[static_cast<std::size_t>(j)];
+      const bool rotary = joint.type == kin::JointType::rotary;
+      if (auto r = rf.quantities(joint.name, rotary ? Dim::angle : Dim::length, rotary ? "deg" : "mm", false)) {
+        if (r->size() != 2 || !((*r)[0] <= (*r)[1])) {
+          rf.error_at(joint.name, codes::kInconsistent,
+                      fmt::format("[uncertainty.region] {} must be [min, max] with min ≤ max", joint.name));
+          ok = false;
+          continue;
+        }
+        const double to = rotary ? 180.0 / kin::kPi : 1.0;  // degrees in the model's joint units
+        u.region_min[static_cast<std::size_t>(j)] = (*r)[0] * to;
+        u.region_max[static_cast<std::size_t>(j)] = (*r)[1] * to;
+      }
+    }
+    rf.finish();
+  }
+  f.finish();
+  if (ok) m.uncertainty = std::move(u);
 }
 
 /// [errors] NAME = quantity, one per error parameter of the model.
@@ -361,9 +450,11 @@ std::optional<Machine> parse_machine(std::string file, std::string text, gcode::
       model = apply_map(doc, f, model);
     }
     m.actual = model;
+    if (const toml::table* t = top.table("uncertainty", false)) read_uncertainty(doc, *t, *model, m);
   } else {
     top.known("errors");
     top.known("volumetric_map");
+    top.known("uncertainty");
   }
 
   // [axes.X] …

@@ -159,6 +159,9 @@ struct IdentifyResult {
   std::vector<int> identified;    ///< indices estimated
   std::vector<int> held;          ///< indices held at the start because they were not identifiable
   std::vector<double> stddev;     ///< per parameter; NaN when not estimated (covariance σ̂²(JᵀJ)⁻¹)
+  /// σ̂²(JᵀJ)⁻¹ of the identified parameters (rows and columns in `identified` order, in the
+  /// parameters' units mm and rad); with instrument frames, their block of the joint covariance.
+  Eigen::MatrixXd covariance;
   Identifiability start;          ///< at the start model, over the requested set
   Identifiability solution;       ///< at the result, over the identified set
   int iterations = 0;             ///< Ceres LM iterations

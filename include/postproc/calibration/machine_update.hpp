@@ -30,6 +30,13 @@ struct ErrorsTable {
 /// (50 mm, 0.1 rad), naming it.
 [[nodiscard]] std::string errors_table_toml(const ErrorsTable& t);
 
+/// The `[uncertainty]` table: the identified parameters' names, their covariance (mm, rad; full
+/// precision) and the joint range the fitted measurements covered (`region`, mm / deg), which
+/// `compensate --bounds-csv` turns into a 95 % bound per block.
+[[nodiscard]] std::string uncertainty_table_toml(const kin::Model& model, std::span<const int> identified,
+                                                 const Eigen::MatrixXd& covariance,
+                                                 std::span<const kin::JointVector> fitted_joints);
+
 /// Replaces the table `[name]` (its header line to the line before the next table header) in a
 /// TOML text by `section` (which starts with its own header line); appends it before the first
 /// `[axes.` table, or at the end, when the text has no such table.

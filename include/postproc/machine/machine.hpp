@@ -76,6 +76,15 @@ struct InterpolatorSettings {
   double corner_tolerance = 0.01;    ///< mm (corner = tolerance, and Siemens G642 without CTOL=)
 };
 
+/// [uncertainty] (written by `postproc calibrate`): how well the calibration knows the machine.
+struct Uncertainty {
+  std::vector<int> parameters;  ///< indices into actual->parameters() of the identified parameters
+  Eigen::MatrixXd covariance;   ///< their covariance, in the parameters' units (mm, rad)
+  /// Per joint of the model (mm / degrees): the range the fitted measurements covered; empty when
+  /// the file does not say. Outside it a correction extrapolates the calibration.
+  std::vector<double> region_min, region_max;
+};
+
 struct Machine {
   std::string file;        ///< path as given
   std::string sha256;      ///< of the file's bytes, lowercase hex
@@ -111,6 +120,8 @@ struct Machine {
   double tool_length = 0;                     ///< mm, when no H/D number names another
   std::map<std::uint32_t, double> tool_lengths;  ///< by H (or D) number, mm
   std::map<std::uint32_t, double> tool_radii;    ///< cutter radius by D number (LinuxCNC: tool number), mm
+  /// [uncertainty]: the calibration's covariance and region (none for an uncalibrated file).
+  std::optional<Uncertainty> uncertainty;
   /// For serial machines: the joint index of each program axis, -1 if the machine has none.
   std::array<int, gcode::kAxisCount> joint_of_axis{};
 
