@@ -2,6 +2,7 @@
 // program that visits them. postproc calibrate simulate: synthetic measurement files from a
 // machine file with known errors plus noise.
 #include <cmath>
+#include <limits>
 #include <memory>
 
 #include <fmt/format.h>
@@ -83,7 +84,63 @@ struct PlanArgs {
   int poses = 30, candidates = 2000;
   std::uint64_t seed = 1;
   double margin = 0;
+  std::vector<std::string> region_from;  ///< programs whose working region the poses are drawn in
+  std::vector<std::string> region;       ///< NAME=LO:HI: joints (mm / deg), x y z (tool tip, mm), tilt (deg)
 };
+
+/// --region NAME=LO:HI,…: a joint's range (its unit: mm or deg), the tool tip's x, y, z (mm,
+/// parallel machines) or the largest tilt (`tilt=0:25`, deg).
+void apply_region_args(const std::vector<std::string>& items, const kin::Model& model, cal::PlanOptions& o) {
+  const bool parallel = model.kind().find("hexapod") != std::string::npos || model.kind().find("prs") != std::string::npos;
+  for (const std::string& item : items) {
+    const auto eq = item.find('='), colon = item.find(':', item.find('=') == std::string::npos ? 0 : item.find('='));
+    double lo = 0, hi = 0;
+    bool ok = eq != std::string::npos && colon != std::string::npos;
+    if (ok) {
+      try {
+        std::size_t used = 0;
+        lo = std::stod(item.substr(eq + 1, colon - eq - 1), &used);
+        ok = used == colon - eq - 1;
+        hi = std::stod(item.substr(colon + 1), &used);
+        ok = ok && used == item.size() - colon - 1 && lo <= hi;
+      } catch (const std::exception&) {
+        ok = false;
+      }
+    }
+    if (!ok)
+      throw Error(ExitCode::usage, fmt::format("--region '{}': write NAME=LOW:HIGH with LOW ≤ HIGH, e.g. X=-200:200 or "
+                                               "z=-750:-650 (tool tip, parallel machines) or tilt=0:25",
+                                               item));
+    const std::string name = item.substr(0, eq);
+    int joint = -1;
+    for (int j = 0; j < model.joint_count(); ++j)
+      if (model.joints()[static_cast<std::size_t>(j)].name == name) joint = j;
+    if (joint >= 0) {
+      if (o.joint_region.empty())
+        for (const kin::Joint& j : model.joints())
+          o.joint_region.emplace_back(-std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity());
+      o.joint_region[static_cast<std::size_t>(joint)] = {lo, hi};
+    } else if (parallel && (name == "x" || name == "y" || name == "z")) {
+      if (!o.tip_region) {
+        const Eigen::Vector3d h = o.box_mm;
+        kin::Pose home;
+        if (!model.forward(kin::JointVector::Zero(model.joint_count()), home).ok())
+          throw Error(ExitCode::usage, "--region: the home pose cannot be evaluated");
+        o.tip_region = std::make_pair(Eigen::Vector3d(home.p - h), Eigen::Vector3d(home.p + h));
+      }
+      const int k = name[0] - 'x';
+      o.tip_region->first[k] = lo;
+      o.tip_region->second[k] = hi;
+    } else if (parallel && name == "tilt") {
+      o.max_tilt_deg = std::max(hi, 1e-3);
+    } else {
+      std::string names;
+      for (const kin::Joint& j : model.joints()) names += (names.empty() ? "" : ", ") + j.name;
+      throw Error(ExitCode::usage, fmt::format("--region '{}': '{}' is neither a joint of this machine ({}){}", item, name,
+                                               names, parallel ? " nor x, y, z, tilt" : ""));
+    }
+  }
+}
 
 struct SimulateArgs {
   std::string machine, output, plan, kind = "poses";
@@ -138,6 +195,13 @@ void setup_calibrate_plan(CLI::App& calibrate, int& rc) {
   cmd->add_option("--free", a->free, "plan for these parameters only (patterns, comma separated)")->delimiter(',');
   cmd->add_option("-o,--output", a->output, "pose list (CSV, '# kind: plan')")->required();
   cmd->add_option("--program", a->program, "also write the NC program that visits the poses");
+  cmd->add_option("--region-from", a->region_from,
+                  "draw the poses in the working region of these NC programs (joint ranges; parallel machines: the "
+                  "tool-tip box and tilt)");
+  cmd->add_option("--region", a->region,
+                  "an explicit region, NAME=LOW:HIGH,…: joints (mm / deg), and for parallel machines the tool tip x, "
+                  "y, z (mm, workpiece frame) and tilt (deg)")
+      ->delimiter(',');
   cmd->callback([a, &rc] {
     const machine::Machine m = load_or_refuse(a->machine);
     const KindArg k = parse_kind(a->kind);
@@ -149,9 +213,41 @@ void setup_calibrate_plan(CLI::App& calibrate, int& rc) {
     opt.seed = a->seed;
     opt.margin = a->margin;
     if (!a->free.empty()) opt.parameters = match_parameters(*m.nominal, a->free, "--free");
+    if (!a->region_from.empty()) {
+      gcode::DiagnosticSink sink;
+      DiagnosticPrinter printer(sink, 20);
+      const cal::WorkingRegion region = cal::program_region(m, a->region_from, sink);
+      printer.finish();
+      if (sink.has_errors())
+        throw Error(ExitCode::refused, "--region-from: a program was refused; its working region is not known");
+      cal::plan_in(region, *m.nominal, opt);
+      std::string joints;
+      for (int j = 0; j < m.nominal->joint_count(); ++j)
+        joints += fmt::format("{}{} {:.3f} … {:.3f}", j == 0 ? "" : ", ", m.nominal->joints()[static_cast<std::size_t>(j)].name,
+                              region.joint_min[static_cast<std::size_t>(j)], region.joint_max[static_cast<std::size_t>(j)]);
+      std::fputs(fmt::format("postproc: working region of {} motions: {}; tool tip x {:.3f} … {:.3f}, y {:.3f} … {:.3f}, "
+                             "z {:.3f} … {:.3f} mm; tilt up to {:.2f}°\n",
+                             region.motions, joints, region.tip_min.x(), region.tip_max.x(), region.tip_min.y(),
+                             region.tip_max.y(), region.tip_min.z(), region.tip_max.z(), region.max_tilt_deg)
+                     .c_str(),
+                 stderr);
+    }
+    apply_region_args(a->region, *m.nominal, opt);
     const cal::PlanResult r = cal::plan_poses(*m.nominal, opt);
     print_identifiability("planned poses", r.planned);
-    print_identifiability("as many random poses", r.random);
+    print_identifiability("as many random poses in the same region", r.random);
+    {
+      std::string ranges;
+      for (int j = 0; j < m.nominal->joint_count(); ++j) {
+        double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+        for (const kin::JointVector& q : r.joints) {
+          lo = std::min(lo, q[j]);
+          hi = std::max(hi, q[j]);
+        }
+        ranges += fmt::format("{}{} {:.3f} … {:.3f}", j == 0 ? "" : ", ", m.nominal->joints()[static_cast<std::size_t>(j)].name, lo, hi);
+      }
+      std::fputs(fmt::format("postproc: the planned poses span {}\n", ranges).c_str(), stderr);
+    }
     for (const std::string& c : r.planned.combinations)
       std::fputs(fmt::format("postproc: not identifiable with any pose of this kind: {}\n", c).c_str(), stderr);
     io::OutputFile out(a->output, a->machine, false);

@@ -193,6 +193,22 @@ grep -q 'impeller_axes_bc.nc:[0-9]*:1: warning: PP-W641: the 95 % bound' "$T/imp
 grep -q 'has no \[uncertainty\] table' "$T/b2.err" || fail "bounds without [uncertainty]: no reason given"
 [ -e "$T/imp2.nc" ] && fail "bounds without [uncertainty]: a program was written"
 
+# Planning in the working region (issue 19): the 3-PRS head's poses in the tilted pocket's region
+# keep the sliders where the pocket needs them (about 123–181, 163–297, 154–218 mm).
+"$P" calibrate plan -m "$M/hybrid_3prs_doc001_nominal.toml" --poses 30 --kind poses5 \
+  --region-from "$SRC/samples/programs/tilted_pocket_3prs.nc" -o "$T/plan_region.csv" 2> "$T/plan_region.err" ||
+  fail "plan --region-from failed"
+grep -q 'working region of [0-9]* motions: .*q2 163' "$T/plan_region.err" || fail "plan --region-from: region not printed"
+grep -q 'as many random poses in the same region' "$T/plan_region.err" || fail "plan --region-from: no random comparison"
+awk -F, '/^p[0-9]/ {if ($5 < 150 || $5 > 310) bad = 1} END {exit bad}' "$T/plan_region.csv" ||
+  fail "plan --region-from: a q2 slider outside the pocket's range"
+"$P" calibrate plan -m "$M/trunnion_bc_fanuc_nominal.toml" --poses 20 --kind positions --region B=-10:30,C=0:90 \
+  -o "$T/plan_box.csv" 2> /dev/null || fail "plan --region failed"
+awk -F, '/^p[0-9]/ {if ($2 < -10 || $2 > 30 || $3 < 0 || $3 > 90) bad = 1} END {exit bad}' "$T/plan_box.csv" ||
+  fail "plan --region: a pose outside the box"
+"$P" calibrate plan -m "$M/trunnion_bc_fanuc_nominal.toml" --poses 20 --region Q=0:1 -o "$T/plan_bad.csv" 2> "$T/plan_bad.err"
+[ $? = 64 ] || fail "plan --region with an unknown name: expected exit 64"
+
 # A setting postproc does not know is refused, located, never ignored.
 { echo '# kind: positions'; echo '# frame_of_reference: instrument'; sed '/^# kind/d' "$D/trunnion_bc_positions.csv"; } > "$T/key.csv"
 "$P" calibrate -m "$M/trunnion_bc_fanuc_nominal.toml" "$T/key.csv" -o "$T/key.toml" 2> "$T/key.err"

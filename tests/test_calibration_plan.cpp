@@ -318,3 +318,79 @@ TEST(PlanErrors, Refused) {
 }
 
 }  // namespace
+
+namespace {
+
+/// Largest tool-tip error at `joints` of a model identified from measurements at `poses` (3-PRS
+/// head, 5-DoF poses with ±10 µm / ±0.01° noise, the paper's levels).
+double held_out_after(const mc::Machine& truth, const mc::Machine& nominal, const std::vector<kin::JointVector>& poses,
+                      const std::vector<kin::JointVector>& joints, unsigned seed) {
+  cal::SimulateOptions so;
+  so.kind = MeasurementKind::pose;
+  so.has_torsion = false;
+  so.noise_mm = 0.01;
+  so.noise_deg = 0.01;
+  so.seed = seed;
+  const auto data = cal::simulate_measurements(*truth.actual, *nominal.nominal, poses, so);
+  const auto solved = nominal.actual->with_values(cal::identify(*nominal.actual, data).values);
+  double worst = 0;
+  for (const auto& q : joints) {
+    kin::Pose a, b;
+    if (!truth.actual->forward(q, a).ok() || !solved->forward(q, b).ok()) return std::numeric_limits<double>::infinity();
+    worst = std::max(worst, (a.p - b.p).norm());
+  }
+  return worst;
+}
+
+TEST(PlanRegion, ThePocketsRegionPlanBeatsRandomAndHomePlans) {
+  // Issue 19: for the 3-PRS head the default draws (±150 mm / ±20° around home) span sliders
+  // 0–177 mm while the tilted pocket needs 92–290 mm. Planned in the pocket's working region, the
+  // plan beats random plans of the same size there (O3, and the error left on the pocket's own
+  // poses), and the home plan on the pocket's poses.
+  const mc::Machine truth = load("hybrid_3prs_doc001.toml");
+  const mc::Machine nominal = load("hybrid_3prs_doc001_nominal.toml");
+  gc::DiagnosticSink sink;
+  const std::vector<std::string> programs = {std::string(POSTPROC_SOURCE_DIR) + "/samples/programs/tilted_pocket_3prs.nc"};
+  const cal::WorkingRegion region = cal::program_region(nominal, programs, sink);
+  ASSERT_FALSE(sink.has_errors());
+  ASSERT_GT(region.motions, 10u);
+  ASSERT_EQ(region.joints.size(), region.motions);
+  cal::PlanOptions home;
+  home.poses = 40;
+  home.kind = MeasurementKind::pose;
+  home.has_torsion = false;
+  home.seed = 5;
+  cal::PlanOptions in = home;
+  cal::plan_in(region, *nominal.nominal, in);
+  const cal::PlanResult planned = cal::plan_poses(*nominal.nominal, in);
+  const cal::PlanResult from_home = cal::plan_poses(*nominal.nominal, home);
+  // Every planned pose keeps the sliders within the region's ranges widened by 5 mm.
+  for (const auto& q : planned.joints)
+    for (int j = 2; j < 5; ++j) {
+      EXPECT_GE(q[j], region.joint_min[static_cast<std::size_t>(j)] - 5 - 1e-9);
+      EXPECT_LE(q[j], region.joint_max[static_cast<std::size_t>(j)] + 5 + 1e-9);
+    }
+  EXPECT_GT(planned.planned.o3, planned.random.o3);
+  EXPECT_GT(planned.planned.o1, planned.random.o1);
+  // The random plan of the same size in the same region, and the error on the pocket's poses.
+  std::vector<kin::JointVector> random;
+  {
+    cal::PlanOptions r = in;
+    r.exchange_passes = 0;
+    r.candidates = 40;  // every candidate chosen: 40 random poses in the region
+    r.seed = 11;
+    random = cal::plan_poses(*nominal.nominal, r).joints;
+  }
+  double sum_planned = 0, sum_random = 0, sum_home = 0;
+  for (unsigned seed = 1; seed <= 5; ++seed) {
+    sum_planned += held_out_after(truth, nominal, planned.joints, region.joints, seed);
+    sum_random += held_out_after(truth, nominal, random, region.joints, seed);
+    sum_home += held_out_after(truth, nominal, from_home.joints, region.joints, seed);
+  }
+  EXPECT_LT(sum_planned, sum_random) << "random " << sum_random / 5 << " mm";
+  EXPECT_LT(sum_planned, sum_home) << "home " << sum_home / 5 << " mm";
+  std::cerr << "held-out on the pocket: planned " << sum_planned / 5 * 1000 << " µm, random " << sum_random / 5 * 1000
+            << " µm, home plan " << sum_home / 5 * 1000 << " µm\n";
+}
+
+}  // namespace

@@ -15,6 +15,8 @@
 #include "postproc/error.hpp"
 #include "postproc/gcode/dialect.hpp"
 #include "postproc/gcode/motion.hpp"
+#include "postproc/machine/program_map.hpp"
+#include "postproc/gcode/resolve.hpp"
 
 namespace postproc::cal {
 namespace {
@@ -72,9 +74,23 @@ std::vector<kin::JointVector> draw_candidates(const kin::Model& model, const Pla
   std::vector<kin::JointVector> out;
   out.reserve(static_cast<std::size_t>(o.candidates));
   draws = 0;
+  // The region's joint ranges, intersected with the travel.
+  auto in_region = [&](const kin::JointVector& q) {
+    for (std::size_t j = 0; j < o.joint_region.size() && j < static_cast<std::size_t>(q.size()); ++j)
+      if (q[static_cast<Eigen::Index>(j)] < o.joint_region[j].first || q[static_cast<Eigen::Index>(j)] > o.joint_region[j].second)
+        return false;
+    return true;
+  };
   if (!is_parallel(model)) {
     std::vector<std::pair<double, double>> range;
     for (const kin::Joint& j : model.joints()) range.push_back(travel(j, o.margin));
+    for (std::size_t j = 0; j < o.joint_region.size() && j < range.size(); ++j) {
+      range[j].first = std::max(range[j].first, o.joint_region[j].first);
+      range[j].second = std::min(range[j].second, o.joint_region[j].second);
+      if (!(range[j].first <= range[j].second))
+        throw Error(ExitCode::usage, fmt::format("calibrate plan: the region leaves no travel on joint {}",
+                                                 model.joints()[j].name));
+    }
     while (static_cast<int>(out.size()) < o.candidates && draws < kDrawsPerCandidate * o.candidates) {
       ++draws;
       kin::JointVector q(n);
@@ -97,7 +113,9 @@ std::vector<kin::JointVector> draw_candidates(const kin::Model& model, const Pla
   while (static_cast<int>(out.size()) < o.candidates && draws < kDrawsPerCandidate * o.candidates) {
     ++draws;
     kin::Pose target;
-    for (int k = 0; k < 3; ++k) target.p[k] = home.p[k] + o.box_mm[k] * (2 * unit(rng) - 1);
+    for (int k = 0; k < 3; ++k)
+      target.p[k] = o.tip_region ? o.tip_region->first[k] + (o.tip_region->second[k] - o.tip_region->first[k]) * unit(rng)
+                                 : home.p[k] + o.box_mm[k] * (2 * unit(rng) - 1);
     // Uniform over the cap: cos θ uniform in [cos θmax, 1].
     const double ct = 1 - (1 - cos_max) * unit(rng);
     const double st = std::sqrt(std::max(0.0, 1 - ct * ct));
@@ -105,7 +123,7 @@ std::vector<kin::JointVector> draw_candidates(const kin::Model& model, const Pla
     const Vec3 v(st * std::cos(phi), st * std::sin(phi), ct);  // axis in the home tool frame
     target.r = home.r * Eigen::Quaterniond::FromTwoVectors(Vec3::UnitZ(), v).toRotationMatrix();
     kin::JointVector q;
-    if (!model.inverse(target, zero, q, ik).ok() || !within(model, q, o.margin)) continue;
+    if (!model.inverse(target, zero, q, ik).ok() || !within(model, q, o.margin) || !in_region(q)) continue;
     kin::Pose back;
     if (!model.forward(q, back).ok() || (back.p - target.p).norm() > 1e-6 ||
         (back.axis() - target.axis()).norm() > 1e-8)
@@ -370,6 +388,85 @@ PlanResult plan_poses(const kin::Model& model, const PlanOptions& o) {
   result.log_det_random = design.normalised();
   result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return result;
+}
+
+namespace {
+
+/// Collects the working region of a program's motions through the controller's map.
+class RegionVisitor final : public gcode::BlockVisitor {
+ public:
+  RegionVisitor(const machine::Machine& m, WorkingRegion& r)
+      : m_(m), r_(r), models_(m), vectors_(m), start_(kin::JointVector::Zero(m.nominal->joint_count())) {
+    kin::Pose home;
+    if (m.nominal->forward(start_, home).ok()) home_axis_ = home.axis();
+  }
+  void block(const gcode::Block&, std::span<const gcode::Motion> motions, bool) override {
+    for (const gcode::Motion& raw : motions) {
+      const gcode::Motion mo = vectors_.apply(raw);
+      const machine::Form f = machine::form_of(m_, mo);
+      const gcode::AxisMask need = machine::written_axes(m_, f);
+      if ((mo.known & need) != need || mo.type == gcode::MotionType::drill_cycle) continue;
+      const auto map = machine::map_of(m_, models_, mo);
+      if (!map) continue;
+      kin::JointVector q;
+      kin::Pose p;
+      if (!map->joints(machine::Command{mo.end, mo.tool_vector}, start_, q).ok() || !m_.nominal->forward(q, p).ok()) continue;
+      start_ = q;
+      for (int j = 0; j < q.size(); ++j) {
+        r_.joint_min[static_cast<std::size_t>(j)] = std::min(r_.joint_min[static_cast<std::size_t>(j)], q[j]);
+        r_.joint_max[static_cast<std::size_t>(j)] = std::max(r_.joint_max[static_cast<std::size_t>(j)], q[j]);
+      }
+      if (r_.joints.size() < WorkingRegion::kMaxRegionJoints) r_.joints.push_back(q);
+      r_.tip_min = r_.tip_min.cwiseMin(p.p);
+      r_.tip_max = r_.tip_max.cwiseMax(p.p);
+      r_.max_tilt_deg = std::max(r_.max_tilt_deg,
+                                 std::acos(std::clamp(p.axis().dot(home_axis_), -1.0, 1.0)) / kin::kDeg);
+      ++r_.motions;
+    }
+  }
+
+ private:
+  const machine::Machine& m_;
+  WorkingRegion& r_;
+  machine::ToolLengthModels models_;
+  machine::ModalToolVector vectors_;
+  kin::JointVector start_;
+  Vec3 home_axis_ = Vec3::UnitZ();
+};
+
+}  // namespace
+
+WorkingRegion program_region(const machine::Machine& m, std::span<const std::string> programs,
+                             gcode::DiagnosticSink& sink) {
+  WorkingRegion r;
+  const int n = m.nominal->joint_count();
+  r.joint_min.assign(static_cast<std::size_t>(n), std::numeric_limits<double>::infinity());
+  r.joint_max.assign(static_cast<std::size_t>(n), -std::numeric_limits<double>::infinity());
+  const gcode::Dialect d = *gcode::make_dialect(m.dialect_name, m.dialect_options);
+  for (const std::string& path : programs) {
+    RegionVisitor v(m, r);
+    (void)gcode::run_program_file(path, d, path, sink, v, gcode::with_program_folder({}, path));
+  }
+  if (r.motions == 0)
+    throw Error(ExitCode::usage, "calibrate plan --region-from: no motion of the program(s) has a known position on "
+                                 "this machine; check the programs and the machine file");
+  return r;
+}
+
+void plan_in(const WorkingRegion& r, const kin::Model& model, PlanOptions& o, double widen_mm) {
+  o.joint_region.clear();
+  const bool parallel = is_parallel(model);
+  for (int j = 0; j < model.joint_count(); ++j) {
+    const kin::Joint& joint = model.joints()[static_cast<std::size_t>(j)];
+    // Serial joints are drawn in the program's own ranges; the joints of a parallel machine only
+    // keep the draws (tool poses in the region) inside what the program needs, widened.
+    const double w = parallel && joint.type != kin::JointType::rotary ? widen_mm : 0.0;
+    o.joint_region.emplace_back(r.joint_min[static_cast<std::size_t>(j)] - w, r.joint_max[static_cast<std::size_t>(j)] + w);
+  }
+  if (parallel) {
+    o.tip_region = std::make_pair(Vec3(r.tip_min - Vec3::Constant(widen_mm)), Vec3(r.tip_max + Vec3::Constant(widen_mm)));
+    o.max_tilt_deg = std::max(1.0, r.max_tilt_deg);
+  }
 }
 
 std::vector<Measurement> simulate_measurements(const kin::Model& truth, const kin::Model& controller,

@@ -27,6 +27,8 @@
 ///   inverse(), kept when inside the limits (with margin) and when forward() gives the pose back.
 
 #include <cstdint>
+#include <limits>
+#include <optional>
 #include <span>
 #include <string>
 #include <string_view>
@@ -53,6 +55,12 @@ struct PlanOptions {
   /// Parallel models: half sizes of the tool-tip box around the home tip (mm, workpiece frame).
   Eigen::Vector3d box_mm{150, 150, 100};
   double max_tilt_deg = 20;             ///< parallel models: largest tilt from the home tool axis
+  /// The working region (`calibrate plan --region-from` / `--region`): per joint [lo, hi] (mm /
+  /// deg) the candidates must lie in, intersected with the travel; empty: the travel.
+  std::vector<std::pair<double, double>> joint_region;
+  /// Parallel models: the tool-tip box [low, high] (workpiece frame, mm) the candidate poses are
+  /// drawn in, instead of home ± box_mm.
+  std::optional<std::pair<Eigen::Vector3d, Eigen::Vector3d>> tip_region;
   double orientation_weight = kOrientationWeight;
   /// Ridge of the criterion, relative to the scaled information of one average candidate
   /// (keeps log det finite when some parameter combination is not identifiable at all).
@@ -81,6 +89,27 @@ struct PlanResult {
 /// (usage) for N < 1, fewer candidates than N, a bad parameter index, or when too few reachable
 /// candidates can be drawn.
 [[nodiscard]] PlanResult plan_poses(const kin::Model& model, const PlanOptions& options = {});
+
+/// Where a set of programs works: the range of every joint the controller commands, the tool-tip
+/// box (workpiece frame) and the largest tilt of the tool axis from the home axis, over every
+/// motion whose position is known (through the controller's map, as compensate reads them).
+struct WorkingRegion {
+  std::vector<double> joint_min, joint_max;  ///< per joint, mm / deg
+  Eigen::Vector3d tip_min = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
+  Eigen::Vector3d tip_max = Eigen::Vector3d::Constant(-std::numeric_limits<double>::infinity());
+  double max_tilt_deg = 0;
+  std::uint64_t motions = 0;  ///< motions that set the region
+  std::vector<kin::JointVector> joints;  ///< the motions' joints (the first kMaxRegionJoints), mm / deg
+  static constexpr std::size_t kMaxRegionJoints = 100000;
+};
+/// Reads `programs` (NC files in the machine's dialect) into their working region. Reports the
+/// programs' own diagnostics to `sink`; throws postproc::Error (usage) when no motion is known.
+[[nodiscard]] WorkingRegion program_region(const machine::Machine& m, std::span<const std::string> programs,
+                                           gcode::DiagnosticSink& sink);
+/// Plans in `r`: serial models draw joints in its joint ranges; parallel models draw tool tips in
+/// its tip box widened by `widen_mm` on every side and tool axes up to its tilt (at least 1°),
+/// and keep joints in its joint ranges widened by `widen_mm` (sliders, struts).
+void plan_in(const WorkingRegion& r, const kin::Model& model, PlanOptions& o, double widen_mm = 5);
 
 /// Measurements at joint vectors that a model predicts exactly (residual 0): pose kinds
 /// measured = forward(q); struts: q recorded, measured = forward(q) (a full pose). Labels p1, p2…
