@@ -411,3 +411,27 @@ TEST(HeaderSettings, DirectionFilesCannotRegisterATranslation) {
 }
 
 }  // namespace
+
+namespace {
+
+TEST(InstrumentFrame, RelativeMeasurementsZeroedAtAReferencePose) {
+  // An R-test or a tracker zeroed at the first pose reports P(q) − P(q_ref): its unknown zero is
+  // an instrument frame whose only unknowns are the translation.
+  const Bench s;
+  const std::vector<Measurement> truth = s.simulate(60, MeasurementKind::position, 0.0, 31);
+  std::vector<Measurement> relative = truth;
+  for (Measurement& m : relative) {
+    m.measured.p -= truth.front().measured.p;
+    m.source.frame = "r-test";
+    m.source.free = cal::kTranslation;
+  }
+  const cal::IdentifyResult a = cal::identify(*s.start, truth);
+  const cal::IdentifyResult r = cal::identify(*s.start, relative);
+  ASSERT_EQ(r.frames.size(), 1u);
+  EXPECT_LT((r.frames[0].t - truth.front().measured.p).norm(), 1e-6);
+  EXPECT_LT(Eigen::AngleAxisd(r.frames[0].r).angle(), 1e-12) << "the rotation is not free";
+  // What the zero hides (the linear zero offsets) keeps the machine file's value; the rest matches.
+  EXPECT_LT(max_tip_difference(*s.start->with_values(a.values), *s.start->with_values(r.values), s.held_out), 1e-6);
+}
+
+}  // namespace
