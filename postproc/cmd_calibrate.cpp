@@ -72,7 +72,8 @@ void parse_bound(const std::string& text, const kin::Model& model, cal::Identify
   const int k = model.parameter_index(name);
   if (k < 0) throw Error(ExitCode::usage, fmt::format("--bound '{}': the machine has no parameter '{}'", text, name));
   const kin::Parameter& p = model.parameters()[static_cast<std::size_t>(k)];
-  const cal::Quantity q = p.unit == "rad" ? cal::Quantity::angle : cal::Quantity::length;
+  // A scale (ratio) bound is written like a slope: "20um/m".
+  const cal::Quantity q = p.unit == "mm" ? cal::Quantity::length : cal::Quantity::angle;
   auto value = [&](std::string s) {
     std::size_t used = 0;
     double v = 0;
@@ -84,7 +85,8 @@ void parse_bound(const std::string& text, const kin::Model& model, cal::Identify
     const auto f = used > 0 ? cal::unit_factor(s.substr(used), q) : std::nullopt;
     if (!f)
       throw Error(ExitCode::usage, fmt::format("--bound '{}': '{}' is not a {} with a unit (e.g. {})", text, s,
-                                               p.unit == "rad" ? "angle" : "length", p.unit == "rad" ? "20arcsec" : "50um"));
+                                               p.unit == "rad" ? "angle" : p.unit == "ratio" ? "scale" : "length",
+                                               p.unit == "rad" ? "20arcsec" : p.unit == "ratio" ? "20um/m" : "50um"));
     return v * *f + (p.error ? p.nominal : 0.0);
   };
   const double lo = value(text.substr(eq + 1, colon - eq - 1)), hi = value(text.substr(colon + 1));

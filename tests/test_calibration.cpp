@@ -308,7 +308,8 @@ TEST(MachineUpdate, ErrorsTableReadsBackWithinItsDecimals) {
   for (std::size_t k = 0; k < v.size(); ++k)
     if (m.parameters()[k].error)
       v[k] = m.parameters()[k].nominal +
-             (m.parameters()[k].unit == "rad" ? 1e-4 : 0.05) * std::uniform_real_distribution<double>(-1, 1)(rng);
+             (m.parameters()[k].unit == "rad" ? 1e-4 : m.parameters()[k].unit == "ratio" ? 5e-5 : 0.05) *
+                 std::uniform_real_distribution<double>(-1, 1)(rng);
   cal::ErrorsTable t;
   t.model = &m;
   t.values = v;
@@ -325,7 +326,10 @@ TEST(MachineUpdate, ErrorsTableReadsBackWithinItsDecimals) {
   const auto back = machine::parse_machine("out.toml", out, sink);
   ASSERT_TRUE(back) << (sink.stored().empty() ? "" : sink.stored().front().message);
   for (std::size_t k = 0; k < v.size(); ++k) {
-    const double tol = m.parameters()[k].unit == "rad" ? 0.00005 / 3600 * kin::kDeg : 0.00005e-3;
+    // Written to 4 decimals: 0.0001 arcsec, 0.0001 µm, 0.0001 µm/m.
+    const double tol = m.parameters()[k].unit == "rad"     ? 0.00005 / 3600 * kin::kDeg
+                       : m.parameters()[k].unit == "ratio" ? 0.00005e-6
+                                                           : 0.00005e-3;
     EXPECT_NEAR(back->actual->values()[k], v[k], tol * 1.0001) << m.parameters()[k].name;
   }
   // Everything outside [errors] is kept byte for byte.

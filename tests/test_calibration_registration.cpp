@@ -435,3 +435,78 @@ TEST(InstrumentFrame, RelativeMeasurementsZeroedAtAReferencePose) {
 }
 
 }  // namespace
+
+// --- the X Z B C lathe --------------------------------------------------------------------------
+
+#include <fstream>
+#include <sstream>
+
+#include "postproc/calibration/machine_update.hpp"
+#include "postproc/compensation/compensate.hpp"
+#include "postproc/compensation/verify.hpp"
+#include "postproc/io/output_file.hpp"
+
+namespace {
+
+std::string file_text(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::ostringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+TEST(LatheCalibration, TurnedProfileFromTipPositions) {
+  // Issue 19: the X Z B C lathe calibrated from tool-tip positions (60 poses, ±1 µm) from the
+  // drawing (no [errors], no error-motion tables) must take ≥ 95 % of the error off a turned
+  // profile (before: 75 %). The true machine is the sample's: location errors of C and B, the
+  // centre height (EY0C), the lean of X (EB0Z), zero offsets, and error-motion tables of Z (EZZ
+  // −9…+1 µm, EXZ 0…3 µm) that only the positioning scale EZZ.scale and the squareness follow.
+  const machine::Machine truth = load("machines/lathe_xzbc_doc004.toml");
+  std::string text = file_text(sample("machines/lathe_xzbc_doc004.toml"));
+  const auto a = text.find("[errors]"), b = text.find("[axes.X]");
+  ASSERT_NE(a, std::string::npos);
+  ASSERT_NE(b, std::string::npos);
+  const std::string drawing = text.substr(0, a) + text.substr(b);
+  gcode::DiagnosticSink sink;
+  const auto nominal = machine::parse_machine("lathe_drawing.toml", drawing, sink);
+  ASSERT_TRUE(nominal);
+  cal::SimulateOptions so;
+  so.kind = MeasurementKind::position;
+  so.noise_mm = 0.001;
+  so.seed = 5;
+  const auto data = cal::simulate_measurements(*truth.actual, *nominal->nominal, random_joints(*nominal->actual, 60, 5), so);
+  const cal::IdentifyResult r = cal::identify(*nominal->actual, data);
+  cal::ErrorsTable t;
+  t.model = nominal->actual.get();
+  t.values = r.values;
+  t.stddev = r.stddev;
+  t.identified = r.identified;
+  const auto calibrated =
+      machine::parse_machine("lathe_calibrated.toml", cal::replace_toml_table(drawing, "errors", cal::errors_table_toml(t)), sink);
+  ASSERT_TRUE(calibrated) << "the calibrated file reads back";
+  // Compensate the free-form turned profile with the calibrated file, judge on the true machine.
+  const std::string program = file_text(sample("programs/freeform_lathe_xzbc.ngc"));
+  const gcode::Dialect d = *gcode::make_dialect(calibrated->dialect_name, calibrated->dialect_options);
+  std::vector<std::uint64_t> line_map;
+  comp::CompensateOptions opt;
+  opt.line_map = &line_map;
+  opt.tool_version = "test";
+  io::OutputFile out = io::OutputFile::memory();
+  {
+    gcode::LineReader reader{std::string_view(program)};
+    gcode::DiagnosticSink csink;
+    (void)comp::compensate(reader, "in.ngc", d, *calibrated, opt, out, csink);
+    ASSERT_FALSE(csink.has_errors());
+  }
+  const std::string written = out.take();
+  machine::Machine judge = *calibrated;
+  judge.actual = truth.actual;  // the real machine, error-motion tables included
+  const comp::VerifyResult v = comp::verify(program, written, line_map, d, judge);
+  ASSERT_GT(v.compared, 50u);
+  EXPECT_LT(v.max_error_mm, 0.05 * v.max_error_before_mm)
+      << "before " << v.max_error_before_mm * 1000 << " µm, after " << v.max_error_mm * 1000 << " µm";
+  std::cerr << "lathe turned profile on the true machine: " << v.max_error_before_mm * 1000 << " → "
+            << v.max_error_mm * 1000 << " µm\n";
+}
+
+}  // namespace

@@ -258,18 +258,24 @@ TEST(KinSerial, ParameterNamesAreIso) {
     return v;
   };
   EXPECT_EQ(names(table_ac()), (std::vector<std::string>{"EY0A", "EZ0A", "EB0A", "EC0A", "EA0A", "EX0C", "EY0C",
-                                                         "EA0C", "EB0C", "EC0C", "EX0X", "EY0Y", "EZ0Z", "EC0Y",
-                                                         "EB0Z", "EA0Z", "tool.length"}));
-  EXPECT_EQ(names(head_head()), (std::vector<std::string>{"EX0X", "EY0Y", "EZ0Z", "EX0C", "EY0C", "EA0C", "EB0C",
-                                                          "EC0C", "EX0B", "EZ0B", "EA0B", "EC0B", "EB0B", "EC0Y",
-                                                          "EB0Z", "EA0Z", "tool.length"}));
-  EXPECT_EQ(names(lathe()), (std::vector<std::string>{"EX0X", "EX0C", "EY0C", "EA0C", "EB0C", "EC0C", "EZ0Z", "EX0B",
-                                                      "EZ0B", "EA0B", "EC0B", "EB0B", "EB0Z", "tool.length"}));
-  EXPECT_EQ(names(three_axis()).size(), 7u);  // EY0Y EX0X EZ0Z EC0Y EB0Z EA0Z tool.length
+                                                         "EA0C", "EB0C", "EC0C", "EX0X", "EXX.scale", "EY0Y",
+                                                         "EYY.scale", "EZ0Z", "EZZ.scale", "EC0Y", "EB0Z", "EA0Z",
+                                                         "tool.length"}));
+  EXPECT_EQ(names(head_head()), (std::vector<std::string>{"EX0X", "EXX.scale", "EY0Y", "EYY.scale", "EZ0Z",
+                                                          "EZZ.scale", "EX0C", "EY0C", "EA0C", "EB0C", "EC0C", "EX0B",
+                                                          "EZ0B", "EA0B", "EC0B", "EB0B", "EC0Y", "EB0Z", "EA0Z",
+                                                          "tool.length"}));
+  // The X Z B C lathe: the centre height is EY0C (the spindle's line along Y), the lean of X
+  // against the spindle EB0Z (Z's direction turned about Y, i.e. X–Z squareness), the tool length
+  // "tool.length" (freed with --free), positioning scale errors EXX.scale / EZZ.scale.
+  EXPECT_EQ(names(lathe()), (std::vector<std::string>{"EX0X", "EXX.scale", "EX0C", "EY0C", "EA0C", "EB0C", "EC0C",
+                                                      "EZ0Z", "EZZ.scale", "EX0B", "EZ0B", "EA0B", "EC0B", "EB0B",
+                                                      "EB0Z", "tool.length"}));
+  EXPECT_EQ(names(three_axis()).size(), 10u);  // EX0X EXX.scale … EC0Y EB0Z EA0Z tool.length
   const SerialModel m(table_ac().cfg);
   for (const auto& p : m.parameters()) {
     EXPECT_FALSE(p.description.empty()) << p.name;
-    EXPECT_TRUE(p.unit == "mm" || p.unit == "rad") << p.name;
+    EXPECT_TRUE(p.unit == "mm" || p.unit == "rad" || (p.unit == "ratio" && p.name.ends_with(".scale"))) << p.name;
     EXPECT_EQ(p.error, p.name != "tool.length");
   }
   EXPECT_EQ(m.parameters()[static_cast<std::size_t>(m.parameter_index("EA0C"))].unit, "rad");
@@ -556,3 +562,21 @@ TEST(KinSerial, BadConfigurationsAreRefused) {
 }
 
 }  // namespace
+
+TEST(KinSerial, PositioningScaleStretchesTheTravel) {
+  // EXX.scale = s: the X slide travels (1 + s)·x; the Jacobian column of X grows by the same factor.
+  const Machine mc = three_axis();
+  const SerialModel nominal(mc.cfg);
+  std::vector<double> v = nominal.values();
+  v[static_cast<std::size_t>(nominal.parameter_index("EXX.scale"))] = 20e-6;  // 20 µm/m
+  const auto scaled = nominal.with_values(v);
+  JointVector q(3);  // Y, X, Z
+  q << -120, 400, 35;
+  Pose a, b;
+  ASSERT_TRUE(nominal.forward(q, a).ok());
+  ASSERT_TRUE(scaled->forward(q, b).ok());
+  EXPECT_NEAR((b.p - a.p).norm(), 400 * 20e-6, 1e-12);
+  const Jacobian ja = nominal.jacobian(q), jb = scaled->jacobian(q);
+  EXPECT_NEAR(jb.col(1).norm(), ja.col(1).norm() * (1 + 20e-6), 1e-12);
+  EXPECT_NEAR(jb.col(0).norm(), ja.col(0).norm(), 1e-15);
+}

@@ -204,7 +204,7 @@ class Evaluator {
 
  private:
   [[nodiscard]] double step(int param) const {
-    return base_.parameters()[static_cast<std::size_t>(param)].unit == "rad" ? 1e-7 : 1e-5;
+    return base_.parameters()[static_cast<std::size_t>(param)].unit == "mm" ? 1e-5 : 1e-7;  // mm; rad, ratio
   }
   const kin::Model& perturbed(int c, int sign) {
     auto& slot = sign > 0 ? plus_[static_cast<std::size_t>(c)] : minus_[static_cast<std::size_t>(c)];
@@ -408,7 +408,7 @@ std::vector<Measurement> fit_set(std::span<const Measurement> data) {
   return out;
 }
 
-std::string unit_text(const kin::Parameter& p) { return p.unit == "rad" ? "rad" : "mm"; }
+std::string unit_text(const kin::Parameter& p) { return p.unit == "rad" ? "rad" : p.unit == "ratio" ? "(ratio)" : "mm"; }
 
 /// A column's name and unit for the identifiability report.
 struct Label {
@@ -1099,6 +1099,14 @@ std::vector<SignHint> opposite_sign_hints(const kin::Model& start_model, std::sp
     } catch (const Error&) {
       // the flipped data cannot even be evaluated: not a better explanation
     }
+  }
+  // The reversal that explains the data best (another axis's reversal may also beat a diverged
+  // fit, but by far less).
+  if (out.size() > 1) {
+    const auto best = std::max_element(out.begin(), out.end(),
+                                       [](const SignHint& a, const SignHint& b) { return a.cost_ratio < b.cost_ratio; });
+    const SignHint keep = *best;
+    std::erase_if(out, [&](const SignHint& h) { return h.cost_ratio * 10 < keep.cost_ratio; });
   }
   return out;
 }

@@ -81,20 +81,24 @@ std::string errors_table_toml(const ErrorsTable& t) {
     const double dev = p.error ? v - p.nominal : v;
     if (p.error && dev == 0 && !ident) continue;
     const bool angle = p.unit == "rad";
-    if (p.error && ((angle && std::abs(dev) > 0.1) || (!angle && std::abs(dev) > 50.0)))
+    const bool ratio = p.unit == "ratio";
+    if (p.error && ((angle && std::abs(dev) > 0.1) || (ratio && std::abs(dev) > 0.01) ||
+                    (!angle && !ratio && std::abs(dev) > 50.0)))
       throw Error(ExitCode::refused,
                   fmt::format("{} came out as {:g} {} — beyond what a machine file accepts as an error ({}); the "
                               "measurements do not fit this machine (check units, joint columns, the nominal file)",
-                              p.name, dev, p.unit, angle ? "0.1 rad" : "50 mm"));
+                              p.name, dev, p.unit, angle ? "0.1 rad" : ratio ? "0.01" : "50 mm"));
     std::string value;
     if (!p.error) value = fmt::format("\"{:.6f} {}\"", dev, angle ? "rad" : "mm");
     else if (angle) value = fmt::format("\"{:.4f} arcsec\"", dev * kArcsecPerRad);
+    else if (ratio) value = fmt::format("\"{:.4f} um/m\"", dev * 1e6);
     else value = fmt::format("\"{:.4f} um\"", dev * 1000.0);
     std::string comment;
     const double sd = k < t.stddev.size() ? t.stddev[k] : std::nan("");
     if (ident && std::isfinite(sd))
-      comment = angle ? fmt::format("  # identified, ±{:.3g} arcsec (1σ)", sd * kArcsecPerRad)
-                      : fmt::format("  # identified, ±{:.3g} um (1σ)", sd * 1000.0);
+      comment = angle   ? fmt::format("  # identified, ±{:.3g} arcsec (1σ)", sd * kArcsecPerRad)
+                : ratio ? fmt::format("  # identified, ±{:.3g} um/m (1σ)", sd * 1e6)
+                        : fmt::format("  # identified, ±{:.3g} um (1σ)", sd * 1000.0);
     else if (!ident)
       comment = "  # not identified: kept from the nominal file";
     s += fmt::format("{} = {}{}\n", key(p.name), value, comment);

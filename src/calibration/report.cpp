@@ -66,6 +66,7 @@ using io::html_escape;
 /// Value in the unit people read: µm for mm parameters, arcsec for rad ones.
 std::string human(const kin::Parameter& p, double v) {
   if (!std::isfinite(v)) return "–";
+  if (p.unit == "ratio") return fmt::format("{:.3f} µm/m", v * 1e6);
   return p.unit == "rad" ? fmt::format("{:.3f} arcsec", v * 180.0 / kin::kPi * 3600.0) : fmt::format("{:.3f} µm", v * 1000.0);
 }
 

@@ -28,7 +28,7 @@ Perturbed perturb(const kin::ModelPtr& base, std::span<const int> params) {
   Perturbed p;
   p.base = base;
   for (int k : params) {
-    const double h = base->parameters()[static_cast<std::size_t>(k)].unit == "rad" ? 1e-7 : 1e-5;
+    const double h = base->parameters()[static_cast<std::size_t>(k)].unit == "mm" ? 1e-5 : 1e-7;  // mm; rad, ratio
     std::vector<double> a = base->values(), b = base->values();
     a[static_cast<std::size_t>(k)] += h;
     b[static_cast<std::size_t>(k)] -= h;

@@ -181,6 +181,10 @@ std::vector<Parameter> make_params(const SerialConfig& cfg) {
     const std::string& k = a->name;
     if (a->type == JointType::linear) {
       add(fmt::format("E{0}0{0}", k), "mm", fmt::format("zero offset of {} added to its commanded value, mm", k));
+      p.push_back(Parameter{fmt::format("E{0}{0}.scale", k), "ratio", 0, true,
+                            fmt::format("positioning scale error of {}: its travel is (1 + scale) times the commanded "
+                                        "one (the linear part of ISO 230-2's positioning deviation E{}{})",
+                                        k, k, k)});
       continue;
     }
     const int i = machine_axis(a->direction.normalized());
@@ -237,6 +241,7 @@ SerialModel::SerialModel(SerialConfig cfg, std::vector<double> values)
     const std::string& k = a->name;
     if (!g.rotary) {
       g.offset = value(fmt::format("E{0}0{0}", k));
+      g.gain = 1 + value(fmt::format("E{0}{0}.scale", k));
       if (k == "Y") g.dir = rotation_exp(square_y) * g.dir;
       if (k == "Z") g.dir = rotation_exp(square_z) * g.dir;
     } else {
@@ -378,10 +383,10 @@ void SerialModel::Impl::chain(const JointVector& q, const Trig& tr, Chain& out, 
         lv = -kDeg * g.pk;  // −w × point
       }
     } else {
-      lt = g.dir * (q[j] + g.offset);
+      lt = g.dir * (q[j] * g.gain + g.offset);
       if constexpr (Twist) {
         lw.setZero();
-        lv = g.dir;
+        lv = g.dir * g.gain;
       }
     }
     if (!g.rows.empty()) {
@@ -455,7 +460,7 @@ void SerialModel::Impl::chain(const JointVector& q, const Trig& tr, Chain& out, 
           if (g.rotary) lw = re * Eigen::Vector3d(lw);
           lv = -lw.cross(cp);
         }
-        if (!g.rotary) lv += g.dir;
+        if (!g.rotary) lv += g.dir * g.gain;
       }
     }
     if (identity[sd]) {

@@ -77,6 +77,7 @@ struct SerialModel::Impl {
     Eigen::Vector3d dir;    // actual direction (squareness / orientation errors applied), unit
     Eigen::Vector3d point;  // rotary: actual point of the axis line (pivot + location errors), mm
     double offset = 0;      // zero offset added to the commanded value: mm, or rad for rotary
+    double gain = 1;        // linear: 1 + the positioning scale error (E<k><k>.scale)
     // Rotary: R(θ) = dd + cos θ·(I − dd) + sin θ·[dir]×, and the translation of the turn about
     // the line, point − R(θ)·point = (1 − cos θ)·pq − sin θ·pk.
     Eigen::Matrix3d dd = Eigen::Matrix3d::Zero();  // dir·dirᵀ

@@ -219,12 +219,14 @@ kin::ModelPtr apply_errors(TomlDoc& doc, const toml::table& t, const kin::ModelP
     }
     const kin::Parameter& p = model->parameters()[static_cast<std::size_t>(idx)];
     const bool angle = p.unit == "rad";
-    if (auto q = f.quantity_node(v, fmt::format("[errors] {}", name), angle ? Dim::angle : Dim::length, angle ? "rad" : "mm")) {
-      if ((angle && std::abs(*q) > 0.1) || (!angle && p.error && std::abs(*q) > 50.0)) {
+    const bool ratio = p.unit == "ratio";
+    if (auto q = f.quantity_node(v, fmt::format("[errors] {}", name),
+                                 angle ? Dim::angle : ratio ? Dim::ratio : Dim::length, angle ? "rad" : ratio ? "1" : "mm")) {
+      if ((angle && std::abs(*q) > 0.1) || (ratio && std::abs(*q) > 0.01) || (!angle && !ratio && p.error && std::abs(*q) > 50.0)) {
         doc.error(v.source(), codes::kRange,
                   fmt::format("[errors] {} = {} {} is not a small error (|value| ≤ {}); check the unit (e.g. \"12 um\", "
-                              "\"15 arcsec\")",
-                              name, *q, p.unit, angle ? "0.1 rad" : "50 mm"));
+                              "\"15 arcsec\", \"20 um/m\")",
+                              name, *q, p.unit, angle ? "0.1 rad" : ratio ? "0.01 (1 %)" : "50 mm"));
         continue;
       }
       values[static_cast<std::size_t>(idx)] = p.error ? p.nominal + *q : *q;

@@ -32,7 +32,8 @@ constexpr UnitDef kUnits[] = {
     {"in/min", Dim::velocity, 25.4}, {"deg/min", Dim::velocity, 1.0}, {"deg/s", Dim::velocity, 60.0},
     {"deg/s^2", Dim::acceleration, 1.0}, {"deg/s^3", Dim::jerk, 1.0}, {"mm/s^2", Dim::acceleration, 1.0}, {"m/s^2", Dim::acceleration, 1000.0},
     {"g", Dim::acceleration, 9806.65}, {"mm/s^3", Dim::jerk, 1.0},      {"m/s^3", Dim::jerk, 1000.0},
-    {"%", Dim::ratio, 0.01},         {"1", Dim::ratio, 1.0},
+    {"%", Dim::ratio, 0.01},         {"1", Dim::ratio, 1.0},            {"ppm", Dim::ratio, 1e-6},
+    {"um/m", Dim::ratio, 1e-6},      {"µm/m", Dim::ratio, 1e-6},       {"mm/m", Dim::ratio, 1e-3},
 };
 
 std::string units_of(Dim d) {
@@ -100,7 +101,7 @@ std::string_view to_string(Dim d) {
 
 std::optional<double> convert_unit(double value, std::string_view unit, Dim d) {
   for (const auto& u : kUnits)
-    if (u.name == unit) return u.dim == d ? std::optional<double>(value * u.factor) : std::nullopt;
+    if (u.name == unit && u.dim == d) return value * u.factor;  // "um/m": an angle (slope) or a ratio (scale)
   return std::nullopt;
 }
 
