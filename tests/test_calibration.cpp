@@ -21,6 +21,7 @@
 #include "postproc/error.hpp"
 #include "postproc/kinematics/hexapod.hpp"
 #include "postproc/machine/machine.hpp"
+#include "calibration_support.hpp"
 
 namespace {
 
@@ -28,7 +29,8 @@ using namespace postproc;
 using cal::Measurement;
 using cal::MeasurementKind;
 
-std::string sample(const std::string& rel) { return std::string(POSTPROC_SOURCE_DIR) + "/samples/" + rel; }
+using pptest::sample_path;
+std::string sample(const std::string& rel) { return sample_path(rel); }
 
 machine::Machine load(const std::string& rel) {
   gcode::DiagnosticSink sink;
@@ -37,30 +39,8 @@ machine::Machine load(const std::string& rel) {
   return *m;
 }
 
-/// The machine's actual model with every error parameter at its nominal value (error-motion
-/// tables and geometry kept): the start of an identification.
-kin::ModelPtr zero_errors(const kin::Model& m) {
-  std::vector<double> v = m.values();
-  for (std::size_t k = 0; k < v.size(); ++k)
-    if (m.parameters()[k].error) v[k] = m.parameters()[k].nominal;
-  return m.with_values(v);
-}
-
-/// Random joint vectors within the travel (rotary joints without limits: ±180°).
-std::vector<kin::JointVector> random_joints(const kin::Model& m, int n, unsigned seed) {
-  std::mt19937 rng(seed);
-  std::vector<kin::JointVector> out;
-  for (int i = 0; i < n; ++i) {
-    kin::JointVector q(m.joint_count());
-    for (int j = 0; j < m.joint_count(); ++j) {
-      const kin::Joint& jt = m.joints()[static_cast<std::size_t>(j)];
-      const double lo = std::isfinite(jt.min) ? jt.min : -180, hi = std::isfinite(jt.max) ? jt.max : 180;
-      q[j] = std::uniform_real_distribution<double>(lo, hi)(rng);
-    }
-    out.push_back(q);
-  }
-  return out;
-}
+using pptest::random_joints;
+using pptest::zero_errors;
 
 /// 6-DoF poses of `truth` at q with uniform noise ±mm per component and a rotation ±deg per component.
 std::vector<Measurement> poses(const kin::Model& truth, const std::vector<kin::JointVector>& qs, double mm, double deg,

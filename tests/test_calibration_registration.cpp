@@ -18,6 +18,8 @@
 #include "postproc/calibration/plan.hpp"
 #include "postproc/error.hpp"
 #include "postproc/machine/machine.hpp"
+#include "calibration_support.hpp"
+#include "support.hpp"
 
 namespace {
 
@@ -26,7 +28,7 @@ using cal::Measurement;
 using cal::MeasurementKind;
 using Vec3 = Eigen::Vector3d;
 
-std::string sample(const std::string& rel) { return std::string(POSTPROC_SOURCE_DIR) + "/samples/" + rel; }
+std::string sample(const std::string& rel) { return pptest::sample_path(rel); }
 
 machine::Machine load(const std::string& rel) {
   gcode::DiagnosticSink sink;
@@ -35,30 +37,11 @@ machine::Machine load(const std::string& rel) {
   return *m;
 }
 
-/// The model with every error parameter at its nominal value: the start of an identification.
-kin::ModelPtr zero_errors(const kin::Model& m) {
-  std::vector<double> v = m.values();
-  for (std::size_t k = 0; k < v.size(); ++k)
-    if (m.parameters()[k].error) v[k] = m.parameters()[k].nominal;
-  return m.with_values(v);
-}
+using pptest::zero_errors;
 
-/// Random joint vectors inside the travel (10 % margin; unlimited rotary joints ±180°).
+/// Random joint vectors inside the travel, 10 % of it from the ends.
 std::vector<kin::JointVector> random_joints(const kin::Model& m, int n, unsigned seed) {
-  std::mt19937 rng(seed);
-  std::vector<kin::JointVector> out;
-  for (int i = 0; i < n; ++i) {
-    kin::JointVector q(m.joint_count());
-    for (int j = 0; j < m.joint_count(); ++j) {
-      const kin::Joint& joint = m.joints()[static_cast<std::size_t>(j)];
-      double lo = std::isfinite(joint.min) ? joint.min : -180, hi = std::isfinite(joint.max) ? joint.max : 180;
-      const double margin = 0.1 * (hi - lo);
-      std::uniform_real_distribution<double> u(lo + margin, hi - margin);
-      q[j] = u(rng);
-    }
-    out.push_back(q);
-  }
-  return out;
+  return pptest::random_joints(m, n, seed, 0.1);
 }
 
 /// Largest tool-tip distance between two models over joint vectors (mm).
@@ -438,9 +421,6 @@ TEST(InstrumentFrame, RelativeMeasurementsZeroedAtAReferencePose) {
 
 // --- the X Z B C lathe --------------------------------------------------------------------------
 
-#include <fstream>
-#include <sstream>
-
 #include "postproc/calibration/machine_update.hpp"
 #include "postproc/compensation/compensate.hpp"
 #include "postproc/compensation/verify.hpp"
@@ -448,12 +428,7 @@ TEST(InstrumentFrame, RelativeMeasurementsZeroedAtAReferencePose) {
 
 namespace {
 
-std::string file_text(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::ostringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
+using pptest::read_file;
 
 TEST(LatheCalibration, TurnedProfileFromTipPositions) {
   // Issue 19: the X Z B C lathe calibrated from tool-tip positions (60 poses, ±1 µm) from the
@@ -462,7 +437,7 @@ TEST(LatheCalibration, TurnedProfileFromTipPositions) {
   // centre height (EY0C), the lean of X (EB0Z), zero offsets, and error-motion tables of Z (EZZ
   // −9…+1 µm, EXZ 0…3 µm) that only the positioning scale EZZ.scale and the squareness follow.
   const machine::Machine truth = load("machines/lathe_xzbc_doc004.toml");
-  std::string text = file_text(sample("machines/lathe_xzbc_doc004.toml"));
+  std::string text = read_file(sample("machines/lathe_xzbc_doc004.toml"));
   const auto a = text.find("[errors]"), b = text.find("[axes.X]");
   ASSERT_NE(a, std::string::npos);
   ASSERT_NE(b, std::string::npos);
@@ -485,7 +460,7 @@ TEST(LatheCalibration, TurnedProfileFromTipPositions) {
       machine::parse_machine("lathe_calibrated.toml", cal::replace_toml_table(drawing, "errors", cal::errors_table_toml(t)), sink);
   ASSERT_TRUE(calibrated) << "the calibrated file reads back";
   // Compensate the free-form turned profile with the calibrated file, judge on the true machine.
-  const std::string program = file_text(sample("programs/freeform_lathe_xzbc.ngc"));
+  const std::string program = read_file(sample("programs/freeform_lathe_xzbc.ngc"));
   const gcode::Dialect d = *gcode::make_dialect(calibrated->dialect_name, calibrated->dialect_options);
   std::vector<std::uint64_t> line_map;
   comp::CompensateOptions opt;

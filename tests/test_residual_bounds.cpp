@@ -5,9 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
-#include <fstream>
 #include <random>
-#include <sstream>
 
 #include <fmt/format.h>
 
@@ -18,6 +16,7 @@
 #include "postproc/compensation/residual_bounds.hpp"
 #include "postproc/error.hpp"
 #include "postproc/machine/machine.hpp"
+#include "calibration_support.hpp"
 #include "sample_machine.hpp"
 #include "support.hpp"
 
@@ -29,27 +28,11 @@ namespace gc = postproc::gcode;
 
 const std::string kSamples = std::string(POSTPROC_SOURCE_DIR) + "/samples/";
 
-std::string read_file(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::ostringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
+using pptest::read_file;
 
-std::vector<kin::JointVector> random_joints(const kin::Model& m, int n, unsigned seed) {
-  std::mt19937 rng(seed);
-  std::vector<kin::JointVector> out;
-  for (int i = 0; i < n; ++i) {
-    kin::JointVector q(m.joint_count());
-    for (int j = 0; j < m.joint_count(); ++j) {
-      const kin::Joint& joint = m.joints()[static_cast<std::size_t>(j)];
-      const double lo = std::isfinite(joint.min) ? joint.min : -180, hi = std::isfinite(joint.max) ? joint.max : 180;
-      std::uniform_real_distribution<double> u(lo + 0.05 * (hi - lo), hi - 0.05 * (hi - lo));
-      q[j] = u(rng);
-    }
-    out.push_back(q);
-  }
-  return out;
+/// Random joint vectors inside the travel, 5 % of it from the ends.
+std::vector<postproc::kin::JointVector> random_joints(const postproc::kin::Model& m, int n, unsigned seed) {
+  return pptest::random_joints(m, n, seed, 0.05);
 }
 
 /// The nominal machine file calibrated from simulated measurements of `truth`: [errors] and

@@ -156,28 +156,23 @@ std::optional<Source> measurement_source(CsvTable& t, std::string_view kind) {
       }
     }
   }
-  if (const auto sigma = t.meta("sigma")) {
-    if (const auto v = quantity_text(*sigma, Quantity::length)) {
-      src.sigma_mm = *v;
-    } else {
-      t.meta_error("sigma", codes::kCsvHeaderKey,
-                   fmt::format("'# sigma: {}' is not a positive length with a unit; write the standard uncertainty of "
-                               "every length value, e.g. '# sigma: 1 um'",
-                               *sigma));
-      ok = false;
+  // `# sigma: 1 um`, `# sigma_angle: 2 arcsec`: a positive quantity with a unit of its kind.
+  auto uncertainty = [&](std::string_view key, Quantity q, std::string_view example, double& into) {
+    const auto text = t.meta(key);
+    if (!text) return;
+    if (const auto v = quantity_text(*text, q)) {
+      into = *v;
+      return;
     }
-  }
-  if (const auto sigma = t.meta("sigma_angle")) {
-    if (const auto v = quantity_text(*sigma, Quantity::angle)) {
-      src.sigma_rad = *v;
-    } else {
-      t.meta_error("sigma_angle", codes::kCsvHeaderKey,
-                   fmt::format("'# sigma_angle: {}' is not a positive angle with a unit; write the standard "
-                               "uncertainty of every angle, e.g. '# sigma_angle: 2 arcsec'",
-                               *sigma));
-      ok = false;
-    }
-  }
+    t.meta_error(key, codes::kCsvHeaderKey,
+                 fmt::format("'# {}: {}' is not a positive {} with a unit; write the standard uncertainty of every {} "
+                             "value, e.g. '# {}: {}'",
+                             key, *text, q == Quantity::length ? "length" : "angle",
+                             q == Quantity::length ? "length" : "angle", key, example));
+    ok = false;
+  };
+  uncertainty("sigma", Quantity::length, "1 um", src.sigma_mm);
+  uncertainty("sigma_angle", Quantity::angle, "2 arcsec", src.sigma_rad);
   if (!ok) return std::nullopt;
   return src;
 }
