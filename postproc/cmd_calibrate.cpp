@@ -155,13 +155,15 @@ void print_summary(const cal::CalibrationRun& run, const cal::Comparison& c) {
     for (const std::string& why : f.held_why)
       out += fmt::format("postproc: instrument frame '{}': {}\n", f.name, why);
   }
-  const bool per_file = r.files.size() > 1 || std::any_of(r.files.begin(), r.files.end(), [](const cal::FileFit& f) { return f.declared; });
+  // Per file only when some file states its uncertainty: without it the χ² measures nothing.
+  const bool per_file = std::any_of(r.files.begin(), r.files.end(), [](const cal::FileFit& f) { return f.declared; });
   for (const cal::FileFit& f : r.files) {
     if (!per_file) break;
-    out += fmt::format("postproc: file {}: σ {:g} µm, σ_angle {:.3g} arcsec ({}), {} residual rows, χ² {:.4g}, "
-                       "normalised rms {:.3f}\n",
-                       f.file, f.sigma_mm * 1000, f.sigma_rad * 180.0 / kin::kPi * 3600, f.declared ? "declared" : "default",
-                       f.rows, f.chi2, f.normalised_rms);
+    std::string sigma;
+    if (f.lengths) sigma += fmt::format("σ {:g} µm", f.sigma_mm * 1000);
+    if (f.angles) sigma += fmt::format("{}σ_angle {:.3g} arcsec", sigma.empty() ? "" : ", ", f.sigma_rad * 180.0 / kin::kPi * 3600);
+    out += fmt::format("postproc: file {}: {} ({}), {} residual rows, χ² {:.4g}, normalised rms {:.3f}\n", f.file, sigma,
+                       f.declared ? "declared" : "default", f.rows, f.chi2, f.normalised_rms);
     if (f.declared && f.normalised_rms > kPoorFit)
       out += fmt::format("postproc: warning: {} fits {:.1f} times worse than its declared sigma: the sigma is too "
                          "small, the file holds outliers or a misregistered frame (declare '# frame: instrument'), or "

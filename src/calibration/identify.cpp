@@ -1061,6 +1061,8 @@ IdentifyResult identify(const kin::Model& start_model, std::span<const Measureme
       }
       const int rows = residual_rows(m, nj);
       it->rows += rows;
+      it->lengths = it->lengths || (m.kind != MeasurementKind::direction && m.kind != MeasurementKind::axis_cosine);
+      it->angles = it->angles || (m.kind != MeasurementKind::position && m.kind != MeasurementKind::struts);
       it->chi2 += res1.segment(at, rows).squaredNorm() / (sigma0 * sigma0);
       at += rows;
     }

@@ -188,6 +188,8 @@ std::string report_json(const CalibrationRun& run) {
                      {"sigma_mm", f.sigma_mm},
                      {"sigma_angle_rad", f.sigma_rad},
                      {"declared", f.declared},
+                     {"has_length_rows", f.lengths},
+                     {"has_angle_rows", f.angles},
                      {"chi2", f.chi2},
                      {"normalised_rms", f.normalised_rms}});
   j["files"] = files;
@@ -248,7 +250,7 @@ td.l,th.l{text-align:left}.held{color:#b00}.plot{border:1px solid #ccc}
     s += fmt::format("<tr><td class=l>{}</td><td class=l>{}</td><td>{}</td><td class=l>{}</td></tr>\n", html_escape(f.path),
                      f.kind, f.measurements, f.sha256);
   s += "</table>\n";
-  if (r.files.size() > 1 || std::any_of(r.files.begin(), r.files.end(), [](const FileFit& f) { return f.declared; })) {
+  if (std::any_of(r.files.begin(), r.files.end(), [](const FileFit& f) { return f.declared; })) {
     s += "<h3>Fit per file</h3><p>Residuals weighted by each file's uncertainty: a normalised rms near 1 means the file "
          "fits as well as its σ says; far above 1, the σ is too small, the file holds outliers or the model misses an "
          "error.</p><table id=\"files\"><tr><th class=l>file</th><th>σ (µm)</th><th>σ angle (arcsec)</th><th "

@@ -148,6 +148,8 @@ struct FileFit {
   double sigma_mm = 0;       ///< σ used for its length rows (declared or kDefaultSigma)
   double sigma_rad = 0;      ///< σ_angle used for its angle rows
   bool declared = false;     ///< `# sigma:` or `# sigma_angle:` given
+  bool lengths = false;      ///< the file has length rows (tool tip, struts)
+  bool angles = false;       ///< the file has angle rows (tool axis)
   double chi2 = 0;           ///< Σ (residual / σ)² at the solution
   /// √(χ² / (rows·(1 − p/N))): about 1 when σ is right and the model fits; far above 1 flags a
   /// σ too small, an outlier or a model error, far below 1 a σ too large.
