@@ -44,6 +44,7 @@ struct CalibrateArgs {
   std::string map_outside;        ///< empty: as the machine file's map, else refuse
   bool in_place = false;
   std::size_t max_per_code = 20;
+  unsigned jobs = 0;  ///< -j: threads of the solver's evaluations (0: the usable cores)
 };
 
 /// One data file: the parsed table and its bytes' hash.
@@ -282,6 +283,7 @@ void run_calibrate(const CalibrateArgs& a, int& rc) {
   opt.ridge_lambda = a.lambda;
   opt.max_iterations = a.max_iterations;
   opt.numeric_derivatives = a.numeric;
+  opt.threads = static_cast<int>(a.jobs > 0 ? a.jobs : usable_cores());
   opt.orientation_weight = a.angle_weight;
   opt.loss = a.loss == "huber" ? cal::Loss::huber : a.loss == "cauchy" ? cal::Loss::cauchy : cal::Loss::none;
   opt.loss_scale = a.loss_scale_um / 1000.0;
@@ -439,6 +441,8 @@ void setup_calibrate(CLI::App& app, int& rc) {
                   "step-gauge map outside its grid: refuse, clamp or zero (default: as the machine file's map, else refuse)")
       ->check(CLI::IsMember({"refuse", "clamp", "zero"}));
   cmd->add_flag("--in-place", a->in_place, "allow -o to name the machine file (a .bak backup is kept)");
+  cmd->add_option("-j,--jobs", a->jobs,
+                  "threads for the solver's evaluations of serial machines (default: the cores this process may use)");
   cmd->add_option("--max-per-code", a->max_per_code, "show at most this many diagnostics per code")->capture_default_str();
   setup_calibrate_plan(*cmd, rc);
   setup_calibrate_simulate(*cmd, rc);

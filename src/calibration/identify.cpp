@@ -8,6 +8,7 @@
 #include <cstring>
 #include <limits>
 #include <memory>
+#include <mutex>
 #include <random>
 
 #include <ceres/ceres.h>
@@ -18,6 +19,7 @@
 
 #include "postproc/error.hpp"
 #include "postproc/kinematics/hexapod.hpp"
+#include "postproc/kinematics/serial.hpp"
 
 namespace postproc::cal {
 namespace {
@@ -168,13 +170,21 @@ class Evaluator {
   Evaluator(const kin::Model& base, std::vector<int> cols, bool numeric)
       : base_(base), cols_(std::move(cols)), numeric_(numeric) {}
 
+  /// Ceres may evaluate residual blocks on several threads, all at the same x: the first to see a
+  /// new x rebuilds the model under the lock; the others then read it.
   void set(const double* x) {
     const std::size_t n = base_.values().size();
+    const std::lock_guard<std::mutex> lock(mutex_);
     if (model_ && std::memcmp(x_.data(), x, n * sizeof(double)) == 0) return;
     x_.assign(x, x + n);
     model_ = base_.with_values(x_);
     plus_.assign(cols_.size(), nullptr);
     minus_.assign(cols_.size(), nullptr);
+  }
+  /// True when every column has an analytic derivative for every measurement kind but struts
+  /// (serial chains): no perturbed model is ever built, so evaluations may run in parallel.
+  [[nodiscard]] bool all_analytic() const {
+    return !numeric_ && dynamic_cast<const kin::SerialModel*>(&base_) != nullptr;
   }
   void set(const std::vector<double>& x) { set(x.data()); }
   [[nodiscard]] const kin::Model& model() const { return *model_; }
@@ -228,6 +238,13 @@ class Evaluator {
           d.col(static_cast<Eigen::Index>(c)) = j.col(cols_[c]);
           done[c] = true;
         }
+    } else if (const auto* serial = dynamic_cast<const kin::SerialModel*>(model_.get());
+               serial && m.kind != MeasurementKind::struts) {
+      const Eigen::Matrix<double, 6, Eigen::Dynamic> j = serial->identification_jacobian(m.q);
+      for (std::size_t c = 0; c < cols_.size(); ++c) {
+        d.col(static_cast<Eigen::Index>(c)) = j.col(cols_[c]);
+        done[c] = true;
+      }
     } else if (const auto* hex = dynamic_cast<const kin::Hexapod*>(model_.get());
                hex && m.kind == MeasurementKind::struts) {
       const kin::IdentificationJacobian j = hex->identification_jacobian(m.measured);
@@ -244,6 +261,7 @@ class Evaluator {
   std::vector<double> x_;
   kin::ModelPtr model_;
   std::vector<kin::ModelPtr> plus_, minus_;
+  std::mutex mutex_;
 };
 
 /// d(residual)/d(cols) from d(prediction)/d(cols), rows as residual_from.
@@ -400,6 +418,9 @@ double gcv_lambda(const Eigen::VectorXd& b, const Eigen::MatrixXd& j) {
   }
   return best;
 }
+
+/// Residual rows above which the solver's steps use the normal equations (see identify()).
+constexpr int kNormalEquationRows = 60000;
 
 std::vector<Measurement> fit_set(std::span<const Measurement> data) {
   std::vector<Measurement> out;
@@ -949,7 +970,12 @@ IdentifyResult identify(const kin::Model& start_model, std::span<const Measureme
     ceres::Solver::Options opt;
     opt.minimizer_type = ceres::TRUST_REGION;
     opt.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
-    opt.linear_solver_type = ceres::DENSE_QR;
+    // Dense QR of the whole Jacobian costs rows·p² per step; with many rows the normal equations
+    // (p×p, formed once per step) are as accurate at the well-conditioned problems identify()
+    // leaves after holding the unidentifiable combinations, and several times cheaper.
+    int rows = 0;
+    for (const Measurement& m : fit) rows += residual_rows(m, start_model.joint_count());
+    opt.linear_solver_type = rows > kNormalEquationRows ? ceres::DENSE_NORMAL_CHOLESKY : ceres::DENSE_QR;
     opt.max_num_iterations = std::max(1, options.max_iterations);
     // ψ substitution converges linearly (its torsion rows' Jacobian ignores that the substituted
     // target moves with the model): it stops at a relative cost change of 1e-8 (1.6e-11 mm² on
@@ -957,7 +983,11 @@ IdentifyResult identify(const kin::Model& start_model, std::span<const Measureme
     opt.function_tolerance = substitute ? 1e-8 : 1e-12;
     opt.parameter_tolerance = 1e-12;
     opt.gradient_tolerance = 1e-14;
-    opt.num_threads = 1;
+    // Serial chains have analytic derivatives throughout: their residual blocks are evaluated on
+    // options.threads (the result depends on the thread count only through the order of sums).
+    bool struts = false;
+    for (const Measurement& m : fit) struts = struts || m.kind == MeasurementKind::struts;
+    opt.num_threads = ev.all_analytic() && !struts && options.threads > 1 ? options.threads : 1;
     opt.logging_type = ceres::SILENT;
     ProgressCallback progress_callback(options.progress, opt.max_num_iterations);
     if (options.progress) opt.callbacks.push_back(&progress_callback);

@@ -279,6 +279,46 @@ SerialModel::SerialModel(SerialConfig cfg, std::vector<double> values)
     }
     impl->axes.push_back(std::move(g));
   }
+  // What each parameter moves (identification_jacobian), in parameter order.
+  {
+    impl->roles.resize(params_.size());
+    int j = 0;
+    for (const auto* a : all_axes(cfg_)) {
+      const std::string& k = a->name;
+      auto set = [&](const std::string& name, Impl::Role role, const Eigen::Vector3d& e) {
+        const int i = parameter_index(name);
+        if (i >= 0) impl->roles[static_cast<std::size_t>(i)] = Impl::ParamRole{role, j, e};
+      };
+      if (a->type == JointType::linear) {
+        set(fmt::format("E{0}0{0}", k), Impl::Role::linear_offset, Eigen::Vector3d::Zero());
+        set(fmt::format("E{0}{0}.scale", k), Impl::Role::linear_scale, Eigen::Vector3d::Zero());
+        if (k == "Y") {
+          set("EC0Y", Impl::Role::squareness, Eigen::Vector3d::UnitZ());
+          impl->tilt[static_cast<std::size_t>(j)] = square_y;
+        }
+        if (k == "Z") {
+          set("EA0Z", Impl::Role::squareness, Eigen::Vector3d::UnitX());
+          set("EB0Z", Impl::Role::squareness, Eigen::Vector3d::UnitY());
+          impl->tilt[static_cast<std::size_t>(j)] = square_z;
+        }
+      } else {
+        const int i = machine_axis(a->direction.normalized());
+        Eigen::Vector3d tilt = Eigen::Vector3d::Zero();
+        for (int c = 0; c < 3; ++c) {
+          if (c == i) continue;
+          set(fmt::format("E{}0{}", kXyz[c], k), Impl::Role::rotary_location, Eigen::Vector3d::Unit(c));
+          set(fmt::format("E{}0{}", kAbc[c], k), Impl::Role::rotary_tilt, Eigen::Vector3d::Unit(c));
+          tilt[c] = value(fmt::format("E{}0{}", kAbc[c], k));
+        }
+        set(fmt::format("E{}0{}", kAbc[i], k), Impl::Role::rotary_offset, Eigen::Vector3d::Zero());
+        impl->tilt[static_cast<std::size_t>(j)] = tilt;
+      }
+      ++j;
+    }
+    const int tl = parameter_index("tool.length");
+    if (tl >= 0) impl->roles[static_cast<std::size_t>(tl)] = Impl::ParamRole{Impl::Role::tool_length, -1, Eigen::Vector3d::Zero()};
+    impl->tool_axis = cfg_.tool_axis;
+  }
   impl->tool0.r.col(0) = cfg_.tool_x;
   impl->tool0.r.col(1) = cfg_.tool_axis.cross(cfg_.tool_x);
   impl->tool0.r.col(2) = cfg_.tool_axis;
@@ -347,7 +387,7 @@ void SerialModel::Impl::trig(const JointVector& q, Trig& t) const {
 }
 
 template <bool Twist>
-void SerialModel::Impl::chain(const JointVector& q, const Trig& tr, Chain& out, int* hint) const {
+void SerialModel::Impl::chain(const JointVector& q, const Trig& tr, Chain& out, int* hint, Record* rec) const {
   // Per joint: its motion in its parent's frame (rotation lr, translation lt, turning or not) and,
   // for the Jacobian, its local twist (lw, lv); then the product into its side's transform, which
   // moves the twist to the machine frame (Ad). A side whose rotation is still the identity (the
@@ -368,6 +408,12 @@ void SerialModel::Impl::chain(const JointVector& q, const Trig& tr, Chain& out, 
     Eigen::Vector3d lw;
     Eigen::Vector3d lv;
     bool turns = g.rotary;
+    if (rec) {
+      rec->before[k] = a;
+      rec->re[k].setIdentity();
+      rec->et[k].setZero();
+      rec->cp[k] = g.point;
+    }
     // Nominal (parameter-erroneous) motion: a translation along dir, or a turn about the axis line.
     if (g.rotary) {
       const double s = tr.s[k];
@@ -432,6 +478,11 @@ void SerialModel::Impl::chain(const JointVector& q, const Trig& tr, Chain& out, 
       Eigen::Matrix3d re;
       so3_into(e[3], e[4], e[5], t, ca, cb, re);
       const Eigen::Vector3d delta(e[0], e[1], e[2]);
+      if (rec) {
+        rec->re[k] = re;
+        rec->cp[k] = g.point + delta;
+        rec->et[k] = g.rotary ? Eigen::Vector3d(g.point + delta - re * g.point) : Eigen::Vector3d(delta - re * lt + lt);
+      }
       Eigen::Vector3d cp;
       if (g.rotary) {
         cp = g.point + delta;
@@ -463,6 +514,10 @@ void SerialModel::Impl::chain(const JointVector& q, const Trig& tr, Chain& out, 
         if (!g.rotary) lv += g.dir * g.gain;
       }
     }
+    if (rec) {
+      rec->lr[k] = turns ? lr : Eigen::Matrix3d::Identity();
+      rec->lt[k] = lt;
+    }
     if (identity[sd]) {
       if constexpr (Twist) {
         out.w[k] = lw;
@@ -488,8 +543,8 @@ void SerialModel::Impl::chain(const JointVector& q, const Trig& tr, Chain& out, 
   }
 }
 
-template void SerialModel::Impl::chain<true>(const JointVector&, const Trig&, Chain&, int*) const;
-template void SerialModel::Impl::chain<false>(const JointVector&, const Trig&, Chain&, int*) const;
+template void SerialModel::Impl::chain<true>(const JointVector&, const Trig&, Chain&, int*, Record*) const;
+template void SerialModel::Impl::chain<false>(const JointVector&, const Trig&, Chain&, int*, Record*) const;
 
 void SerialModel::Impl::evaluate(const JointVector& q, Pose& out, Jacobian* jac, Rigid* workpiece) const {
   Trig t;
@@ -533,6 +588,71 @@ Jacobian SerialModel::jacobian(const JointVector& q) const {
   Jacobian j;
   impl_->evaluate(q, p, &j);
   return j;
+}
+
+Eigen::Matrix<double, 6, Eigen::Dynamic> SerialModel::identification_jacobian(const JointVector& q) const {
+  const Impl& m = *impl_;
+  Impl::Trig t;
+  m.trig(q, t);
+  Impl::Chain ch;
+  Impl::Record rec;
+  m.chain<false>(q, t, ch, nullptr, &rec);
+  const Rigid& tw = ch.side[0];
+  const Rigid& ts = ch.side[1];
+  Eigen::Vector3d tip = ts.t;
+  tip.noalias() += ts.r * m.tool0.t;
+  const Eigen::Matrix3d back = tw.r.transpose();  // machine frame → workpiece frame
+  Eigen::Matrix<double, 6, Eigen::Dynamic> out = Eigen::Matrix<double, 6, Eigen::Dynamic>::Zero(6, static_cast<Eigen::Index>(params_.size()));
+  // Ad_T(w, v) = (R·w, R·v + t × R·w).
+  const auto ad = [](const Eigen::Matrix3d& r, const Eigen::Vector3d& tr, const Eigen::Vector3d& w, const Eigen::Vector3d& v,
+                     Eigen::Vector3d& w_out, Eigen::Vector3d& v_out) {
+    w_out = r * w;
+    v_out = r * v + tr.cross(w_out);
+  };
+  for (std::size_t p = 0; p < params_.size(); ++p) {
+    const Impl::ParamRole& role = m.roles[p];
+    if (role.role == Impl::Role::tool_length) {
+      out.block<3, 1>(0, static_cast<Eigen::Index>(p)) = back * (-(ts.r * m.tool_axis));
+      continue;
+    }
+    const auto k = static_cast<std::size_t>(role.joint);
+    const Impl::Axis& g = m.axes[k];
+    // The parameter's twist in the joint's parent (local) frame.
+    Eigen::Vector3d wl = Eigen::Vector3d::Zero(), vl = Eigen::Vector3d::Zero();
+    // A small rotation vector e at tilt t: exp([t + εe]×) = exp([ε·J(t)e]×)·exp([t]×), J ≈ I + ½[t]×.
+    const Eigen::Vector3d e = role.e + 0.5 * m.tilt[k].cross(role.e);
+    switch (role.role) {
+      case Impl::Role::linear_offset: vl = g.dir; break;
+      case Impl::Role::linear_scale: vl = g.dir * q[static_cast<Eigen::Index>(k)]; break;
+      case Impl::Role::squareness: vl = e.cross(g.dir) * (q[static_cast<Eigen::Index>(k)] * g.gain + g.offset); break;
+      case Impl::Role::rotary_offset:
+        wl = rec.re[k] * g.dir;
+        vl = -wl.cross(rec.cp[k]);
+        break;
+      case Impl::Role::rotary_location:
+        // T(εe)·L·T(−εe): (0, e) − Ad_L(0, e).
+        vl = role.e - rec.lr[k] * role.e;
+        break;
+      case Impl::Role::rotary_tilt: {
+        // E·C·M·C⁻¹ with C the turn about e through the axis point: Ad_E(ζ) − Ad_L(ζ).
+        const Eigen::Vector3d zw = e, zv = -e.cross(g.point);
+        Eigen::Vector3d w1, v1, w2, v2;
+        ad(rec.re[k], rec.et[k], zw, zv, w1, v1);
+        ad(rec.lr[k], rec.lt[k], zw, zv, w2, v2);
+        wl = w1 - w2;
+        vl = v1 - v2;
+        break;
+      }
+      case Impl::Role::tool_length: break;
+    }
+    // To the machine frame through the side's transform before the joint, then to the tool.
+    Eigen::Vector3d w, v;
+    ad(rec.before[k].r, rec.before[k].t, wl, vl, w, v);
+    const double sign = role.joint < m.workpiece_count ? -1.0 : 1.0;
+    out.block<3, 1>(0, static_cast<Eigen::Index>(p)) = sign * (back * (w.cross(tip) + v));
+    out.block<3, 1>(3, static_cast<Eigen::Index>(p)) = sign * (back * w);
+  }
+  return out;
 }
 
 Eigen::Matrix3d SerialModel::machine_to_workpiece(const JointVector& q) const {

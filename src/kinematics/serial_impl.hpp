@@ -101,6 +101,26 @@ struct SerialModel::Impl {
     std::array<Eigen::Vector3d, kMaxJoints> v;
   };
 
+  /// Per joint, what the identification Jacobian needs from one chain evaluation.
+  struct Record {
+    std::array<Rigid, kMaxJoints> before;            // the side's transform before the joint (→ machine)
+    std::array<Eigen::Matrix3d, kMaxJoints> lr;      // the joint's local rotation (error motion included)
+    std::array<Eigen::Matrix3d, kMaxJoints> re;      // the error motion's rotation (identity without a table)
+    std::array<Eigen::Vector3d, kMaxJoints> cp;      // rotary: the turn's point (axis point + table δ)
+    std::array<Eigen::Vector3d, kMaxJoints> et;      // the error motion's translation: E(y) = re·y + et
+    std::array<Eigen::Vector3d, kMaxJoints> lt;      // the joint's local translation (error motion included)
+  };
+  /// What each parameter is, for the identification Jacobian (parameter order).
+  enum class Role : std::uint8_t { linear_offset, linear_scale, rotary_offset, rotary_location, rotary_tilt, squareness, tool_length };
+  struct ParamRole {
+    Role role = Role::tool_length;
+    int joint = -1;
+    Eigen::Vector3d e = Eigen::Vector3d::Zero();  // machine axis of a location, tilt or squareness
+  };
+  std::vector<ParamRole> roles;
+  Eigen::Vector3d tool_axis = Eigen::Vector3d::UnitZ();  // normalised, for tool.length
+  std::array<Eigen::Vector3d, kMaxJoints> tilt{};       // per joint: the tilt (rotary) or squareness (linear) vector
+
   std::vector<Axis> axes;  // joint order
   int workpiece_count = 0;  // joints [0, workpiece_count) are on the workpiece side
   int rotary_count = 0;
@@ -112,7 +132,7 @@ struct SerialModel::Impl {
   /// joint, may be null) is the table segment of the last lookup, tried first on unevenly spaced
   /// tables.
   template <bool Twist>
-  void chain(const JointVector& q, const Trig& t, Chain& out, int* hint = nullptr) const;
+  void chain(const JointVector& q, const Trig& t, Chain& out, int* hint = nullptr, Record* rec = nullptr) const;
   /// Pose of the tool in the workpiece frame at q; the Jacobian too when `jac` is not null.
   /// `workpiece` receives the workpiece-side transform (workpiece frame → machine frame).
   void evaluate(const JointVector& q, Pose& out, Jacobian* jac, Rigid* workpiece = nullptr) const;

@@ -28,7 +28,8 @@
 /// instrument's misregistration to the machine would move every corrected block by it.
 ///
 /// Derivatives: analytic where the model has an identification Jacobian (the 3-PRS hybrid's 33
-/// errors at commanded joints; the hexapod's 42 parameters in strut space), central differences of
+/// errors at commanded joints; the hexapod's 42 parameters in strut space; every parameter of a
+/// serial chain, SerialModel::identification_jacobian), central differences of
 /// the model (with_values) for every other parameter; `numeric_derivatives` forces differences.
 
 #include <array>
@@ -93,6 +94,9 @@ struct IdentifyOptions {
   /// not identifiable: one parameter per such direction (the rank-revealing QR's choice) is held
   /// at its start value and the combination is reported.
   double rank_tolerance = 1e-6;
+  /// Threads for the residual evaluations where every derivative is analytic (serial chains);
+  /// the result is the same for any number up to the order of floating-point sums.
+  int threads = 1;
   /// Told "calibrate" with the solver's iteration of max_iterations (optional).
   Progress progress;
 };

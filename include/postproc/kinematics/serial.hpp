@@ -133,6 +133,13 @@ class SerialModel final : public Model {
   /// The same model (same parameter values) without its error-motion tables; with nominal(), the
   /// ideal machine.
   [[nodiscard]] std::shared_ptr<const SerialModel> without_tables() const;
+  /// d(pose)/d(parameters) at q, 6 × parameters(): rows 0–2 the tool tip (mm per unit), rows 3–5
+  /// the tool frame's rotation (rad per unit, workpiece frame, as rotation_difference), analytic:
+  /// each error parameter is a small motion of one joint's link (a zero offset moves it along or
+  /// about its axis, a location error conjugates its motion by a translation, an orientation error
+  /// or a squareness by a rotation, a scale stretches its travel), carried to the tool through the
+  /// chain like a joint's own twist; "tool.length" moves the tip along the tool axis.
+  [[nodiscard]] Eigen::Matrix<double, 6, Eigen::Dynamic> identification_jacobian(const JointVector& q) const;
 
  private:
   SerialModel(SerialConfig cfg, std::vector<double> values);
