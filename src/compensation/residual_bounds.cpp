@@ -11,13 +11,15 @@
 
 #include "postproc/error.hpp"
 #include "postproc/gcode/program.hpp"
+#include "postproc/kinematics/serial.hpp"
 #include "postproc/machine/program_map.hpp"
 #include "src/compensation/compensate_support.hpp"
 
 namespace postproc::comp {
 namespace {
 
-/// The actual model of one tool length and its parameter-perturbed copies (central differences).
+/// The actual model of one tool length and, unless it is a serial chain (analytic Jacobian), its
+/// parameter-perturbed copies (central differences).
 struct Perturbed {
   kin::ModelPtr base;
   std::vector<kin::ModelPtr> plus, minus;
@@ -27,6 +29,7 @@ struct Perturbed {
 Perturbed perturb(const kin::ModelPtr& base, std::span<const int> params) {
   Perturbed p;
   p.base = base;
+  if (dynamic_cast<const kin::SerialModel*>(base.get()) != nullptr) return p;  // analytic
   for (int k : params) {
     const double h = base->parameters()[static_cast<std::size_t>(k)].unit == "mm" ? 1e-5 : 1e-7;  // mm; rad, ratio
     std::vector<double> a = base->values(), b = base->values();
@@ -122,7 +125,12 @@ BoundsResult residual_bounds(std::string_view written, const gcode::Dialect& d, 
     if (it == perturbed.end()) it = perturbed.emplace(*length, perturb(models.with_tool_length(*length).second, u.parameters)).first;
     const Perturbed& pm = it->second;
     bool ok = true;
-    for (Eigen::Index k = 0; k < p && ok; ++k) {
+    if (const auto* serial = dynamic_cast<const kin::SerialModel*>(pm.base.get())) {
+      // Serial chains: the analytic identification Jacobian (no perturbed models needed).
+      const Eigen::Matrix<double, 6, Eigen::Dynamic> all = serial->identification_jacobian(q);
+      for (Eigen::Index k = 0; k < p; ++k) jac.col(k) = all.col(u.parameters[static_cast<std::size_t>(k)]);
+    }
+    for (Eigen::Index k = 0; k < p && ok && pm.plus.size() == static_cast<std::size_t>(p); ++k) {
       kin::Pose a, b;
       ok = pm.plus[static_cast<std::size_t>(k)]->forward(q, a).ok() && pm.minus[static_cast<std::size_t>(k)]->forward(q, b).ok();
       if (!ok) break;

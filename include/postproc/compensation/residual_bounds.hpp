@@ -7,7 +7,8 @@
 /// Per motion of the written program, at the joints q the controller commands for it (the
 /// controller's map, as `verify` reads programs back):
 /// - J(q): the derivatives of the actual model's tool pose (tip mm, orientation rad) by the
-///   identified parameters (central differences of the model, tool length of the block);
+///   identified parameters (serial chains: SerialModel::identification_jacobian; other models:
+///   central differences; the tool length of the block);
 /// - the pose error e = J·δθ with δθ ~ N(0, Σ): Σ_tip = J_p Σ J_pᵀ, Σ_axis = the part of J_r Σ J_rᵀ
 ///   across the tool axis (a turn about the tool axis does not move it);
 /// - bound = k·√λ_max(Σ) + the rounding bound (half a unit of each written word, carried to the
