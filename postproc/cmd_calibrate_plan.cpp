@@ -328,6 +328,16 @@ void setup_calibrate_simulate(CLI::App& calibrate, int& rc) {
     if (!a->frame_offset_um.empty() || !a->frame_rotation_arcsec.empty()) {
       if (k.kind == cal::MeasurementKind::struts)
         throw Error(ExitCode::usage, "--frame-offset/--frame-rotation: strut readings are taken at poses in the workpiece frame");
+      for (double v : a->frame_offset_um)
+        if (!std::isfinite(v) || std::abs(v) > 1e9)
+          throw Error(ExitCode::usage, fmt::format("--frame-offset: {} µm is not a placement an instrument could have "
+                                                   "(finite, at most 1e9 µm = 1 km)",
+                                                   v));
+      for (double v : a->frame_rotation_arcsec)
+        if (!std::isfinite(v) || std::abs(v) > 648000)
+          throw Error(ExitCode::usage, fmt::format("--frame-rotation: {} arcsec is not a rotation vector component "
+                                                   "(finite, at most 648000 arcsec = 180°)",
+                                                   v));
       // The instrument frame is the workpiece frame moved by (r, t): P_i = rᵀ·(P_w − t), R_i = rᵀ·R_w.
       Eigen::Vector3d t = Eigen::Vector3d::Zero(), w = Eigen::Vector3d::Zero();
       for (std::size_t i = 0; i < a->frame_offset_um.size(); ++i) t[static_cast<Eigen::Index>(i)] = a->frame_offset_um[i] / 1000;

@@ -133,6 +133,10 @@ grep -q "warning" "$T/well.err" && fail "a well-conditioned, converged calibrati
 "$P" calibrate simulate -m "$M/trunnion_bc_fanuc.toml" --kind positions --poses 100 --noise 0 --seed 77 \
   -o "$T/held.csv" 2> /dev/null || fail "simulate: held-out file"
 grep -q '^# frame: instrument$' "$T/tracker.csv" || fail "simulate --frame-offset: no '# frame: instrument' line"
+"$P" calibrate simulate -m "$M/trunnion_bc_fanuc.toml" --kind positions --poses 5 --frame-offset 1e400,0,0 \
+  -o "$T/inf.csv" 2> /dev/null
+[ $? = 64 ] || fail "simulate --frame-offset 1e400: expected exit 64"
+[ -e "$T/inf.csv" ] && fail "simulate --frame-offset 1e400: a file was written"
 grep -q '^# sigma: 0.57735 um$' "$T/tracker.csv" || fail "simulate: no '# sigma:' line for ±1 µm noise"
 "$P" calibrate -m "$M/trunnion_bc_fanuc_nominal.toml" "$T/reg.csv" "$T/tracker.csv" --validate "$T/held.csv" \
   -o "$T/frame.toml" --report "$T/frame.json" --html "$T/frame.html" 2> "$T/frame.err" || fail "instrument frame: calibrate failed"
