@@ -20,6 +20,8 @@
 #include "postproc/error.hpp"
 #include "postproc/kinematics/hexapod.hpp"
 #include "postproc/kinematics/serial.hpp"
+#include "src/calibration/frame_registration.hpp"
+#include "src/calibration/identifiability.hpp"
 
 namespace postproc::cal {
 namespace {
@@ -108,38 +110,6 @@ void residual_from(const Measurement& m, const kin::Pose& measured, const Predic
   res[at++] = w.angle * u.dot(d);
   res[at++] = w.angle * v.dot(d);
 }
-
-/// exp(ω): the rotation by |ω| about ω.
-Mat3 rotation_of(const Vec3& w) {
-  const double a = w.norm();
-  return a > 0 ? Eigen::AngleAxisd(a, w / a).toRotationMatrix() : Mat3::Identity();
-}
-
-/// An instrument frame's registration: P_w = exp(ω)·r0·P_i + t, with reg = (t, ω).
-kin::Pose registered_pose(const kin::Pose& measured, const Mat3& r0, const double* reg) {
-  const Mat3 r = rotation_of(Vec3(reg[3], reg[4], reg[5])) * r0;
-  kin::Pose out;
-  out.p = r * measured.p + Vec3(reg[0], reg[1], reg[2]);
-  out.r = r * measured.r;
-  return out;
-}
-
-/// An instrument frame while it is estimated; `reg` is its Ceres parameter block (t mm, ω rad).
-struct FrameState {
-  std::string name;
-  std::uint8_t free = 0;
-  std::uint8_t held = 0;
-  Mat3 r0 = Mat3::Identity();
-  std::array<double, 6> reg{};
-  std::size_t measurements = 0;
-  /// The identified components (free and not held), as indices 0…5.
-  [[nodiscard]] std::vector<int> estimated() const {
-    std::vector<int> out;
-    for (int k = 0; k < 6; ++k)
-      if ((free & (1u << k)) != 0 && (held & (1u << k)) == 0) out.push_back(k);
-    return out;
-  }
-};
 
 /// d(residual)/d(registration components) by central differences (no model evaluation: the
 /// prediction does not depend on the registration). Rows ≤ 6 (frames never hold strut readings).
@@ -429,90 +399,6 @@ std::vector<Measurement> fit_set(std::span<const Measurement> data) {
   return out;
 }
 
-std::string unit_text(const kin::Parameter& p) { return p.unit == "rad" ? "rad" : p.unit == "ratio" ? "(ratio)" : "mm"; }
-
-/// A column's name and unit for the identifiability report.
-struct Label {
-  std::string name, unit;
-};
-
-/// analyse() over labelled columns: dependent and unobserved are local column indices.
-Identifiability analyse_labelled(const Eigen::MatrixXd& j, std::span<const Label> labels, double rank_tolerance) {
-  Identifiability a;
-  a.rows = static_cast<int>(j.rows());
-  a.parameters = static_cast<int>(labels.size());
-  std::vector<int> observed;
-  std::vector<double> scale;
-  double max_norm = 0;
-  for (Eigen::Index c = 0; c < j.cols(); ++c) max_norm = std::max(max_norm, j.col(c).norm());
-  for (Eigen::Index c = 0; c < j.cols(); ++c) {
-    const double n = j.col(c).norm();
-    if (n <= 1e-12 * std::max(max_norm, 1e-300)) {
-      a.unobserved.push_back(static_cast<int>(c));
-      a.dependent.push_back(static_cast<int>(c));
-    } else {
-      observed.push_back(static_cast<int>(c));
-      scale.push_back(n);
-    }
-  }
-  if (observed.empty()) return a;
-  Eigen::MatrixXd js(j.rows(), static_cast<Eigen::Index>(observed.size()));
-  for (std::size_t c = 0; c < observed.size(); ++c) js.col(static_cast<Eigen::Index>(c)) = j.col(observed[c]) / scale[c];
-  // Full V: with fewer rows than columns the null directions beyond the rows are needed too.
-  const Eigen::JacobiSVD<Eigen::MatrixXd> svd(js, Eigen::ComputeFullV);
-  a.singular_values = svd.singularValues();
-  const Eigen::Index m = a.singular_values.size();
-  const double smax = a.singular_values[0];
-  a.rank = 0;
-  for (Eigen::Index i = 0; i < m; ++i)
-    if (a.singular_values[i] > rank_tolerance * smax) ++a.rank;
-  if (a.rank > 0) {
-    const double smin = a.singular_values[a.rank - 1];
-    a.condition = smax / smin;
-    a.o3 = smin;
-    a.o4 = smin * smin / smax;
-    double log_sum = 0;
-    for (int i = 0; i < a.rank; ++i) log_sum += std::log(a.singular_values[i]);
-    a.o1 = std::exp(log_sum / a.rank) / std::sqrt(static_cast<double>(std::max(a.rows, 1)));
-  }
-  // Null directions: the columns of V beyond the rank (and all of them when rows < columns).
-  const Eigen::MatrixXd v = svd.matrixV();
-  auto combination = [&](Eigen::Index i) {
-    Eigen::Index big = 0;
-    v.col(i).cwiseAbs().maxCoeff(&big);
-    const double ref = v(big, i) / scale[static_cast<std::size_t>(big)];
-    std::string text;
-    for (Eigen::Index c = 0; c < v.rows(); ++c) {
-      if (std::abs(v(c, i)) < 0.05 * std::abs(v(big, i))) continue;
-      const Label& l = labels[static_cast<std::size_t>(observed[static_cast<std::size_t>(c)])];
-      text += fmt::format("{}{:+.3g} {} {}", text.empty() ? "" : ", ", v(c, i) / scale[static_cast<std::size_t>(c)] / ref,
-                          l.unit, l.name);
-    }
-    return text;
-  };
-  for (Eigen::Index i = a.rank; i < v.cols(); ++i) a.combinations.push_back(combination(i));
-  if (a.rank > 0) a.weakest = combination(a.rank - 1);
-  // Which parameters to hold: the columns a rank-revealing QR puts last.
-  const int nullity = static_cast<int>(observed.size()) - a.rank;
-  if (nullity > 0) {
-    const Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(js);
-    const auto& perm = qr.colsPermutation().indices();
-    for (int i = a.rank; i < static_cast<int>(observed.size()); ++i)
-      a.dependent.push_back(observed[static_cast<std::size_t>(perm[i])]);
-  }
-  std::sort(a.dependent.begin(), a.dependent.end());
-  return a;
-}
-
-std::vector<Label> labels_of(const kin::Model& model, std::span<const int> columns) {
-  std::vector<Label> out;
-  for (int c : columns) {
-    const kin::Parameter& p = model.parameters()[static_cast<std::size_t>(c)];
-    out.push_back({p.name, unit_text(p)});
-  }
-  return out;
-}
-
 double sigma_length(const Measurement& m) { return m.source.sigma_mm > 0 ? m.source.sigma_mm : kDefaultSigma; }
 double sigma_angle(const Measurement& m, double w) {
   return m.source.sigma_rad > 0 ? m.source.sigma_rad : sigma_length(m) / w;
@@ -566,172 +452,7 @@ void linearise_all(const kin::Model& model, std::span<const Measurement> data, s
   jac = j;
 }
 
-/// Start values of each frame's registration: the rigid transform (no scale) that best carries
-/// the measured points onto the start model's (Umeyama), or, for a frame with only tool axes,
-/// the rotation that best carries the measured axes onto the model's (Kabsch). Only when every
-/// component the data can move is free; otherwise the identity (the held components stay 0).
-void start_registration(const kin::Model& model, std::span<const Measurement> fit, std::span<const int> frame_of,
-                        std::vector<FrameState>& frames) {
-  for (std::size_t f = 0; f < frames.size(); ++f) {
-    std::vector<Vec3> src, dst, src_axis, dst_axis;
-    for (std::size_t i = 0; i < fit.size(); ++i) {
-      if (frame_of[i] != static_cast<int>(f)) continue;
-      const Measurement& m = fit[i];
-      kin::Pose p;
-      if (!model.forward(m.q, p).ok()) continue;
-      if (m.kind == MeasurementKind::pose || m.kind == MeasurementKind::position) {
-        src.push_back(m.measured.p);
-        dst.push_back(p.p);
-      }
-      if (m.kind == MeasurementKind::pose || m.kind == MeasurementKind::direction) {
-        src_axis.push_back(m.measured.axis());
-        dst_axis.push_back(p.axis());
-      }
-    }
-    FrameState& fr = frames[f];
-    const bool all = fr.free == (kTranslation | kRotation);
-    if (!src.empty() && all && src.size() >= 3) {
-      Eigen::Matrix3Xd a(3, static_cast<Eigen::Index>(src.size())), b(3, static_cast<Eigen::Index>(src.size()));
-      for (std::size_t i = 0; i < src.size(); ++i) {
-        a.col(static_cast<Eigen::Index>(i)) = src[i];
-        b.col(static_cast<Eigen::Index>(i)) = dst[i];
-      }
-      const Eigen::Matrix3Xd centred = a.colwise() - a.rowwise().mean();
-      const Eigen::JacobiSVD<Eigen::MatrixXd> spread(centred);
-      if (spread.singularValues()[1] > 1e-6 * spread.singularValues()[0]) {  // not all on a line
-        const Eigen::Matrix4d t = Eigen::umeyama(a, b, false);
-        fr.r0 = t.topLeftCorner<3, 3>();
-        for (int k = 0; k < 3; ++k) fr.reg[static_cast<std::size_t>(k)] = t(k, 3);
-      }
-    } else if (src.empty() && fr.free == kRotation && src_axis.size() >= 2) {
-      Mat3 h = Mat3::Zero();
-      for (std::size_t i = 0; i < src_axis.size(); ++i) h += src_axis[i] * dst_axis[i].transpose();
-      const Eigen::JacobiSVD<Mat3> svd(h, Eigen::ComputeFullU | Eigen::ComputeFullV);
-      if (svd.singularValues()[1] > 1e-6 * svd.singularValues()[0]) {  // two axes that are not parallel
-        Mat3 d = Mat3::Identity();
-        d(2, 2) = (svd.matrixV() * svd.matrixU().transpose()).determinant() < 0 ? -1 : 1;
-        fr.r0 = svd.matrixV() * d * svd.matrixU().transpose();
-      }
-    } else if (!src.empty() && (fr.free & kTranslation) == kTranslation && (fr.free & kRotation) == 0) {
-      Vec3 mean = Vec3::Zero();
-      for (std::size_t i = 0; i < src.size(); ++i) mean += dst[i] - src[i];
-      mean /= static_cast<double>(src.size());
-      for (int k = 0; k < 3; ++k) fr.reg[static_cast<std::size_t>(k)] = mean[k];
-    }
-  }
-}
-
-/// Unit-norm columns and their norms.
-Eigen::MatrixXd unit_columns(const Eigen::MatrixXd& j, Eigen::VectorXd& norms) {
-  norms.resize(j.cols());
-  Eigen::MatrixXd out(j.rows(), j.cols());
-  for (Eigen::Index c = 0; c < j.cols(); ++c) {
-    norms[c] = j.col(c).norm();
-    out.col(c) = norms[c] > 1e-300 ? Eigen::VectorXd(j.col(c) / norms[c]) : Eigen::VectorXd::Zero(j.rows());
-  }
-  return out;
-}
-
-/// The instrument frames come first: a registration component is estimated unless no
-/// measurement depends on it or the frames' components before it already explain it; a machine
-/// parameter that the registration (and the machine parameters kept before it) explains within
-/// `tolerance` (residual norm of its unit column) is held at its start value. The data cannot
-/// tell such a parameter from where the instrument stood, so the machine file's value stays and
-/// the unknown placement takes the difference (attributing it to the machine instead would move
-/// the machine's model by the instrument's misregistration). Records why.
-void separate_registration(const Eigen::MatrixXd& machine, const Eigen::MatrixXd& reg, std::span<const std::pair<int, int>> reg_of,
-                           const kin::Model& model, std::vector<int>& identified, std::vector<int>& held,
-                           std::vector<int>& dependent, std::vector<std::string>& machine_why,
-                           std::vector<FrameState>& frames, std::vector<std::vector<std::string>>& frame_why,
-                           double tolerance) {
-  Eigen::VectorXd rnorm, mnorm;
-  const Eigen::MatrixXd ru = unit_columns(reg, rnorm), mu = unit_columns(machine, mnorm);
-  Eigen::MatrixXd q(reg.rows(), 0);
-  std::vector<std::pair<int, int>> kept;  // registration components in the basis
-  auto residual = [&](const Eigen::VectorXd& col) -> Eigen::VectorXd { return col - q * (q.transpose() * col); };
-  auto add = [&](const Eigen::VectorXd& r) {
-    q.conservativeResize(Eigen::NoChange, q.cols() + 1);
-    q.col(q.cols() - 1) = r / r.norm();
-  };
-  for (Eigen::Index c = 0; c < reg.cols(); ++c) {
-    const auto [f, k] = reg_of[static_cast<std::size_t>(c)];
-    FrameState& fr = frames[static_cast<std::size_t>(f)];
-    const bool zero = rnorm[c] <= 1e-300;
-    const Eigen::VectorXd r = zero ? Eigen::VectorXd() : residual(ru.col(c));
-    if (!zero && r.norm() > tolerance) {
-      add(r);
-      kept.emplace_back(f, k);
-      continue;
-    }
-    fr.held = static_cast<std::uint8_t>(fr.held | (1u << k));
-    frame_why[static_cast<std::size_t>(f)].push_back(
-        zero ? fmt::format("{}: no measurement depends on it (held)", registration_name(k))
-             : fmt::format("{}: the frame's other components already explain it (held)", registration_name(k)));
-  }
-  const Eigen::Index nreg = q.cols();
-  std::vector<int> keep;
-  for (std::size_t i = 0; i < identified.size(); ++i) {
-    const Eigen::VectorXd col = mu.col(static_cast<Eigen::Index>(i));
-    const Eigen::VectorXd r = residual(col);
-    if (r.norm() > tolerance) {
-      add(r);
-      keep.push_back(identified[i]);
-      continue;
-    }
-    // Which registration components explain it: the least-squares fit by the registration part.
-    std::string text;
-    if (nreg > 0) {
-      Eigen::MatrixXd basis(reg.rows(), static_cast<Eigen::Index>(kept.size()));
-      for (std::size_t c = 0; c < kept.size(); ++c) {
-        const auto at = std::find(reg_of.begin(), reg_of.end(), kept[c]) - reg_of.begin();
-        basis.col(static_cast<Eigen::Index>(c)) = ru.col(at);
-      }
-      const Eigen::VectorXd coef = basis.colPivHouseholderQr().solve(col);
-      Eigen::Index big = 0;
-      if (coef.size() > 0) coef.cwiseAbs().maxCoeff(&big);
-      for (Eigen::Index c = 0; c < coef.size(); ++c) {
-        if (std::abs(coef[c]) < 0.2 * std::abs(coef[big])) continue;
-        const auto [f, k] = kept[static_cast<std::size_t>(c)];
-        text += fmt::format("{}{}[{}]", text.empty() ? "" : ", ", registration_name(k), frames[static_cast<std::size_t>(f)].name);
-      }
-    }
-    const kin::Parameter& p = model.parameters()[static_cast<std::size_t>(identified[i])];
-    held.push_back(identified[i]);
-    dependent.push_back(identified[i]);
-    machine_why.push_back(fmt::format("{}: explained by the instrument frame's placement{}{} (held at the machine "
-                                      "file's value: the data cannot tell them apart)",
-                                      p.name, text.empty() ? "" : " ", text));
-  }
-  identified = keep;
-  std::sort(held.begin(), held.end());
-  std::sort(dependent.begin(), dependent.end());
-}
-
 }  // namespace
-
-Eigen::Vector3d FrameEstimate::rotation() const {
-  const Eigen::AngleAxisd aa(r);
-  return aa.angle() * aa.axis();
-}
-
-std::vector<Measurement> registered(std::span<const Measurement> data, const IdentifyResult& result) {
-  std::vector<Measurement> out(data.begin(), data.end());
-  for (Measurement& m : out) {
-    if (m.source.frame.empty()) continue;
-    const auto f = std::find_if(result.frames.begin(), result.frames.end(),
-                                [&](const FrameEstimate& e) { return e.name == m.source.frame; });
-    if (f == result.frames.end())
-      throw Error(ExitCode::usage,
-                  fmt::format("{}: this measurement is in instrument frame '{}', which no fitted measurement "
-                              "determines; fit some measurements of the same set-up (or declare the frame of the "
-                              "held-out file as the fitted file's: '# frame: instrument NAME')",
-                              m.label, m.source.frame));
-    m.measured.p = f->r * m.measured.p + f->t;
-    m.measured.r = f->r * m.measured.r;
-    m.source.frame.clear();
-  }
-  return out;
-}
 
 std::string_view to_string(Method m) {
   switch (m) {
@@ -774,15 +495,6 @@ void linearise(const kin::Model& model, std::span<const Measurement> data, std::
                Eigen::VectorXd& res, Eigen::MatrixXd& jac, double orientation_weight, bool numeric) {
   const std::vector<Weights> w(data.size(), Weights{1, orientation_weight});
   linearise_all(model, data, columns, w, {}, {}, {}, res, jac, numeric);
-}
-
-Identifiability analyse(const Eigen::MatrixXd& j, std::span<const int> columns, const kin::Model& model,
-                        double rank_tolerance) {
-  Identifiability a = analyse_labelled(j, labels_of(model, columns), rank_tolerance);
-  for (int& c : a.dependent) c = columns[static_cast<std::size_t>(c)];
-  for (int& c : a.unobserved) c = columns[static_cast<std::size_t>(c)];
-  std::sort(a.dependent.begin(), a.dependent.end());
-  return a;
 }
 
 IdentifyResult identify(const kin::Model& start_model, std::span<const Measurement> data, const IdentifyOptions& options) {
@@ -1168,64 +880,5 @@ MeasurementError measurement_error(const kin::Model& model, const Measurement& m
   return e;
 }
 
-namespace doc001 {
-
-kin::Pose target(double z, double theta, double phi, double x, double y) {
-  kin::Pose p;
-  p.p = Vec3(x, y, -z);
-  const Vec3 n(std::sin(theta) * std::cos(phi), std::sin(theta) * std::sin(phi), std::cos(theta));
-  const Mat3 f = Vec3(1, -1, -1).asDiagonal();
-  p.r = f * kin::PrsHybrid::tilt_rotation(n) * f;
-  return p;
-}
-
-std::vector<kin::Pose> pose_set() {
-  std::vector<kin::Pose> out;
-  for (double z : {700.0, 800.0, 900.0}) {
-    out.push_back(target(z, 0, 0));
-    for (int k = 0; k < 8; ++k) out.push_back(target(z, 40 * kin::kDeg, k * 45 * kin::kDeg));
-  }
-  return out;
-}
-
-std::vector<Measurement> simulate(const kin::PrsHybrid& controller, const kin::PrsHybrid& truth,
-                                  std::span<const kin::Pose> targets, unsigned seed, bool has_torsion, double noise_mm,
-                                  double noise_deg) {
-  std::mt19937 rng(seed);
-  std::uniform_real_distribution<double> u(-1, 1);
-  std::vector<Measurement> out;
-  for (const kin::Pose& t : targets) {
-    Measurement m;
-    m.kind = MeasurementKind::pose;
-    if (!controller.nominal_inverse(t, m.q).ok()) throw Error(ExitCode::usage, "simulate: a target cannot be commanded");
-    if (!truth.forward(m.q, m.measured).ok()) throw Error(ExitCode::usage, "simulate: a commanded pose cannot be reached");
-    const Vec3 dp(u(rng), u(rng), u(rng));
-    const Vec3 dth(u(rng), u(rng), u(rng));
-    m.measured.p += noise_mm * dp;
-    const Vec3 w = noise_deg * kin::kDeg * dth;
-    if (w.norm() > 0) m.measured.r = Eigen::AngleAxisd(w.norm(), w.normalized()).toRotationMatrix() * m.measured.r;
-    m.has_torsion = has_torsion;
-    m.label = fmt::format("pose{}", out.size() + 1);
-    out.push_back(m);
-  }
-  return out;
-}
-
-double max_tip_error_z700(const kin::PrsHybrid& commanding, const kin::PrsHybrid& truth) {
-  double worst = 0;
-  const kin::JointVector start = kin::JointVector::Zero(5);
-  for (int ti = 0; ti <= 40; ++ti)
-    for (int pi = 0; pi < 72; ++pi) {
-      const kin::Pose t = target(700, ti * kin::kDeg, pi * 5 * kin::kDeg);
-      kin::JointVector q;
-      if (!commanding.inverse(t, start, q).ok()) return std::numeric_limits<double>::infinity();
-      kin::Pose real;
-      if (!truth.forward(q, real).ok()) return std::numeric_limits<double>::infinity();
-      worst = std::max(worst, (real.p - t.p).norm());
-    }
-  return worst;
-}
-
-}  // namespace doc001
 
 }  // namespace postproc::cal
