@@ -10,6 +10,7 @@
 #include "common.hpp"
 #include "progress_bar.hpp"
 #include "postproc/compensation/compensate.hpp"
+#include "postproc/compensation/geometric_report.hpp"
 #include "postproc/compensation/residual_bounds.hpp"
 #include "postproc/compensation/result_json.hpp"
 #include "postproc/contour/report.hpp"
@@ -145,8 +146,9 @@ void setup_compensate(CLI::App& app, int& rc) {
   cmd->add_option("-o,--output", o->output, "output file ('-' = stdout)")->required();
   cmd->add_option("--report,--json", o->report, "write a JSON report of the run here (--json: the same)");
   cmd->add_option("--html", o->html,
-                  "contour modes: write a self-contained HTML report of the predicted contour errors before and "
-                  "after compensation here");
+                  "write a self-contained HTML report here: geometric mode, the error the original program leaves "
+                  "on the calibrated machine beside the residual of the written one; contour modes, the contour "
+                  "errors before and after");
   cmd->add_option("--mode", o->mode,
                   "geometric: the calibrated machine's errors; contour: the servo contour errors (precompensation "
                   "from the drives in the machine file); all: geometric, then contour")
@@ -192,8 +194,6 @@ void setup_compensate(CLI::App& app, int& rc) {
                   "affinity); the output is the same for any number");
   cmd->add_option("--max-per-code", o->max_per_code, "show at most this many diagnostics per code")->capture_default_str();
   cmd->callback([o, &rc] {
-    if (!o->html.empty() && o->mode == "geometric")
-      throw Error(ExitCode::usage, "--html shows contour errors: use it with --mode contour or --mode all");
     if (!(o->max_deviation_um > 0) || !std::isfinite(o->max_deviation_um))
       throw Error(ExitCode::usage, "--max-deviation must be a positive number of µm, e.g. 1");
     if (!(o->max_angle_arcsec > 0) || !std::isfinite(o->max_angle_arcsec))
@@ -242,18 +242,22 @@ void setup_compensate(CLI::App& app, int& rc) {
                   fmt::format("--bounds-csv/--bound-limit: {} has no [uncertainty] table, so nothing says how well its "
                               "errors are known; write it with postproc calibrate",
                               o->machine));
-    // With bounds the written program is read back: it is held in memory first.
+    // With bounds, and for the geometric HTML report, the written program is read back: it is
+    // held in memory first.
+    const bool geometric_html = !o->html.empty() && o->mode == "geometric";
+    const bool hold = bounds || geometric_html;
     io::OutputFile held = io::OutputFile::memory();
-    io::OutputFile& target = bounds ? held : out;
+    io::OutputFile& target = hold ? held : out;
     std::vector<std::uint64_t> line_map;
-    if (bounds) opt.line_map = &line_map;
+    if (hold) opt.line_map = &line_map;
     comp::CompensateResult r;
     comp::ContourDetails contour;
     const bool servo = o->mode != "geometric";
     // Flat programs stream from the file; programs with parameters or control flow are resolved
     // in memory (compensate_program).
     std::error_code ec;
-    bool streaming = !servo && o->input != "-" && std::filesystem::is_regular_file(o->input, ec);
+    bool streaming = !servo && !geometric_html && o->input != "-" && std::filesystem::is_regular_file(o->input, ec);
+    std::string text;  // the program, when it is held in memory
     if (streaming) {
       gcode::LineReader scan(o->input);
       streaming = !gcode::needs_resolution(scan, d);
@@ -264,7 +268,7 @@ void setup_compensate(CLI::App& app, int& rc) {
     } else {
       // The contour stage reads the program twice (path, then writing): it is held in memory.
       // So is a program to resolve.
-      const std::string text = io::read_file(o->input, "NC program");
+      text = io::read_file(o->input, "NC program");
       contour::PrecompensateOptions popt;
       popt.max_iterations = o->iterations;
       popt.learning_iterations = o->refine_iterations;
@@ -272,9 +276,25 @@ void setup_compensate(CLI::App& app, int& rc) {
     }
     bar.finish();
     std::optional<comp::BoundsResult> bound;
-    if (bounds && !sink.has_errors()) {
+    std::string geometric_page;
+    if (hold && !sink.has_errors()) {
       const std::string written = held.take();
-      bound = bound_written(*o, written, line_map, d, *machine, sink);
+      if (bounds) bound = bound_written(*o, written, line_map, d, *machine, sink);
+      if (geometric_html) {
+        // The report's figures are those of the written program read back (comp::verify).
+        std::vector<comp::VerifyPoint> points;
+        const comp::VerifyResult v = comp::verify(text, written, line_map, d, *machine, &points);
+        comp::GeometricReport gr;
+        gr.title = fmt::format("compensate {}", o->input);
+        gr.program = o->input;
+        gr.output = o->output;
+        gr.machine_file = machine->file;
+        gr.machine_sha256 = machine->sha256;
+        gr.tool_version = POSTPROC_VERSION;
+        gr.verify = &v;
+        gr.points = &points;
+        geometric_page = comp::geometric_report_html(gr);
+      }
       out.write(written);
     }
     printer.finish();
@@ -295,7 +315,8 @@ void setup_compensate(CLI::App& app, int& rc) {
       outputs.add(o->report, j.dump(2) + "\n");
     }
     if (bound && ok && !o->bounds_csv.empty()) outputs.add(o->bounds_csv, comp::bounds_csv(*bound));
-    if (!o->html.empty() && ok) {
+    if (geometric_html && ok) outputs.add(o->html, geometric_page);
+    if (!o->html.empty() && !geometric_html && ok) {
       contour::ContourReport cr;
       cr.title = fmt::format("compensate --mode {} {}", o->mode, o->input);
       cr.program = o->input;

@@ -2,7 +2,9 @@
 """Opens postproc's HTML reports in headless Chromium through WebDriver and checks that they render.
 
 Usage: html_render.py OUT_DIR KIND=PAGE.html…
-KIND is diff (with a machine), diff-predict (with --predict), diff-plain (no machine) or predict.
+KIND is diff (with a machine), diff-predict (with --predict), diff-plain (no machine), predict or
+compensate (geometric mode; its PAGE.json is the run's --json, whose before / after figures the page
+must show).
 For diff pages, PAGE.json and PAGE.err (the same run's --json and stderr) are compared with the
 figures shown. Per page: no SEVERE console entries, no resource loads beyond the page itself, the
 expected element ids, drawn SVG content, a 3-D canvas that draws and redraws when dragged, and a
@@ -32,6 +34,8 @@ EXPECTED = {
     "diff-predict": DIFF_IDS + ["along-path-angle", "contour", "contour-summary", "contour-tip", "contour-axis"],
     "diff-plain": DIFF_IDS,
     "predict": ["summary", "figures", "worst", "worst_axis"],
+    "compensate": ["summary", "figures", "reduction", "tip_along", "axis_along", "residual_along", "hist_before",
+                   "hist_after", "worst_before", "worst_after", "before-tip-max-um", "after-tip-max-um"],
 }
 ABSENT = {"diff-plain": ["along-path-angle", "angle-max-arcsec"], "diff": ["contour"]}
 
@@ -91,7 +95,7 @@ def check_svgs(driver, page, kind):
     for s in stats:
         if s["w"] <= 0:
             fail(page, f"SVG {s['id'] or '(no id)'} is not laid out")
-        drawn = s["rects"] - 1 if s["id"] == "histogram" else s["lines"]
+        drawn = s["rects"] - 1 if s["id"].startswith("hist") else s["lines"]
         if drawn <= 0:
             fail(page, f"SVG {s['id'] or '(no id)'} draws nothing")
 
@@ -157,6 +161,26 @@ def check_figures(driver, page, kind):
                 fail(page, f"stderr's predicted {prog} tip error {m.group(1) if m else None} differs from the page")
 
 
+def check_compensate_figures(driver, page):
+    """The before / after figures shown equal those of the same run's JSON (geometric compensate: the
+    error before on the calibrated machine, and the residual after, from the written program)."""
+    try:
+        with open(page[:-len(".html")] + ".json") as f:
+            fig = json.load(f)["figures"]
+    except (OSError, KeyError) as e:
+        fail(page, f"no JSON of the run: {e}")
+        return
+    want = {"before-tip-max-um": f"{fig['max_error_before_mm'] * 1000:.3f}",
+            "after-tip-max-um": f"{fig['max_residual_after_mm'] * 1000:.3f}",
+            "before-axis-max-arcsec": f"{fig['max_error_before_deg'] * 3600:.2f}"}
+    for eid, value in want.items():
+        shown = text(driver, eid)
+        if shown != value:
+            fail(page, f"#{eid} shows {shown!r}, the JSON says {value!r}")
+    if float(want["after-tip-max-um"]) >= float(want["before-tip-max-um"]):
+        fail(page, "the compensated program's error is not below the original's")
+
+
 def check_page(driver, kind, page, out_dir):
     failed_before = len(failures)
     driver.get_log("browser")  # drop what earlier pages left
@@ -186,6 +210,8 @@ def check_page(driver, kind, page, out_dir):
     if kind.startswith("diff"):
         check_canvas(driver, page, "view3d")
         check_figures(driver, page, kind)
+    if kind == "compensate":
+        check_compensate_figures(driver, page)
     # Interaction must not log errors either.
     for entry in driver.get_log("browser"):
         if entry.get("level") == "SEVERE":

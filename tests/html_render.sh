@@ -35,6 +35,11 @@ done
   2> "$T/diff_plain.err" || fail "diff --dialect --html: $(cat "$T/diff_plain.err")"
 "$P" predict "$PROG" -m "$M" --html "$T/predict.html" 2> "$T/predict.err" || fail "predict --html: $(cat "$T/predict.err")"
 cat "$T/diff_predict.err"
+# Geometric compensate --html (the README's first command): the original's error on the calibrated
+# machine beside the residual of the written program.
+"$P" compensate "$SRC/samples/programs/impeller_axes_bc.nc" -m "$SRC/samples/machines/trunnion_bc_fanuc.toml" \
+  -o "$T/impeller_c.nc" --html "$T/compensate.html" --json "$T/compensate.json" 2> "$T/compensate_g.err" ||
+  fail "compensate --html (geometric): $(cat "$T/compensate_g.err")"
 
 # The correction must cut the predicted contour error (the report shows a real before / after).
 awk '/predicted contour error, original/ {b = $8} /predicted contour error, corrected/ {a = $8}
@@ -52,7 +57,7 @@ grep -q 'PP-E611' "$T/refused.err" || fail "diff --predict without kv: no PP-E61
 [[ $? -eq 64 ]] || fail "diff --predict without -m is not a usage error"
 
 "$PY" "$CHECK" "$T" diff="$T/diff.html" diff-predict="$T/diff_predict.html" diff-plain="$T/diff_plain.html" \
-  predict="$T/predict.html" || fail "the reports do not render cleanly in Chromium (see above)"
+  predict="$T/predict.html" compensate="$T/compensate.html" || fail "the reports do not render cleanly in Chromium (see above)"
 
 # The checker must fail on a broken page: a console error, a missing element, a network resource.
 sed -e 's|<body>|<body><script>console.error("injected failure")</script><img src="https://example.invalid/x.png">|' \

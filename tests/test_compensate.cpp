@@ -9,6 +9,8 @@
 #include <fmt/format.h>
 
 #include "postproc/compensation/compensate.hpp"
+#include "postproc/compensation/geometric_report.hpp"
+#include "postproc/error.hpp"
 #include "postproc/machine/program_map.hpp"
 #include "postproc/compensation/verify.hpp"
 #include "postproc/machine/machine.hpp"
@@ -100,6 +102,44 @@ TEST_P(Samples, CorrectedProgramOnActualMachineReproducesNominalPathWithinRoundi
   EXPECT_NE(r.out.find(fmt::format("postproc test compensate mode=geometric machine={}machines/{} sha256={}", kSamples,
                                    GetParam().machine, m.sha256)),
             std::string::npos);
+}
+
+// The HTML report of a geometric compensation shows what verify() finds on the written program
+// read back: every compared point, the largest errors of the original (which the compensator
+// found on its own, from the original's words) and of the corrected program.
+TEST_P(Samples, GeometricReportShowsTheVerifiedFigures) {
+  const mc::Machine m = load(GetParam().machine);
+  const std::string program = read_file(kSamples + "programs/" + GetParam().program);
+  Comp r;
+  cp::CompensateOptions opt;
+  if (std::string(GetParam().program) == "blade_5axis_g43_4.nc") opt.max_deviation_mm = 0.002;
+  compensate(m, program, r, opt);
+  ASSERT_TRUE(r.committed);
+  const gc::Dialect d = *gc::make_dialect(m.dialect_name, m.dialect_options);
+  std::vector<cp::VerifyPoint> points;
+  const cp::VerifyResult v = cp::verify(program, r.out, r.line_map, d, m, &points);
+  ASSERT_EQ(points.size(), v.compared);
+  double before = 0, after = 0, before_rad = 0;
+  for (const cp::VerifyPoint& p : points) {
+    before = std::max(before, p.before_mm);
+    before_rad = std::max(before_rad, p.before_rad);
+    after = std::max(after, p.after_mm);
+    EXPECT_LE(p.after_mm, p.bound_mm + 1e-7) << "line " << p.line;
+  }
+  EXPECT_EQ(after, v.max_error_mm);
+  EXPECT_EQ(before, v.max_error_before_mm);
+  // (The hexapod's forward kinematics iterates: the two evaluations agree to its tolerance.)
+  EXPECT_NEAR(before, r.result.max_error_before_mm, 1e-8);
+  EXPECT_NEAR(before_rad, r.result.max_error_before_rad, 1e-10);
+  cp::GeometricReport gr;
+  gr.program = GetParam().program;
+  gr.verify = &v;
+  gr.points = &points;
+  const std::string html = cp::geometric_report_html(gr);
+  EXPECT_NE(html.find(fmt::format("id=\"before-tip-max-um\">{:.3f}<", before * 1000)), std::string::npos);
+  EXPECT_NE(html.find(fmt::format("id=\"after-tip-max-um\">{:.3f}<", after * 1000)), std::string::npos);
+  cp::GeometricReport missing;
+  EXPECT_THROW((void)cp::geometric_report_html(missing), postproc::Error);
 }
 
 TEST_P(Samples, MachineWithoutErrorsLeavesTheProgramByteForByte) {

@@ -17,6 +17,7 @@
 #include "postproc/gcode/program.hpp"
 #include "src/compensation/compensate_support.hpp"
 #include "src/gcode/convert_support.hpp"
+#include "src/compensation/report_units.hpp"
 
 namespace postproc::comp {
 namespace {
@@ -169,7 +170,6 @@ class ContourWriter final : public gcode::BlockVisitor {
 };
 
 
-constexpr double kArcsecPerRad = 206264.80624709636;
 
 /// The written text read back through the reader and simulated against the reference of the
 /// contour stage's input; nullopt (with `why`) when it cannot be (diagnostics, other runs, throw).

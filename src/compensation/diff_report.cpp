@@ -12,6 +12,7 @@
 #include "postproc/error.hpp"
 #include "src/io/html.hpp"
 #include "src/io/html_plot.hpp"
+#include "src/compensation/report_units.hpp"
 
 namespace postproc::comp {
 namespace {
@@ -19,8 +20,6 @@ namespace {
 using io::cell;
 using io::html_escape;
 
-constexpr double kUmPerMm = 1000.0;
-constexpr double kArcsecPerRad = 180.0 / 3.14159265358979323846 * 3600.0;
 
 /// The program's lines, 1-based (index 0 unused), without line ends.
 std::vector<std::string_view> lines_of(std::string_view text) {

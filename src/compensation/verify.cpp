@@ -2,7 +2,10 @@
 // original end points on the nominal machine, within the rounding of the written words.
 #include "postproc/compensation/verify.hpp"
 
+#include <algorithm>
 #include <cmath>
+#include <limits>
+#include <map>
 
 #include "postproc/machine/program_map.hpp"
 #include "postproc/gcode/program.hpp"
@@ -11,7 +14,7 @@
 namespace postproc::comp {
 
 VerifyResult verify(std::string_view original, std::string_view corrected, const std::vector<std::uint64_t>& line_map,
-                    const gcode::Dialect& d, const machine::Machine& m) {
+                    const gcode::Dialect& d, const machine::Machine& m, std::vector<VerifyPoint>* points) {
   MotionCollector orig(d), corr(d);
   gcode::DiagnosticSink quiet(0);
   {
@@ -60,8 +63,13 @@ VerifyResult verify(std::string_view original, std::string_view corrected, const
     }
     kin::Pose before;
     kin::JointVector q3;
-    if (map_o->real(Command{mo.end, mo.tool_vector}, start, before, q3).ok())
-      v.max_error_before_mm = std::max(v.max_error_before_mm, (before.p - want.p).norm());
+    double before_mm = std::numeric_limits<double>::quiet_NaN(), before_rad = before_mm;
+    if (map_o->real(Command{mo.end, mo.tool_vector}, start, before, q3).ok()) {
+      before_mm = (before.p - want.p).norm();
+      before_rad = std::acos(std::clamp(before.axis().dot(want.axis()), -1.0, 1.0));
+      v.max_error_before_mm = std::max(v.max_error_before_mm, before_mm);
+      v.max_error_before_rad = std::max(v.max_error_before_rad, before_rad);
+    }
     // The rounding bound: half a unit of each written axis, carried to the tool tip.
     const double bound = rounding_bound(m, *map_c, mc, need, f, start, got).tip_mm;
     const double err = (got.p - want.p).norm();
@@ -70,6 +78,7 @@ VerifyResult verify(std::string_view original, std::string_view corrected, const
     v.max_error_mm = std::max(v.max_error_mm, err);
     v.max_error_rad = std::max(v.max_error_rad, ang);
     v.max_bound_mm = std::max(v.max_bound_mm, bound);
+    if (points != nullptr) points->push_back({line, want.p, before_mm, before_rad, err, ang, bound});
     if (v.compared == 1 || err - bound > v.max_excess_mm) {
       v.max_excess_mm = err - bound;
       v.worst_line = line;
