@@ -147,7 +147,6 @@ void print_summary(const cal::CalibrationRun& run, const cal::Comparison& c) {
       return std::isfinite(f.stddev[static_cast<std::size_t>(k)]) ? fmt::format("±{:.3g}", f.stddev[static_cast<std::size_t>(k)] * scale)
                                                                   : std::string("held");
     };
-    constexpr double kArcsec = 180.0 / kin::kPi * 3600;
     out += fmt::format("postproc: instrument frame '{}' ({} measurements): translation ({:.4f} {}, {:.4f} {}, {:.4f} {}) µm, "
                        "rotation ({:.3f} {}, {:.3f} {}, {:.3f} {}) arcsec\n",
                        f.name, f.measurements, f.t.x() * 1000, sd(0, 1000), f.t.y() * 1000, sd(1, 1000), f.t.z() * 1000,

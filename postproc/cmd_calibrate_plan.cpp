@@ -117,8 +117,8 @@ void apply_region_args(const std::vector<std::string>& items, const kin::Model& 
       if (model.joints()[static_cast<std::size_t>(j)].name == name) joint = j;
     if (joint >= 0) {
       if (o.joint_region.empty())
-        for (const kin::Joint& j : model.joints())
-          o.joint_region.emplace_back(-std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity());
+        o.joint_region.assign(model.joints().size(), {-std::numeric_limits<double>::infinity(),
+                                                     std::numeric_limits<double>::infinity()});
       o.joint_region[static_cast<std::size_t>(joint)] = {lo, hi};
     } else if (parallel && (name == "x" || name == "y" || name == "z")) {
       if (!o.tip_region) {
@@ -142,7 +142,7 @@ void apply_region_args(const std::vector<std::string>& items, const kin::Model& 
   }
 }
 
-struct SimulateArgs {
+struct CalibrationSimulateArgs {
   std::string machine, output, plan, kind = "poses";
   int poses = 30, validate_every = 0;
   std::uint64_t seed = 1;
@@ -153,7 +153,7 @@ struct SimulateArgs {
 /// Step-gauge files (document 002) for the machine's volumetric map: one plate per z level of its
 /// grid and a column gauge chaining them (cal::grid_layouts), the readings of the map's field plus
 /// noise, plate tilts of a few µrad.
-void simulate_step_gauge_files(const SimulateArgs& a, const machine::Machine& m) {
+void simulate_step_gauge_files(const CalibrationSimulateArgs& a, const machine::Machine& m) {
   const auto* vm = dynamic_cast<const kin::VolumetricModel*>(m.actual.get());
   if (vm == nullptr)
     throw Error(ExitCode::usage, fmt::format("--kind step-gauge: {} has no [volumetric_map] to take the error field from",
@@ -267,7 +267,7 @@ void setup_calibrate_plan(CLI::App& calibrate, int& rc) {
 }
 
 void setup_calibrate_simulate(CLI::App& calibrate, int& rc) {
-  auto a = std::make_shared<SimulateArgs>();
+  auto a = std::make_shared<CalibrationSimulateArgs>();
   auto* cmd = calibrate.add_subcommand("simulate", "write synthetic measurements of a machine file's (known) errors plus "
                                                    "noise, at planned poses");
   cmd->add_option("-m,--machine", a->machine, "machine file with the true errors")->required();

@@ -20,7 +20,6 @@
 namespace postproc::cli {
 namespace {
 
-constexpr double kArcsec = 180.0 / 3.14159265358979323846 * 3600.0;
 
 struct DiffArgs {
   std::string original, corrected, machine, csv, json, html;

@@ -17,7 +17,6 @@ namespace postproc::cli {
 namespace {
 
 constexpr double kUm = 1000.0;
-constexpr double kArcsec = 180.0 / 3.14159265358979323846 * 3600.0;
 
 /// Machine, dialect and the program's path; nullopt (diagnostics printed, rc set) when refused.
 struct Loaded {
@@ -64,7 +63,7 @@ struct PredictArgs {
   ResolveArgs resolve;
 };
 
-struct SimulateArgs {
+struct TrajectorySimulateArgs {
   std::string input, machine, reference, csv, json;
   double settle_s = 0.1;
   std::size_t every = 1;
@@ -141,7 +140,7 @@ void setup_predict(CLI::App& app, int& rc) {
 }
 
 void setup_simulate(CLI::App& app, int& rc) {
-  auto o = std::make_shared<SimulateArgs>();
+  auto o = std::make_shared<TrajectorySimulateArgs>();
   auto* cmd = app.add_subcommand("simulate", "time-domain simulation: the controller's interpolator and every axis's "
                                              "closed-loop drive, with the contour errors of the actual path");
   cmd->add_option("input", o->input, "NC program that runs (e.g. a compensated program)")->required();

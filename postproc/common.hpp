@@ -16,6 +16,9 @@
 
 namespace postproc::cli {
 
+/// Arcseconds per radian (the unit tool-axis angles are shown in).
+inline constexpr double kArcsec = 180.0 / 3.14159265358979323846 * 3600.0;
+
 struct DialectArgs {
   std::string dialect;       ///< empty = not given
   bool lathe = false;

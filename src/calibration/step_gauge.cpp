@@ -23,7 +23,6 @@ namespace postproc::cal {
 namespace {
 
 using Eigen::Vector3d;
-constexpr char kAxis[3] = {'x', 'y', 'z'};
 
 std::string_view trim(std::string_view s) {
   while (!s.empty() && (s.front() == ' ' || s.front() == '\t')) s.remove_prefix(1);

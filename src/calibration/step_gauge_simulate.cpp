@@ -13,7 +13,6 @@
 namespace postproc::cal {
 
 using Eigen::Vector3d;
-constexpr char kAxis[3] = {'x', 'y', 'z'};
 
 std::vector<GaugeLayout> grid_layouts(const Vector3d& origin, const Vector3d& spacing, const Eigen::Vector3i& counts,
                                       std::span<const Eigen::Vector2d> tilts, std::uint64_t seed) {

@@ -11,7 +11,7 @@
 namespace postproc::contour {
 namespace {
 
-constexpr int p = CubicCurve::degree;
+constexpr int kDegree = CubicCurve::degree;
 
 [[noreturn]] void usage(const std::string& what) { throw Error(ExitCode::usage, what); }
 
@@ -19,7 +19,7 @@ constexpr int p = CubicCurve::degree;
 std::array<double, 4> basis(const std::vector<double>& U, std::size_t s, double u) {
   std::array<double, 4> N{1.0, 0.0, 0.0, 0.0};
   std::array<double, 4> left{}, right{};
-  for (int j = 1; j <= p; ++j) {
+  for (int j = 1; j <= kDegree; ++j) {
     const auto uj = static_cast<std::size_t>(j);
     left[uj] = u - U[s + 1 - uj];
     right[uj] = U[s + uj] - u;
@@ -40,7 +40,7 @@ std::array<std::array<double, 4>, 3> basis_derivatives(const std::vector<double>
   double ndu[4][4] = {};
   double left[4] = {}, right[4] = {};
   ndu[0][0] = 1.0;
-  for (int j = 1; j <= p; ++j) {
+  for (int j = 1; j <= kDegree; ++j) {
     left[j] = u - U[s + 1 - static_cast<std::size_t>(j)];
     right[j] = U[s + static_cast<std::size_t>(j)] - u;
     double saved = 0.0;
@@ -53,21 +53,21 @@ std::array<std::array<double, 4>, 3> basis_derivatives(const std::vector<double>
     ndu[j][j] = saved;
   }
   std::array<std::array<double, 4>, 3> ders{};
-  for (int j = 0; j <= p; ++j) ders[0][static_cast<std::size_t>(j)] = ndu[j][p];
+  for (int j = 0; j <= kDegree; ++j) ders[0][static_cast<std::size_t>(j)] = ndu[j][kDegree];
   constexpr int n = 2;
-  for (int r = 0; r <= p; ++r) {
+  for (int r = 0; r <= kDegree; ++r) {
     double a[2][4] = {};
     int s1 = 0, s2 = 1;
     a[0][0] = 1.0;
     for (int k = 1; k <= n; ++k) {
       double d = 0.0;
-      const int rk = r - k, pk = p - k;
+      const int rk = r - k, pk = kDegree - k;
       if (r >= k) {
         a[s2][0] = a[s1][0] / ndu[pk + 1][rk];
         d = a[s2][0] * ndu[rk][pk];
       }
       const int j1 = rk >= -1 ? 1 : -rk;
-      const int j2 = (r - 1 <= pk) ? k - 1 : p - r;
+      const int j2 = (r - 1 <= pk) ? k - 1 : kDegree - r;
       for (int j = j1; j <= j2; ++j) {
         a[s2][j] = (a[s1][j] - a[s1][j - 1]) / ndu[pk + 1][rk + j];
         d += a[s2][j] * ndu[rk + j][pk];
@@ -80,10 +80,10 @@ std::array<std::array<double, 4>, 3> basis_derivatives(const std::vector<double>
       std::swap(s1, s2);
     }
   }
-  double factor = p;
+  double factor = kDegree;
   for (std::size_t k = 1; k <= n; ++k) {
     for (auto& v : ders[k]) v *= factor;
-    factor *= static_cast<double>(p - static_cast<int>(k));
+    factor *= static_cast<double>(kDegree - static_cast<int>(k));
   }
   return ders;
 }

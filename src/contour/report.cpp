@@ -24,7 +24,7 @@ using nlohmann::json;
 constexpr double kUmPerMm = 1000.0;
 constexpr double kArcsecPerRad = 180.0 / kin::kPi * 3600.0;
 constexpr std::size_t kMaxPlotPoints = 4000;  ///< per plotted series (and path segments per projection)
-constexpr std::size_t kNoRun = std::numeric_limits<std::size_t>::max();
+constexpr std::size_t kOutsideRuns = std::numeric_limits<std::size_t>::max();
 
 double um(double mm) { return mm * kUmPerMm; }
 double arcsec(double rad) { return rad * kArcsecPerRad; }
@@ -56,9 +56,9 @@ std::vector<JointInfo> joints_of(const ContourReport& r) {
   return out;
 }
 
-/// Run index of every path point (kNoRun outside every run).
+/// Run index of every path point (kOutsideRuns outside every run).
 std::vector<std::size_t> run_of_points(const Path& p) {
-  std::vector<std::size_t> run(p.points.size(), kNoRun);
+  std::vector<std::size_t> run(p.points.size(), kOutsideRuns);
   for (std::size_t k = 0; k < p.runs.size(); ++k)
     for (std::size_t i = p.runs[k].begin; i < std::min(p.runs[k].end, p.points.size()); ++i) run[i] = k;
   return run;
@@ -218,7 +218,7 @@ std::string report_csv(const ContourReport& r) {
   for (std::size_t i = 0; i < path.points.size(); ++i) {
     const PathPoint& pt = path.points[i];
     const PointPrediction* b = at(r.before, i);
-    s += fmt::format("{},{},{:.9g},{}", i, pt.line, pt.t, run[i] == kNoRun ? std::string() : std::to_string(run[i]));
+    s += fmt::format("{},{},{:.9g},{}", i, pt.line, pt.t, run[i] == kOutsideRuns ? std::string() : std::to_string(run[i]));
     if (b != nullptr) {
       const Eigen::Vector3d p = intended_tip(*b);
       s += fmt::format(",{:.9g},{:.9g},{:.9g}", p.x(), p.y(), p.z());

@@ -27,9 +27,8 @@
 
 namespace postproc::gcode {
 
-namespace {
-
-/// A block kept for a later cycle: its text is owned, its spans index into it.
+/// A block kept for a later cycle: its text is owned, its spans index into it. (Outside the
+/// anonymous namespace: Interpreter::FanucCycles holds it.)
 struct KeptBlock {
   std::string raw;
   Block block;
@@ -44,6 +43,8 @@ struct KeptBlock {
     return block;
   }
 };
+
+namespace {
 
 constexpr AxisMask kXZ = static_cast<AxisMask>(bit(Axis::x) | bit(Axis::z));
 

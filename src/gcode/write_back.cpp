@@ -65,16 +65,16 @@ int nth_word(const Block& b, std::string_view name, int ordinal) {
   return -1;
 }
 
-struct Edit {
+struct TextEdit {
   std::uint32_t begin = 0, end = 0;  // replaced span (begin == end: an insertion)
   std::string text;
   int word = -1;  // the word replaced, or the word the insertion follows
 };
 
-std::string apply_edits(std::string_view raw, const std::vector<Edit>& edits) {
+std::string apply_edits(std::string_view raw, const std::vector<TextEdit>& edits) {
   std::string s;
   std::uint32_t pos = 0;
-  for (const Edit& e : edits) {
+  for (const TextEdit& e : edits) {
     s.append(raw.substr(pos, e.begin - pos));
     s += e.text;
     pos = e.end;
@@ -126,7 +126,7 @@ class LineMapper {
         }
     // The compensator replaces the numbers of words and inserts words: align the corrected block
     // with the resolved one word by word and check that this reproduces it exactly.
-    std::vector<Edit> on_r;
+    std::vector<TextEdit> on_r;
     std::size_t i = 0;
     std::uint32_t prev_out_end = bo_.has_n ? bo_.n_span.end : 0;
     for (std::size_t j = 0; j < bo_.words.size(); ++j) {
@@ -153,8 +153,8 @@ class LineMapper {
     }
     // The same edits on the source line, word for word (the n-th X of the resolved block is the
     // n-th X of the source line).
-    std::vector<Edit> on_s;
-    for (const Edit& e : on_r) {
+    std::vector<TextEdit> on_s;
+    for (const TextEdit& e : on_r) {
       const Word& wr = br_.words[static_cast<std::size_t>(e.word)];
       const std::string_view name = br_.text(wr.name);
       int ordinal = 0;
@@ -180,7 +180,7 @@ class LineMapper {
       }
       on_s.push_back({ws.span.begin, ws.span.end, e.text, si});
     }
-    std::stable_sort(on_s.begin(), on_s.end(), [](const Edit& a, const Edit& b) { return a.begin < b.begin; });
+    std::stable_sort(on_s.begin(), on_s.end(), [](const TextEdit& a, const TextEdit& b) { return a.begin < b.begin; });
     joined = apply_edits(bs_.raw, on_s);
     for (std::size_t k = 1; k < out.size(); ++k) {
       joined += eol;
