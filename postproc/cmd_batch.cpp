@@ -21,6 +21,7 @@ namespace fs = std::filesystem;
 
 struct BatchArgs {
   std::string job_dir, out_dir, machine, machine_name = "machine.toml", mode = "geometric", shard;
+  std::string dialect;  ///< "" = each machine file's
   std::vector<std::string> globs;
   unsigned jobs = 0;
   double max_deviation_um = 1.0;
@@ -164,6 +165,14 @@ void setup_batch(CLI::App& app, int& rc) {
                   "k/N: take only the k-th of N shares of the files (cluster array jobs); its manifest is "
                   "postproc-manifest.shard-k-of-N.json; join them with `postproc batch merge`");
   cmd->add_option("--machine-name", o->machine_name, "name of per-folder machine files")->capture_default_str();
+  cmd->add_option("--dialect", o->dialect,
+                  fmt::format("read every program as this dialect ({}) instead of its machine file's; a program "
+                              "whose first lines hold another dialect's construct gets warning PP-W005 either way",
+                              gcode::dialect_names()))
+      ->check([](const std::string& v) {
+        return gcode::make_dialect(v).has_value() ? std::string()
+                                                  : fmt::format("unknown dialect '{}'; use {}", v, gcode::dialect_names());
+      });
   cmd->add_option("--max-deviation", o->max_deviation_um, "as for compensate, µm")->capture_default_str();
   cmd->add_option("--max-angle-deviation", o->max_angle_arcsec, "as for compensate, arcsec")->capture_default_str();
   cmd->add_option("--iterations,--max-iterations", o->iterations, "contour modes: most prediction / correction rounds")
@@ -196,6 +205,7 @@ void setup_batch(CLI::App& app, int& rc) {
     opt.out_dir = o->out_dir;
     opt.machine = o->machine;
     opt.machine_name = o->machine_name;
+    opt.dialect = o->dialect;
     opt.globs = o->globs;
     opt.compensate.mode = *comp::parse_mode(o->mode);  // checked by --mode
     opt.compensate.max_deviation_mm = o->max_deviation_um / 1000.0;

@@ -32,18 +32,6 @@ class Summarise final : public gcode::BlockVisitor {
   }
 };
 
-/// First bytes of a file, for dialect suggestions (stdin cannot be re-read: no suggestion there).
-std::string head_of(const std::string& path, std::size_t bytes = 1 << 18) {
-  if (path == "-") return {};
-  io::check_input_kind(path, "NC program");  // a folder is exit 66 before any dialect question
-  std::ifstream f(path, std::ios::binary);
-  if (!f) throw Error(ExitCode::no_input, fmt::format("{}: cannot open for reading: {}", path, std::strerror(errno)));
-  std::string s(bytes, '\0');
-  f.read(s.data(), static_cast<std::streamsize>(bytes));
-  s.resize(static_cast<std::size_t>(f.gcount()));
-  return s;
-}
-
 std::string unit_of(int axis) { return gcode::is_rotary(axis) ? "deg" : "mm"; }
 
 /// Four decimals without a "-0.0000" for values that round to zero.

@@ -29,6 +29,7 @@ struct CompensateArgs {
   std::string report;
   std::string html;
   std::string mode = "geometric";
+  std::string dialect;  ///< "" = the machine file's
   std::string integer_input;
   double max_deviation_um = 1.0;
   double max_angle_arcsec = 4.0;
@@ -149,6 +150,11 @@ void setup_compensate(CLI::App& app, int& rc) {
                   "write a self-contained HTML report here: geometric mode, the error the original program leaves "
                   "on the calibrated machine beside the residual of the written one; contour modes, the contour "
                   "errors before and after");
+  cmd->add_option("--dialect", o->dialect,
+                  fmt::format("read the program as this dialect ({}) instead of the machine file's (which names its "
+                              "controller's); a program whose first lines hold another dialect's construct gets "
+                              "warning PP-W005 either way",
+                              gcode::dialect_names()));
   cmd->add_option("--mode", o->mode,
                   "geometric: the calibrated machine's errors; contour: the servo contour errors (precompensation "
                   "from the drives in the machine file); all: geometric, then contour")
@@ -212,7 +218,27 @@ void setup_compensate(CLI::App& app, int& rc) {
     if (!o->integer_input.empty())
       dopt.integer_input = o->integer_input == "increment" ? gcode::Dialect::IntegerInput::increment
                                                             : gcode::Dialect::IntegerInput::calculator;
-    gcode::Dialect d = *gcode::make_dialect(machine->dialect_name, dopt);
+    std::string dialect_source = fmt::format("the dialect of the machine file {}", o->machine);
+    std::string dialect_name = machine->dialect_name;
+    if (!o->dialect.empty()) {
+      if (!gcode::make_dialect(o->dialect, dopt))
+        throw Error(ExitCode::usage,
+                    fmt::format("unknown dialect '{}' for --dialect; use {}", o->dialect, gcode::dialect_names()));
+      if (o->dialect != machine->dialect_name && !o->quiet)
+        std::fputs(fmt::format("postproc: note: {} is read as {} (--dialect); the machine file {} names {}\n",
+                               o->input, o->dialect, o->machine, machine->dialect_name)
+                       .c_str(),
+                   stderr);
+      dialect_name = o->dialect;
+      dialect_source = "--dialect";
+    }
+    gcode::Dialect d = *gcode::make_dialect(dialect_name, dopt);
+    {
+      // Only a regular file is looked at twice (standard input and pipes are read once, by the run).
+      std::error_code kind;
+      if (o->input != "-" && std::filesystem::is_regular_file(o->input, kind))
+        gcode::warn_other_dialect(head_of(o->input), o->input, d, dialect_source, sink);
+    }
     if (d.gcode_system == '?' && o->input != "-") {
       // Settled once here; every pass over the program (compensate, contour, verification) then
       // reads it in the same system without scanning it again.

@@ -3,11 +3,15 @@
 
 #include <sched.h>
 
+#include <cerrno>
+#include <cstring>
+#include <fstream>
 #include <thread>
 
 #include <fmt/format.h>
 
 #include "postproc/gcode/tool_table.hpp"
+#include "postproc/io/input_file.hpp"
 #include "postproc/io/output_file.hpp"
 
 namespace postproc::cli {
@@ -20,6 +24,17 @@ unsigned usable_cores() {
     if (n > 0) return static_cast<unsigned>(n);
   }
   return std::max(1u, std::thread::hardware_concurrency());
+}
+
+std::string head_of(const std::string& path, std::size_t bytes) {
+  if (path == "-") return {};
+  io::check_input_kind(path, "NC program");  // a folder is exit 66 before any dialect question
+  std::ifstream f(path, std::ios::binary);
+  if (!f) throw Error(ExitCode::no_input, fmt::format("{}: cannot open for reading: {}", path, std::strerror(errno)));
+  std::string s(bytes, '\0');
+  f.read(s.data(), static_cast<std::streamsize>(bytes));
+  s.resize(static_cast<std::size_t>(f.gcount()));
+  return s;
 }
 
 void add_dialect_options(CLI::App& cmd, DialectArgs& a, bool required) {

@@ -31,6 +31,11 @@ struct DialectArgs {
   std::string reset_motion = "G1";      ///< Siemens MD20150[0]: "G0" or "G1"
 };
 
+/// The first `bytes` of a program file, for dialect suggestions; "" for standard input ("-"),
+/// which cannot be read twice (nor can a pipe: callers that read the program afterwards ask only
+/// for regular files). A folder or special file is exit 66.
+[[nodiscard]] std::string head_of(const std::string& path, std::size_t bytes = std::size_t{1} << 18);
+
 /// Adds --dialect, --lathe, --diameter-axis to `cmd`.
 void add_dialect_options(CLI::App& cmd, DialectArgs& a, bool required);
 /// Builds the dialect; throws Error(usage) on a bad combination.

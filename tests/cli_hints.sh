@@ -49,6 +49,28 @@ if [[ -n "$SRC" ]]; then
   [[ $? == 0 && -z "$out" && -s "$tmp/q.nc" ]] || { echo "FAIL: compensate -q printed: $out"; fail=1; }
   out=$("$P" convert "$S/programs/cone_frustum_nas979.nc" --dialect fanuc --decimals X=5 -o "$tmp/q2.nc" -q 2>&1)
   [[ $? == 0 && -z "$out" && -s "$tmp/q2.nc" ]] || { echo "FAIL: convert -q printed: $out"; fail=1; }
+  # --dialect on compensate and batch (one vocabulary with check/convert): the machine file's
+  # dialect by default; another dialect's construct in the program is warned at its place.
+  expect 2 "housing_traori.mpf:1:37: warning: PP-W005: 'TRAORI' is written by siemens programs, but this one is read as fanuc (--dialect)" \
+    -- compensate "$S/programs/housing_traori.mpf" -m "$S/machines/trunnion_ac_siemens.toml" -o "$tmp/h.mpf" --dialect fanuc -q
+  expect 2 "pass --dialect siemens" -- compensate "$S/programs/housing_traori.mpf" -m "$S/machines/trunnion_bc_fanuc.toml" \
+    -o "$tmp/h2.mpf"
+  [[ -e $tmp/h2.mpf ]] && { echo "FAIL: a refused compensate wrote its output"; fail=1; }
+  out=$("$P" compensate "$S/programs/housing_traori.mpf" -m "$S/machines/trunnion_ac_siemens.toml" -o "$tmp/h3.mpf" 2>&1)
+  [[ $? == 0 ]] && ! grep -q "PP-W005" <<<"$out" || { echo "FAIL: the machine file's own dialect warned: $out"; fail=1; }
+  expect 0 "is read as fanuc (--dialect); the machine file" -- compensate "$S/programs/cone_frustum_nas979.nc" \
+    -m "$S/machines/trunnion_ac_siemens.toml" -o "$tmp/c2.nc" --dialect fanuc
+  cmp -s "$tmp/c2.nc" "$tmp/c.nc" 2>/dev/null && { echo "FAIL: a Siemens machine's correction equals the Fanuc one's"; fail=1; }
+  expect 64 "unknown dialect 'fanuk' for --dialect" -- compensate "$S/programs/cone_frustum_nas979.nc" \
+    -m "$S/machines/trunnion_ac_fanuc.toml" -o "$tmp/c3.nc" --dialect fanuk
+  [[ -e $tmp/c3.nc ]] && { echo "FAIL: a usage error wrote its output"; fail=1; }
+  mkdir -p "$tmp/job"
+  cp "$S/programs/housing_traori.mpf" "$tmp/job/"
+  expect 0 "" -- batch "$tmp/job" -o "$tmp/job_out" -m "$S/machines/trunnion_ac_siemens.toml" -q
+  expect 2 "" -- batch "$tmp/job" -o "$tmp/job_out2" -m "$S/machines/trunnion_ac_siemens.toml" --dialect fanuc -q
+  grep -q 'PP-W005' "$tmp/job_out2"/*.json 2>/dev/null || { echo "FAIL: batch --dialect fanuc: no PP-W005 in the manifest"; fail=1; }
+  grep -q 'dialect=fanuc' "$tmp/job_out2"/*.json 2>/dev/null || { echo "FAIL: batch --dialect is not in the manifest's settings"; fail=1; }
+  expect 64 "unknown dialect 'fanuk'" -- batch "$tmp/job" -o "$tmp/job_out3" -m "$S/machines/trunnion_ac_siemens.toml" --dialect fanuk
 fi
 if [[ $fail == 0 ]]; then echo "cli_hints: all checks passed"; fi
 exit $fail

@@ -17,6 +17,7 @@
 #include <fmt/format.h>
 
 #include "postproc/compensation/result_json.hpp"
+#include "postproc/gcode/detect.hpp"
 #include "postproc/error.hpp"
 #include "postproc/io/input_file.hpp"
 #include "postproc/io/input_guard.hpp"
@@ -87,6 +88,7 @@ std::string settings_of(const BatchOptions& o) {
                               c.max_deviation_mm, c.max_angle_rad, c.header ? 1 : 0);
   if (c.mode != comp::Mode::geometric) s += fmt::format(";iterations={}", o.precompensate.max_iterations);
   if (c.flatten) s += ";flatten=1";
+  if (!o.dialect.empty()) s += fmt::format(";dialect={}", o.dialect);
   for (const auto& [name, value] : c.resolve.set) s += fmt::format(";set {}={:.17g}", name, value);
   for (const std::string& dir : c.resolve.search_dirs) s += fmt::format(";subprogram-dir {}", dir);
   return s;
@@ -101,7 +103,8 @@ struct LoadedMachine {
   nlohmann::json diagnostics = nlohmann::json::array();
 };
 
-LoadedMachine load(const std::string& path, const std::string& label, std::size_t max_diagnostics) {
+LoadedMachine load(const std::string& path, const std::string& label, const std::string& dialect_override,
+                   std::size_t max_diagnostics) {
   LoadedMachine lm;
   lm.label = label;
   gcode::DiagnosticSink sink;
@@ -125,9 +128,10 @@ LoadedMachine load(const std::string& path, const std::string& label, std::size_
   // Headers and reports name the machine file as the manifest does (relative to the job folder
   // for per-folder files), so the output does not depend on where the job folder is mounted.
   lm.machine->file = label;
-  auto dialect = gcode::make_dialect(lm.machine->dialect_name, lm.machine->dialect_options);
+  const std::string& name = dialect_override.empty() ? lm.machine->dialect_name : dialect_override;
+  auto dialect = gcode::make_dialect(name, lm.machine->dialect_options);
   if (!dialect) {
-    lm.reason = fmt::format("machine file {}: unknown dialect '{}'", label, lm.machine->dialect_name);
+    lm.reason = fmt::format("machine file {}: unknown dialect '{}'", label, name);
     lm.machine.reset();
     return lm;
   }
@@ -216,6 +220,10 @@ class Runner {
     if (!o_.force && unchanged(fr, out)) return;
 
     gcode::DiagnosticSink sink(o_.max_diagnostics);
+    gcode::warn_other_dialect(text, in.string(), *lm->dialect,
+                              o_.dialect.empty() ? fmt::format("the dialect of the machine file {}", lm->label)
+                                                 : std::string("--dialect"),
+                              sink);
     auto mem = io::OutputFile::memory();
     comp::ContourDetails details;
     const comp::CompensateResult r = comp::compensate_program(text, in.string(), *lm->dialect, *lm->machine,
@@ -446,14 +454,14 @@ BatchResult run_batch(const BatchOptions& opt, const FileDone& on_file) {
       std::error_code e2;
       if (fs::exists(candidate, e2)) {
         auto& slot = loaded[label];
-        if (!slot) slot = std::make_unique<LoadedMachine>(load(candidate.string(), label, opt.max_diagnostics));
+        if (!slot) slot = std::make_unique<LoadedMachine>(load(candidate.string(), label, opt.dialect, opt.max_diagnostics));
         found = slot.get();
         break;
       }
       if (f.empty()) {
         if (!opt.machine.empty()) {
           auto& slot = loaded["-m " + opt.machine];
-          if (!slot) slot = std::make_unique<LoadedMachine>(load(opt.machine, opt.machine, opt.max_diagnostics));
+          if (!slot) slot = std::make_unique<LoadedMachine>(load(opt.machine, opt.machine, opt.dialect, opt.max_diagnostics));
           found = slot.get();
         }
         break;

@@ -1,5 +1,6 @@
 #include "postproc/gcode/detect.hpp"
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 
@@ -92,6 +93,37 @@ std::optional<DialectGuess> guess_dialect(std::string_view text, std::size_t max
     start = end + 1;
   }
   return std::nullopt;
+}
+
+bool warn_other_dialect(std::string_view text, std::string_view file, const Dialect& used, std::string_view source,
+                        DiagnosticSink& sink) {
+  const std::optional<DialectGuess> g = guess_dialect(text);
+  if (!g || g->id == used.id) return false;
+  const Dialect other = make_dialect(g->id);
+  Diagnostic w;
+  w.severity = Severity::warning;
+  w.code = "PP-W005";
+  w.file = std::string(file);
+  w.where = {g->line, g->column};
+  w.message = fmt::format("'{}' is written by {} programs, but this one is read as {} ({}); if the program is for a "
+                          "{} control, pass --dialect {}",
+                          g->evidence, other.name, used.name, source, other.name, other.name);
+  // The evidence's line, for the caret display.
+  std::size_t start = 0;
+  for (std::uint64_t ln = 1; ln < g->line && start < text.size(); ++ln) {
+    const std::size_t end = text.find_first_of("\r\n", start);
+    if (end == std::string_view::npos) {
+      start = text.size();
+      break;
+    }
+    start = end + (end + 1 < text.size() && text[end] == '\r' && text[end + 1] == '\n' ? 2 : 1);
+  }
+  std::size_t stop = text.find_first_of("\r\n", start);
+  if (stop == std::string_view::npos) stop = text.size();
+  set_source_line(w, text.substr(start, stop - start));
+  w.length = static_cast<std::uint32_t>(std::max<std::size_t>(1, g->evidence.size()));
+  sink.report(std::move(w));
+  return true;
 }
 
 }  // namespace postproc::gcode

@@ -56,6 +56,7 @@ struct BatchOptions {
   std::filesystem::path out_dir;
   std::string machine;                      ///< default machine file (may be empty if every folder has one)
   std::string machine_name = "machine.toml";  ///< per-folder override file name
+  std::string dialect;                      ///< every program read as this dialect; "" = each machine file's
   std::vector<std::string> globs;           ///< empty: default_globs()
   comp::CompensateOptions compensate;       ///< mode, limits, header, tool version
   contour::PrecompensateOptions precompensate;

@@ -24,6 +24,13 @@ struct DialectGuess {
 /// Looks at the first `max_lines` lines of `text` for constructs only one dialect has.
 [[nodiscard]] std::optional<DialectGuess> guess_dialect(std::string_view text, std::size_t max_lines = 2000);
 
+/// For commands that take their dialect from elsewhere (the machine file, --dialect): when the
+/// first lines of `text` hold a construct only another dialect writes (guess_dialect), reports
+/// warning PP-W005 at it — the program is read as `used` (`source` says who chose it, e.g. "the
+/// machine file m.toml"), and how to read it otherwise. Returns whether it warned.
+bool warn_other_dialect(std::string_view text, std::string_view file, const Dialect& used, std::string_view source,
+                        DiagnosticSink& sink);
+
 /// A block that only one Fanuc lathe G-code system reads without contradiction.
 struct GCodeSystemEvidence {
   char system = 0;          ///< 'A' or 'B' (B stands for B and C: both use G90/G91 and G94/G95)
