@@ -106,11 +106,15 @@ void print_summary(const cal::CalibrationRun& run, const cal::Comparison& c) {
   int registration = 0;
   for (const cal::FrameEstimate& f : r.frames)
     for (int k = 0; k < 6; ++k) registration += ((f.free & ~f.held) >> k) & 1;
+  const auto poorly = static_cast<std::size_t>(std::count_if(r.identified.begin(), r.identified.end(), [&](int k) {
+    return cal::parameter_status(run, k) == "poorly determined";
+  }));
   std::string out = fmt::format("postproc: {} measurements ({} fitted, {} held out); method {}{}; {} of {} parameters "
-                                "identified{}, {} Ceres iterations, {:.3f} s\n",
+                                "identified{}{}, {} Ceres iterations, {:.3f} s\n",
                                 run.data.size(), c.fit.count, c.validation.count, cal::to_string(run.options.method),
-                                r.lambda > 0 ? fmt::format(" (λ = {:.3g})", r.lambda) : "", r.identified.size(),
+                                r.lambda > 0 ? fmt::format(" (λ = {:.3g})", r.lambda) : "", r.identified.size() - poorly,
                                 r.identified.size() + r.held.size(),
+                                poorly > 0 ? fmt::format(", {} estimated but poorly determined", poorly) : "",
                                 registration > 0 ? fmt::format(" (and {} instrument-frame components)", registration) : "",
                                 r.iterations, r.seconds);
   out += fmt::format("postproc: identifiability: rank {} of {}, condition {:.4g}, O1 {:.4g}, O3 {:.4g}, O4 {:.4g}\n",
@@ -123,6 +127,22 @@ void print_summary(const cal::CalibrationRun& run, const cal::Comparison& c) {
                        "frame's unknown placement imitates them exactly; if those values are not known, add measurements "
                        "taken in the workpiece frame (a registered instrument) so they can be identified\n",
                        r.held_why.size());
+  {
+    std::string weak;
+    for (int k : r.identified)
+      if (cal::parameter_status(run, k) == "poorly determined") {
+        const kin::Parameter& p = params[static_cast<std::size_t>(k)];
+        const double scale = p.unit == "rad" ? 180.0 / kin::kPi * 3600.0 : p.unit == "ratio" ? 1e6 : 1000.0;
+        const char* unit = p.unit == "rad" ? "arcsec" : p.unit == "ratio" ? "µm/m" : "µm";
+        const auto i = static_cast<std::size_t>(k);
+        weak += fmt::format("{}{} {:.3g} ± {:.3g} {}", weak.empty() ? "" : ", ", p.name,
+                            (r.values[i] - (p.error ? p.nominal : 0)) * scale, r.stddev[i] * scale, unit);
+      }
+    if (!weak.empty())
+      out += fmt::format("postproc: warning: poorly determined (the estimate is less than 2σ from the drawing): {}; "
+                         "measure poses that move these parameters' effects, or fix them (--fix)\n",
+                         weak);
+  }
   for (int k : r.start.unobserved)
     out += fmt::format("postproc: no measurement depends on {} (held at the start value)\n", params[static_cast<std::size_t>(k)].name);
   auto figures = [](std::string_view set, const cal::SetFigures& f) {

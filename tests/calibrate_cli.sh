@@ -85,6 +85,31 @@ else
   fail "step gauge: calibrate exited non-zero"; cat "$T/map.err"
 fi
 
+# 4c. A parameter whose ±1σ is large against its estimate is "poorly determined", not
+# "identified": 12 positions with ±200 µm noise cannot pin the B/C trunnion's 19 parameters down.
+"$P" calibrate simulate -m "$M/trunnion_bc_fanuc.toml" --poses 12 --kind positions --noise 200 -o "$T/noisy.csv" 2> /dev/null ||
+  fail "simulate (noisy) exited non-zero"
+"$P" calibrate "$T/noisy.csv" -m "$M/trunnion_bc_fanuc_nominal.toml" -o "$T/noisy.toml" --json "$T/noisy.json" \
+  --html "$T/noisy.html" 2> "$T/noisy.err" || fail "calibrate (noisy) exited non-zero"
+grep -q 'warning: poorly determined (the estimate is less than 2σ from the drawing): ' "$T/noisy.err" ||
+  fail "noisy calibration: no 'poorly determined' warning: $(cat "$T/noisy.err")"
+grep -q '"status": "poorly determined"' "$T/noisy.json" || fail "noisy calibration: no poorly determined parameter in the JSON"
+grep -q 'class="l weak">poorly determined<' "$T/noisy.html" || fail "noisy calibration: the HTML does not mark it"
+python3 - "$T/noisy.json" <<'PY' || fail "noisy calibration: a parameter marked identified lies within 2σ of the drawing (or the reverse)"
+import json, sys
+for p in json.load(open(sys.argv[1]))["parameters"]:
+    if p["status"] not in ("identified", "poorly determined"):
+        continue
+    floor = {"rad": 1 / 3600 * 3.141592653589793 / 180, "ratio": 1e-6}.get(p["unit"], 1e-3)
+    # The change from the drawing: the nominal start file has every error at 0, so the value is it.
+    well = p["stddev"] <= floor or abs(p["value"]) >= 2 * p["stddev"]
+    if well != (p["status"] == "identified"):
+        sys.exit(1)
+PY
+"$P" calibrate "$SRC/samples/measurements/trunnion_bc_positions.csv" -m "$M/trunnion_bc_fanuc_nominal.toml" -o "$T/clean.toml" \
+  2> "$T/clean.err" || fail "calibrate (sample) exited non-zero"
+grep -q 'poorly determined' "$T/clean.err" && fail "the sample's calibration has poorly determined parameters: $(cat "$T/clean.err")"
+
 # 5. plan → simulate → calibrate closes the loop on the hexapod.
 "$P" calibrate plan -m "$M/hexapod_doc003.toml" --poses 36 --kind struts -o "$T/plan.csv" --program "$T/plan.nc" 2> "$T/plan.err" ||
   fail "plan exited non-zero"

@@ -54,9 +54,24 @@ json identifiability(const Identifiability& a) {
           {"weakest_combination", a.weakest}};
 }
 
-std::string status_of(const CalibrationRun& run, int k) {
+/// An estimated parameter counts as identified when its ±1σ is small against its value (the
+/// estimate lies at least 2σ from the drawing) or small in itself (≤ 1 µm, 1 arcsec or 1 µm/m: a
+/// parameter that really is at its nominal value is then known to be there); otherwise it is
+/// "poorly determined" — estimated, used, but the data do not pin it down.
+bool well_determined(const kin::Parameter& p, double change_from_nominal, double sigma) {
+  if (!std::isfinite(sigma)) return false;
+  const double floor = p.unit == "rad" ? 1.0 / 3600.0 * kin::kPi / 180.0 : p.unit == "ratio" ? 1e-6 : 1e-3;
+  return sigma <= floor || std::abs(change_from_nominal) >= 2 * sigma;
+}
+
+std::string status_of_parameter(const CalibrationRun& run, int k) {
   const auto& r = run.result;
-  if (std::find(r.identified.begin(), r.identified.end(), k) != r.identified.end()) return "identified";
+  if (std::find(r.identified.begin(), r.identified.end(), k) != r.identified.end()) {
+    const auto i = static_cast<std::size_t>(k);
+    const kin::Parameter& p = run.start->parameters()[i];
+    const double sigma = i < r.stddev.size() ? r.stddev[i] : std::numeric_limits<double>::quiet_NaN();
+    return well_determined(p, r.values[i] - (p.error ? p.nominal : 0), sigma) ? "identified" : "poorly determined";
+  }
   if (std::find(r.held.begin(), r.held.end(), k) != r.held.end()) return "unidentifiable";
   return "fixed";
 }
@@ -197,7 +212,7 @@ std::string report_json(const CalibrationRun& run) {
   json params = json::array();
   for (std::size_t k = 0; k < run.start->parameters().size(); ++k) {
     const kin::Parameter& p = run.start->parameters()[k];
-    const std::string st = status_of(run, static_cast<int>(k));
+    const std::string st = parameter_status(run, static_cast<int>(k));
     if (!p.error && st == "fixed") continue;
     params.push_back({{"name", p.name},
                       {"unit", p.unit},
@@ -236,7 +251,7 @@ std::string report_html(const CalibrationRun& run) {
 <style>
 body{font-family:sans-serif;margin:1.5em;color:#222}table{border-collapse:collapse;margin:0.5em 0 1.5em}
 td,th{border:1px solid #ccc;padding:2px 8px;text-align:right;font-size:13px}th{background:#f3f3f3}
-td.l,th.l{text-align:left}.held{color:#b00}.plot{border:1px solid #ccc}
+td.l,th.l{text-align:left}.held{color:#b00}.weak{color:#a60}.plot{border:1px solid #ccc}
 </style></head><body>
 )";
   s += fmt::format("<h1>Calibration of {}</h1>\n", html_escape(run.machine_name));
@@ -305,13 +320,14 @@ td.l,th.l{text-align:left}.held{color:#b00}.plot{border:1px solid #ccc}
   s += "<h2>Parameters</h2><table id=\"parameters\"><tr><th class=l>name</th><th class=l>status</th><th>start</th><th>identified</th><th>±1σ</th></tr>\n";
   for (std::size_t k = 0; k < run.start->parameters().size(); ++k) {
     const kin::Parameter& p = run.start->parameters()[k];
-    const std::string st = status_of(run, static_cast<int>(k));
+    const std::string st = parameter_status(run, static_cast<int>(k));
     if (!p.error && st == "fixed") continue;
     const double start = run.start->values()[k] - (p.error ? p.nominal : 0);
     const double value = r.values[k] - (p.error ? p.nominal : 0);
     s += fmt::format("<tr><td class=l>{}</td><td class=\"l{}\">{}</td><td>{}</td><td>{}</td><td>{}</td></tr>\n",
-                     html_escape(p.name), st == "unidentifiable" ? " held" : "", st, human(p, start),
-                     st == "identified" ? human(p, value) : "–", human(p, r.stddev[k]));
+                     html_escape(p.name), st == "unidentifiable" ? " held" : st == "poorly determined" ? " weak" : "", st,
+                     human(p, start), st != "unidentifiable" && st != "fixed" ? human(p, value) : "–",
+                     human(p, r.stddev[k]));
   }
   s += "</table>\n<h2>Measurements</h2><table id=\"measurements\"><tr><th class=l>label</th><th class=l>source</th><th class=l>kind</th><th class=l>set</th><th>position before (mm)</th><th>after (mm)</th><th>angle before (°)</th><th>after (°)</th></tr>\n";
   auto cell = [](double v) { return std::isfinite(v) ? fmt::format("{:.5f}", v) : std::string("–"); };
@@ -327,5 +343,7 @@ td.l,th.l{text-align:left}.held{color:#b00}.plot{border:1px solid #ccc}
   s += "</body></html>\n";
   return s;
 }
+
+std::string parameter_status(const CalibrationRun& run, int k) { return status_of_parameter(run, k); }
 
 }  // namespace postproc::cal

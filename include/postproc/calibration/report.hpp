@@ -49,6 +49,12 @@ struct Comparison {
 };
 [[nodiscard]] Comparison compare(const CalibrationRun& run);
 
+/// Status of parameter k in the reports: "identified" (estimated, and its ±1σ small against its
+/// change from the drawing — at least 2σ away — or at most 1 µm / 1 arcsec / 1 µm/m), "poorly
+/// determined" (estimated and used, but the data do not pin it down), "unidentifiable" (held at
+/// its start value) or "fixed" (not asked for).
+[[nodiscard]] std::string parameter_status(const CalibrationRun& run, int k);
+
 [[nodiscard]] std::string report_json(const CalibrationRun& run);
 [[nodiscard]] std::string report_html(const CalibrationRun& run);
 
