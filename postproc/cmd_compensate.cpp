@@ -1,5 +1,8 @@
 // postproc compensate IN -m MACHINE -o OUT: geometric remap through the calibrated machine model.
+#include <algorithm>
+#include <atomic>
 #include <chrono>
+#include <cstdlib>
 #include <cmath>
 #include <filesystem>
 #include <memory>
@@ -30,6 +33,7 @@ struct CompensateArgs {
   std::string html;
   std::string mode = "geometric";
   std::string dialect;  ///< "" = the machine file's
+  bool filter_progress = false;  ///< FILTER_PROGRESS=N lines on stderr (LinuxCNC program filters)
   std::string integer_input;
   double max_deviation_um = 1.0;
   double max_angle_arcsec = 4.0;
@@ -155,6 +159,9 @@ void setup_compensate(CLI::App& app, int& rc) {
                               "controller's); a program whose first lines hold another dialect's construct gets "
                               "warning PP-W005 either way",
                               gcode::dialect_names()));
+  cmd->add_flag("--filter-progress", o->filter_progress,
+                "print the progress as 'FILTER_PROGRESS=N' lines (percent) on stderr, as LinuxCNC's GUIs read them "
+                "from a [FILTER] program (on by itself when AXIS_PROGRESS_BAR=1, which AXIS sets; docs/linuxcnc-filter.md)");
   cmd->add_option("--mode", o->mode,
                   "geometric: the calibrated machine's errors; contour: the servo contour errors (precompensation "
                   "from the drives in the machine file); all: geometric, then contour")
@@ -257,7 +264,22 @@ void setup_compensate(CLI::App& app, int& rc) {
     opt.resolve = make_resolve_options(o->resolve);
     io::OutputFile out(o->output, o->input, o->in_place);
     ProgressBar bar("postproc:");
-    if (bar.enabled()) {
+    const char* axis_bar = std::getenv("AXIS_PROGRESS_BAR");
+    auto filter_percent = std::make_shared<std::atomic<int>>(-1);
+    const bool filter_mode = o->filter_progress || (axis_bar != nullptr && std::string_view(axis_bar) == "1");
+    if (filter_mode) {
+      // LinuxCNC's filter protocol: one "FILTER_PROGRESS=N" line per whole percent reached.
+      opt.progress = [filter_percent](std::string_view, double done, double total) {
+        if (!(total > 0)) return;
+        const int n = static_cast<int>(std::clamp(100.0 * done / total, 0.0, 100.0));
+        int was = filter_percent->load();
+        while (n > was && !filter_percent->compare_exchange_weak(was, n)) {
+        }
+        if (n > was) std::fputs(fmt::format("FILTER_PROGRESS={}\n", n).c_str(), stderr);
+      };
+      std::error_code ec;
+      if (o->input != "-") opt.input_bytes = std::filesystem::file_size(o->input, ec);
+    } else if (bar.enabled()) {
       opt.progress = [&bar](std::string_view stage, double done, double total) { bar.update(stage, done, total); };
       std::error_code ec;
       if (o->input != "-") opt.input_bytes = std::filesystem::file_size(o->input, ec);
@@ -301,6 +323,7 @@ void setup_compensate(CLI::App& app, int& rc) {
       r = comp::compensate_program(text, o->input, d, *machine, opt, popt, target, sink, &contour);
     }
     bar.finish();
+    if (filter_mode && filter_percent->exchange(100) < 100) std::fputs("FILTER_PROGRESS=100\n", stderr);
     std::optional<comp::BoundsResult> bound;
     std::string geometric_page;
     if (hold && !sink.has_errors()) {
