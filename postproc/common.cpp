@@ -2,6 +2,7 @@
 #include "progress_bar.hpp"
 
 #include <sched.h>
+#include <unistd.h>
 
 #include <cerrno>
 #include <cstring>
@@ -101,6 +102,63 @@ gcode::Dialect make_dialect(const DialectArgs& a) {
   return *d;
 }
 
+bool colour_on_stderr() {
+  if (const char* c = std::getenv("POSTPROC_COLOR")) {
+    if (std::string_view(c) == "always") return true;
+    if (std::string_view(c) == "never") return false;
+  }
+  if (const char* n = std::getenv("NO_COLOR"); n != nullptr && *n != '\0') return false;
+  if (const char* t = std::getenv("TERM"); t != nullptr && std::string_view(t) == "dumb") return false;
+  return ::isatty(STDERR_FILENO) == 1;
+}
+
+std::string colourise_diagnostic(std::string_view text) {
+  constexpr std::string_view bold = "\033[1m", reset = "\033[0m", green = "\033[1;32m";
+  std::string out;
+  out.reserve(text.size() + 64);
+  std::size_t start = 0;
+  bool first = true;
+  while (start < text.size()) {
+    std::size_t end = text.find('\n', start);
+    if (end == std::string_view::npos) end = text.size();
+    const std::string_view line = text.substr(start, end - start);
+    if (first) {
+      first = false;
+      struct Sev {
+        std::string_view word, colour;
+      };
+      bool done = false;
+      for (const Sev& sv : {Sev{": error: ", "\033[1;31m"}, Sev{": warning: ", "\033[1;35m"}, Sev{": note: ", "\033[1;36m"}}) {
+        const std::size_t at = line.find(sv.word);
+        if (at == std::string_view::npos) continue;
+        out += bold;
+        out += line.substr(0, at + 1);
+        out += reset;
+        out += ' ';
+        out += sv.colour;
+        out += sv.word.substr(2, sv.word.size() - 3);  // "error:"
+        out += reset;
+        out += line.substr(at + sv.word.size() - 1);
+        done = true;
+        break;
+      }
+      if (!done) out += line;
+    } else if (!line.empty() && line.find_first_not_of(" ^~") == std::string_view::npos &&
+               line.find('^') != std::string_view::npos) {
+      const std::size_t lead = line.find_first_not_of(' ');
+      out += line.substr(0, lead);
+      out += green;
+      out += line.substr(lead);
+      out += reset;
+    } else {
+      out += line;
+    }
+    if (end < text.size()) out += '\n';
+    start = end + 1;
+  }
+  return out;
+}
+
 DiagnosticPrinter::DiagnosticPrinter(gcode::DiagnosticSink& s, std::size_t per_code_limit)
     : limit(per_code_limit), sink(s) {
   sink.on_report = [this](const gcode::Diagnostic& d) {
@@ -111,7 +169,7 @@ DiagnosticPrinter::DiagnosticPrinter(gcode::DiagnosticSink& s, std::size_t per_c
       shown.emplace_back(d.code, 1);
       seen = 1;
     }
-    if (seen <= limit) print_stderr(gcode::format(d));
+    if (seen <= limit) print_stderr(colour ? colourise_diagnostic(gcode::format(d)) : gcode::format(d));
   };
 }
 

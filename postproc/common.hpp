@@ -53,6 +53,13 @@ void add_resolve_options(CLI::App& cmd, ResolveArgs& a);
 gcode::ResolveOptions make_resolve_options(const ResolveArgs& a);
 
 /// Prints diagnostics to stderr as they arrive, at most `per_code_limit` per code.
+/// Colour on stderr: POSTPROC_COLOR=always / never decides; otherwise off when NO_COLOR is set
+/// (no-color.org) or TERM is "dumb", on when stderr is a terminal.
+[[nodiscard]] bool colour_on_stderr();
+/// A formatted diagnostic (gcode::format) with GCC's colours: the location bold, the severity
+/// red / magenta / cyan, the caret line green.
+[[nodiscard]] std::string colourise_diagnostic(std::string_view text);
+
 struct DiagnosticPrinter {
   explicit DiagnosticPrinter(gcode::DiagnosticSink& sink, std::size_t per_code_limit);
   /// Prints how many were not shown, per code.
@@ -60,6 +67,7 @@ struct DiagnosticPrinter {
   std::size_t limit;
   std::vector<std::pair<std::string, std::size_t>> shown;
   gcode::DiagnosticSink& sink;
+  bool colour = colour_on_stderr();
 };
 
 /// Loads a machine file, printing its diagnostics; throws Error(refused) "PATH: machine file

@@ -1,6 +1,7 @@
 // Progress bar on a terminal's stderr.
 #include "progress_bar.hpp"
 
+#include <sys/ioctl.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -30,6 +31,30 @@ void print_stderr(std::string_view text) {
 std::string clock_text(double seconds) {
   const auto s = static_cast<long long>(std::max(0.0, std::round(seconds)));
   return s >= 3600 ? fmt::format("{}:{:02}:{:02}", s / 3600, s / 60 % 60, s % 60) : fmt::format("{}:{:02}", s / 60, s % 60);
+}
+
+std::size_t terminal_columns() {
+  if (const char* env = std::getenv("COLUMNS")) {
+    const long v = std::strtol(env, nullptr, 10);
+    if (v >= 20 && v <= 1000) return static_cast<std::size_t>(v);
+  }
+  winsize ws{};
+  if (::ioctl(STDERR_FILENO, TIOCGWINSZ, &ws) == 0 && ws.ws_col >= 20) return ws.ws_col;
+  return 80;
+}
+
+std::string fit_to_width(std::string s, std::size_t columns) {
+  // Counts UTF-8 characters (each one column: the bar writes no wide characters) and cuts at a
+  // character boundary, leaving the last column free so that the terminal does not wrap.
+  std::size_t chars = 0;
+  for (std::size_t i = 0; i < s.size(); ++i) {
+    if ((static_cast<unsigned char>(s[i]) & 0xC0) == 0x80) continue;
+    if (++chars == columns) {
+      s.resize(i);
+      break;
+    }
+  }
+  return s;
 }
 
 ProgressBar::ProgressBar(std::string label) : label_(std::move(label)) {
@@ -67,11 +92,14 @@ void ProgressBar::update(std::string_view stage, double done, double total, std:
   if (!last && now - last_ < std::chrono::milliseconds(100)) return;
   last_ = now;
   const double elapsed = std::chrono::duration<double>(now - start_).count();
-  std::string s = fmt::format("\r\033[K{}", label_);
+  const std::size_t columns = terminal_columns();
+  std::string s = label_;
   if (!stage.empty()) s += fmt::format(" {}", stage);
   if (total > 0) {
     const double f = std::clamp(done / total, 0.0, 1.0);
-    constexpr int kWidth = 28;
+    // 28 columns for the bar on a wide terminal, fewer on a narrow one (the text around it needs
+    // about 60).
+    const int kWidth = static_cast<int>(std::clamp<std::size_t>(columns > 60 ? columns - 60 : 0, 8, 28));
     const int filled = static_cast<int>(f * kWidth);
     s += " [" + std::string(static_cast<std::size_t>(filled), '=') + (filled < kWidth ? ">" : "") +
          std::string(static_cast<std::size_t>(std::max(0, kWidth - filled - 1)), ' ') + "]";
@@ -80,6 +108,7 @@ void ProgressBar::update(std::string_view stage, double done, double total, std:
   }
   s += fmt::format("  {} elapsed", clock_text(elapsed));
   if (!detail.empty()) s += fmt::format("  {}", detail);
+  s = "\r\033[K" + fit_to_width(std::move(s), columns);
   std::fputs(s.c_str(), stderr);
   std::fflush(stderr);
   drawn_ = true;

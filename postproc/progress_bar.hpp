@@ -33,6 +33,12 @@ class ProgressBar {
   std::mutex mutex_;
 };
 
+/// Columns of the terminal on stderr: $COLUMNS when set (20 … 1000), else the terminal's width,
+/// else 80.
+[[nodiscard]] std::size_t terminal_columns();
+/// `s` cut to fewer than `columns` characters (UTF-8), so that a redrawn line never wraps.
+[[nodiscard]] std::string fit_to_width(std::string s, std::size_t columns);
+
 /// Writes `text` to stderr; when a bar is on screen it is cleared first (and redrawn by its next
 /// update), so diagnostics printed during a run do not run into the bar.
 void print_stderr(std::string_view text);

@@ -34,6 +34,7 @@ if [[ $mode != tool ]]; then
     libgtest-dev libgmock-dev libbenchmark-dev
     chromium chromium-driver python3-selenium python3-pil  # tests/html_render.sh: reports in headless Chromium
     linuxcnc-uspace  # tests/rs274_compare.sh: LinuxCNC's own interpreter (rs274) as the reference
+    pybind11-dev python3-dev python3-numpy python3-pytest  # the Python module and its tests (docs/python.md)
   )
 fi
 if [[ $mode == extra ]]; then

@@ -71,6 +71,38 @@ if [[ -n "$SRC" ]]; then
   grep -q 'PP-W005' "$tmp/job_out2"/*.json 2>/dev/null || { echo "FAIL: batch --dialect fanuc: no PP-W005 in the manifest"; fail=1; }
   grep -q 'dialect=fanuc' "$tmp/job_out2"/*.json 2>/dev/null || { echo "FAIL: batch --dialect is not in the manifest's settings"; fail=1; }
   expect 64 "unknown dialect 'fanuk'" -- batch "$tmp/job" -o "$tmp/job_out3" -m "$S/machines/trunnion_ac_siemens.toml" --dialect fanuk
+  # Colour: GCC's colours on a terminal or with POSTPROC_COLOR=always, none with NO_COLOR or
+  # when stderr is not a terminal.
+  printf '%%\nO1\nG21 G90\nG0 X0. Y0.\nG2 X5. Y5. F100\nM30\n%%\n' > "$tmp/bad.nc"
+  out=$(POSTPROC_COLOR=always "$P" check "$tmp/bad.nc" --dialect fanuc 2>&1)
+  grep -q $'\033\[1;31merror:\033\[0m' <<<"$out" || { echo "FAIL: POSTPROC_COLOR=always: no red 'error:': $out"; fail=1; }
+  grep -q $'\033\[1;32m\^' <<<"$out" || { echo "FAIL: POSTPROC_COLOR=always: no green caret: $out"; fail=1; }
+  out=$(NO_COLOR=1 "$P" check "$tmp/bad.nc" --dialect fanuc 2>&1)
+  grep -q $'\033' <<<"$out" && { echo "FAIL: NO_COLOR: escapes written: $out"; fail=1; }
+  out=$(POSTPROC_COLOR=never "$P" check "$tmp/bad.nc" --dialect fanuc 2>&1)
+  grep -q 'bad.nc:5:' <<<"$out" && ! grep -q $'\033' <<<"$out" || { echo "FAIL: POSTPROC_COLOR=never: $out"; fail=1; }
+  # The progress bar fits the terminal: every redraw shorter than $COLUMNS.
+  awk 'BEGIN { print "%"; print "O2"; print "G21 G90 G54"; print "G0 X0 Y0 Z50 B0 C0"; print "G1 Z5 F1000";
+               for (i = 0; i < 60000; ++i) printf "X%.3f Y%.3f B%.3f C%.3f\n", 50 * cos(i / 1000), 50 * sin(i / 1000), 10 * sin(i / 500), (i / 100) % 360;
+               print "M30"; print "%" }' > "$tmp/long.nc"
+  for cols in 40 100; do
+    COLUMNS=$cols POSTPROC_PROGRESS=1 "$P" compensate "$tmp/long.nc" -m "$S/machines/trunnion_bc_fanuc.toml" -o "$tmp/long_c.nc" 2> "$tmp/bar.err" ||
+      { echo "FAIL: compensate with a progress bar"; fail=1; }
+    python3 - "$tmp/bar.err" "$cols" <<'PY' || fail=1
+import sys
+import re
+data = open(sys.argv[1], encoding="utf-8", newline="").read()  # keep the \r of the redraws
+cols = int(sys.argv[2])
+# Each redraw is "\r ESC[K" and the bar's text; the last clear is followed by the summary line.
+draws = [d.split("\n")[0] for d in data.split("\r\033[K")[1:]]
+draws = [d for d in draws if d and not re.match(r"postproc: \d+ blocks", d)]
+if not draws:
+    sys.exit(print("FAIL: no progress bar drawn") or 1)
+long = [d for d in draws if len(d) >= cols]
+if long:
+    sys.exit(print(f"FAIL: {len(long)} redraws of {len(draws)} are {len(long[0])} ≥ {cols} columns: {long[0]!r}") or 1)
+PY
+  done
 fi
 if [[ $fail == 0 ]]; then echo "cli_hints: all checks passed"; fi
 exit $fail
