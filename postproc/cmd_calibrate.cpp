@@ -263,6 +263,7 @@ void run_calibrate(const CalibrateArgs& a, int& rc) {
   }
 
   // Step gauge → [volumetric_map].
+  cal::StepGaugeReport sgr;
   std::string map_section;
   std::vector<std::string> notes;
   if (have_gauge) {
@@ -278,7 +279,7 @@ void run_calibrate(const CalibrateArgs& a, int& rc) {
       sg.outside = a.map_outside == "clamp"  ? kin::VolumetricMap::Outside::clamp
                    : a.map_outside == "zero" ? kin::VolumetricMap::Outside::zero
                                              : kin::VolumetricMap::Outside::refuse;
-    cal::StepGaugeReport sgr;
+
     const auto map = cal::build_volumetric_map(gauge, sg, sink, &sgr);
     if (!map) {
       printer.finish();
@@ -325,6 +326,7 @@ void run_calibrate(const CalibrateArgs& a, int& rc) {
   run.inputs = inputs;
   run.options = opt;
   run.notes = notes;
+  if (have_gauge) run.step_gauge = &sgr;
   kin::ModelPtr solved = machine->actual;
   if (!data.empty()) {
     {

@@ -76,9 +76,23 @@ else
 fi
 
 # 4. The step gauge (document 002) rebuilds the sample machine's map.
-if "$P" calibrate -m "$M/mill3_stepgauge_map.toml" "$D"/stepgauge_*.csv -o "$T/map.toml" --report "$T/map.json" 2> "$T/map.err"; then
+if "$P" calibrate -m "$M/mill3_stepgauge_map.toml" "$D"/stepgauge_*.csv -o "$T/map.toml" --report "$T/map.json" \
+  --html "$T/map.html" 2> "$T/map.err"; then
   grep -q '^\[volumetric_map\]' "$T/map.toml" || fail "step gauge: no [volumetric_map] written"
   grep -q 'volumetric map from 4 gauges' "$T/map.json" || fail "step gauge: the report does not describe the map"
+  # The reports plot the map and say how well it is determined (per pyramid and per gauge).
+  python3 - "$T/map.json" <<'PY' || fail "step gauge: the JSON's step_gauge section is wrong"
+import json, sys
+g = json.load(open(sys.argv[1]))["step_gauge"]
+assert g["pyramids"] == len(g["points"]) == 39, g["pyramids"]
+assert abs(g["max_error_mm"] - max(sum(e * e for e in p["error_mm"]) ** 0.5 for p in g["points"])) < 1e-12
+assert 0.5 < g["max_noise_gain"] < 2 and all(p["noise_gain"] > 0 for p in g["points"])
+assert {t["gauge"] for t in g["tilts"]} == {"low", "mid", "high", "column"}
+assert all(t["measured"] for t in g["tilts"] if t["gauge"] != "column")
+PY
+  for id in step-gauge-summary step-gauge-tilts step-gauge-low step-gauge-column; do
+    grep -q "id=\"$id\"" "$T/map.html" || fail "step gauge: the HTML has no #$id"
+  done
   "$P" compensate "$SRC/samples/programs/pocket_3axis_map.nc" -m "$T/map.toml" -o "$T/map.nc" 2> /dev/null ||
     fail "step gauge: compensate does not take the calibrated machine file"
 else

@@ -1,6 +1,7 @@
 // Calibration reports, JSON and self-contained HTML (see report.hpp).
 #include "postproc/calibration/report.hpp"
 #include "src/io/html.hpp"
+#include "src/io/html_plot.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -77,6 +78,79 @@ std::string status_of_parameter(const CalibrationRun& run, int k) {
 }
 
 using io::html_escape;
+
+/// The volumetric map from the step gauge: the error vector of every pyramid on the grid (three
+/// projections coloured by |E|), |E| and its components along each gauge, how well each value is
+/// determined (the noise gain 1/σmin(T): a reading error of 1 µm moves E by at most that many µm;
+/// the plate tilt's edge-fit residual), and the largest errors.
+std::string step_gauge_html(const StepGaugeReport& g) {
+  std::string s = "<h2>Volumetric map from the step gauge</h2>\n";
+  double gain = 0;
+  std::size_t worst = 0;
+  for (std::size_t i = 0; i < g.points.size(); ++i) {
+    gain = std::max(gain, g.points[i].noise_gain);
+    if (g.points[i].error.norm() > g.points[worst].error.norm()) worst = i;
+  }
+  s += fmt::format(
+      "<p id=\"step-gauge-summary\">{} pyramids on {} gauges; largest |E| {:.3f} µm{}. How well the map is "
+      "determined: each pyramid's error solves its readings through the gauge's geometry, and a reading error of "
+      "1 µm moves E by at most the noise gain (largest {:.3f}); the plate tilt comes from the edge readings (fit "
+      "residual below).</p>\n",
+      g.points.size(), g.tilts.size(), g.max_error * 1000,
+      g.points.empty() ? std::string()
+                       : fmt::format(" (gauge {}, pyramid {})", html_escape(g.points[worst].gauge),
+                                     html_escape(g.points[worst].pyramid)),
+      gain);
+  s += "<table id=\"step-gauge-tilts\"><tr><th class=l>gauge</th><th>pyramids</th><th>max |E| (µm)</th>"
+       "<th>max noise gain</th><th>tilt θx (arcsec)</th><th>tilt θy (arcsec)</th><th>edge-fit rms x / y (µm)</th></tr>\n";
+  for (const StepGaugeReport::Tilt& t : g.tilts) {
+    std::size_t n = 0;
+    double emax = 0, gmax = 0;
+    for (const StepGaugeReport::Point& p : g.points)
+      if (p.gauge == t.gauge) {
+        ++n;
+        emax = std::max(emax, p.error.norm());
+        gmax = std::max(gmax, p.noise_gain);
+      }
+    constexpr double arcsec = 180.0 / kin::kPi * 3600.0;
+    s += fmt::format("<tr><td class=l>{}</td><td>{}</td><td>{:.3f}</td><td>{:.3f}</td><td>{}</td><td>{}</td><td>{}</td></tr>\n",
+                     html_escape(t.gauge), n, emax * 1000, gmax,
+                     t.measured ? fmt::format("{:.2f}", t.theta.x() * arcsec) : std::string("not measured"),
+                     t.measured ? fmt::format("{:.2f}", t.theta.y() * arcsec) : std::string("not measured"),
+                     t.measured ? fmt::format("{:.3f} / {:.3f}", t.rms.x() * 1000, t.rms.y() * 1000) : std::string("–"));
+  }
+  s += "</table>\n";
+  // The grid coloured by |E|: every pyramid a dot.
+  io::PlotPath map;
+  for (std::size_t i = 0; i < g.points.size(); ++i) {
+    map.points.push_back(g.points[i].position);
+    map.values.push_back(g.points[i].error.norm() * 1000);
+    map.runs.emplace_back(i, i + 1);
+  }
+  s += "<h3>|E| on the grid (machine frame, mm)</h3>\n<div class=views>";
+  for (const auto& [u, v] : {std::pair{0, 1}, std::pair{0, 2}, std::pair{1, 2}})
+    s += io::projection(map, u, v, g.max_error * 1000, 4000);
+  s += "</div>\n" + io::colour_bar(g.max_error * 1000, "|E| (µm)") + "\n";
+  // Per gauge: the components of E and the noise gain (× 1 µm), pyramid by pyramid.
+  for (const StepGaugeReport::Tilt& t : g.tilts) {
+    std::vector<io::Series> plot{{"Ex", "#d7191c", {}}, {"Ey", "#1a9641", {}}, {"Ez", "#2c7bb6", {}},
+                                 {"noise gain × 1 µm", "#999999", {}}};
+    double along = 0;  // the pyramid's number on its gauge (the file's order)
+    for (const StepGaugeReport::Point& p : g.points) {
+      if (p.gauge != t.gauge) continue;
+      along += 1;
+      plot[0].xy.emplace_back(along, p.error.x() * 1000);
+      plot[1].xy.emplace_back(along, p.error.y() * 1000);
+      plot[2].xy.emplace_back(along, p.error.z() * 1000);
+      plot[3].xy.emplace_back(along, p.noise_gain);
+    }
+    s += fmt::format("<h3>Gauge {}</h3>\n", html_escape(t.gauge));
+    s += io::line_plot(plot, "pyramid (in the gauge file's order)", "error (µm)",
+                       "step-gauge-" + t.gauge) +
+         "\n";
+  }
+  return s;
+}
 
 /// Value in the unit people read: µm for mm parameters, arcsec for rad ones.
 std::string human(const kin::Parameter& p, double v) {
@@ -224,6 +298,30 @@ std::string report_json(const CalibrationRun& run) {
                       {"stddev", number(r.stddev[k])}});
   }
   j["parameters"] = params;
+  if (run.step_gauge != nullptr) {
+    const StepGaugeReport& g = *run.step_gauge;
+    json pts = json::array(), tilts = json::array();
+    double gain = 0;
+    for (const StepGaugeReport::Point& p : g.points) {
+      gain = std::max(gain, p.noise_gain);
+      pts.push_back({{"gauge", p.gauge},
+                     {"pyramid", p.pyramid},
+                     {"position_mm", {p.position.x(), p.position.y(), p.position.z()}},
+                     {"error_mm", {p.error.x(), p.error.y(), p.error.z()}},
+                     {"noise_gain", p.noise_gain}});
+    }
+    for (const StepGaugeReport::Tilt& t : g.tilts)
+      tilts.push_back({{"gauge", t.gauge},
+                       {"measured", t.measured},
+                       {"theta_x_rad", t.theta.x()},
+                       {"theta_y_rad", t.theta.y()},
+                       {"edge_rms_mm", {t.rms.x(), t.rms.y()}}});
+    j["step_gauge"] = {{"pyramids", g.points.size()},
+                       {"max_error_mm", g.max_error},
+                       {"max_noise_gain", gain},
+                       {"points", pts},
+                       {"tilts", tilts}};
+  }
   j["figures"] = {{"fit", figures(c.fit)}, {"validation", figures(c.validation)}};
   json rows = json::array();
   for (std::size_t i = 0; i < run.data.size(); ++i) {
@@ -329,7 +427,9 @@ td.l,th.l{text-align:left}.held{color:#b00}.weak{color:#a60}.plot{border:1px sol
                      human(p, start), st != "unidentifiable" && st != "fixed" ? human(p, value) : "–",
                      human(p, r.stddev[k]));
   }
-  s += "</table>\n<h2>Measurements</h2><table id=\"measurements\"><tr><th class=l>label</th><th class=l>source</th><th class=l>kind</th><th class=l>set</th><th>position before (mm)</th><th>after (mm)</th><th>angle before (°)</th><th>after (°)</th></tr>\n";
+  s += "</table>\n";
+  if (run.step_gauge != nullptr) s += step_gauge_html(*run.step_gauge);
+  s += "<h2>Measurements</h2><table id=\"measurements\"><tr><th class=l>label</th><th class=l>source</th><th class=l>kind</th><th class=l>set</th><th>position before (mm)</th><th>after (mm)</th><th>angle before (°)</th><th>after (°)</th></tr>\n";
   auto cell = [](double v) { return std::isfinite(v) ? fmt::format("{:.5f}", v) : std::string("–"); };
   for (std::size_t i = 0; i < run.data.size(); ++i) {
     const Measurement& m = run.data[i];

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "postproc/calibration/identify.hpp"
+#include "postproc/calibration/step_gauge.hpp"
 
 namespace postproc::cal {
 
@@ -40,6 +41,9 @@ struct CalibrationRun {
   const kin::Model* solved = nullptr;  ///< the identified model
   std::span<const Measurement> data;   ///< fitted and held-out measurements
   std::vector<std::string> notes;      ///< extra lines (e.g. the step-gauge map summary)
+  /// The step-gauge map built by this run (optional): the reports plot it and say how well each
+  /// pyramid's error is determined.
+  const StepGaugeReport* step_gauge = nullptr;
 };
 
 /// Per measurement errors before/after (measurement_error()) and the per-set figures.
