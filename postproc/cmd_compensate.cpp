@@ -300,6 +300,7 @@ void setup_compensate(CLI::App& app, int& rc) {
     if (hold) opt.line_map = &line_map;
     comp::CompensateResult r;
     comp::ContourDetails contour;
+    contour.keep_geometric_stage = o->mode == "all" && !o->html.empty();  // its part of the report
     const bool servo = o->mode != "geometric";
     // Flat programs stream from the file; programs with parameters or control flow are resolved
     // in memory (compensate_program).
@@ -380,6 +381,23 @@ void setup_compensate(CLI::App& app, int& rc) {
       if (contour.simulated_before) cr.simulated_before = &*contour.simulated_before;
       if (contour.simulated_after) cr.simulated_after = &*contour.simulated_after;
       cr.fit_residual_mm = r.fit_residual_mm;
+      if (contour.keep_geometric_stage && !contour.geometric_output.empty()) {
+        // --mode all: the geometric stage's part, checked on its own output (comp::verify), after
+        // the contour part.
+        std::vector<comp::VerifyPoint> points;
+        const comp::VerifyResult v = comp::verify(contour.geometric_input, contour.geometric_output,
+                                                  contour.geometric_line_map, d, *machine, &points);
+        comp::GeometricReport gr;
+        gr.title = "Geometric part: the calibrated machine's errors, before the contour stage";
+        gr.id_prefix = "geometric-";
+        gr.program = o->input;
+        gr.machine_file = machine->file;
+        gr.machine_sha256 = machine->sha256;
+        gr.tool_version = POSTPROC_VERSION;
+        gr.verify = &v;
+        gr.points = &points;
+        cr.appendix = comp::geometric_report_section(gr);
+      }
       outputs.add(o->html, contour::report_html(cr));
     }
     if (!ok) {

@@ -2,9 +2,9 @@
 """Opens postproc's HTML reports in headless Chromium through WebDriver and checks that they render.
 
 Usage: html_render.py OUT_DIR KIND=PAGE.html…
-KIND is diff (with a machine), diff-predict (with --predict), diff-plain (no machine), predict or
+KIND is diff (with a machine), diff-predict (with --predict), diff-plain (no machine), predict,
 compensate (geometric mode; its PAGE.json is the run's --json, whose before / after figures the page
-must show).
+must show) or compensate-all (--mode all: the contour report with the geometric part).
 For diff pages, PAGE.json and PAGE.err (the same run's --json and stderr) are compared with the
 figures shown. Per page: no SEVERE console entries, no resource loads beyond the page itself, the
 expected element ids, drawn SVG content, a 3-D canvas that draws and redraws when dragged, and a
@@ -36,6 +36,10 @@ EXPECTED = {
     "predict": ["summary", "figures", "worst", "worst_axis"],
     "compensate": ["summary", "figures", "reduction", "tip_along", "axis_along", "residual_along", "hist_before",
                    "hist_after", "worst_before", "worst_after", "before-tip-max-um", "after-tip-max-um"],
+    # --mode all: the contour report with the geometric part after it (ids prefixed).
+    "compensate-all": ["summary", "figures", "worst", "geometric-title", "geometric-figures", "geometric-reduction",
+                       "geometric-tip_along", "geometric-hist_before", "geometric-worst_after",
+                       "geometric-before-tip-max-um"],
 }
 ABSENT = {"diff-plain": ["along-path-angle", "angle-max-arcsec"], "diff": ["contour"]}
 
@@ -95,7 +99,7 @@ def check_svgs(driver, page, kind):
     for s in stats:
         if s["w"] <= 0:
             fail(page, f"SVG {s['id'] or '(no id)'} is not laid out")
-        drawn = s["rects"] - 1 if s["id"].startswith("hist") else s["lines"]
+        drawn = s["rects"] - 1 if "hist" in s["id"] else s["lines"]
         if drawn <= 0:
             fail(page, f"SVG {s['id'] or '(no id)'} draws nothing")
 

@@ -40,6 +40,8 @@ cat "$T/diff_predict.err"
 "$P" compensate "$SRC/samples/programs/impeller_axes_bc.nc" -m "$SRC/samples/machines/trunnion_bc_fanuc.toml" \
   -o "$T/impeller_c.nc" --html "$T/compensate.html" --json "$T/compensate.json" 2> "$T/compensate_g.err" ||
   fail "compensate --html (geometric): $(cat "$T/compensate_g.err")"
+"$P" compensate "$PROG" -m "$M" --mode all -o "$T/cone_all.nc" --html "$T/compensate_all.html" 2> "$T/compensate_all.err" ||
+  fail "compensate --mode all --html: $(cat "$T/compensate_all.err")"
 
 # The correction must cut the predicted contour error (the report shows a real before / after).
 awk '/predicted contour error, original/ {b = $8} /predicted contour error, corrected/ {a = $8}
@@ -57,7 +59,8 @@ grep -q 'PP-E611' "$T/refused.err" || fail "diff --predict without kv: no PP-E61
 [[ $? -eq 64 ]] || fail "diff --predict without -m is not a usage error"
 
 "$PY" "$CHECK" "$T" diff="$T/diff.html" diff-predict="$T/diff_predict.html" diff-plain="$T/diff_plain.html" \
-  predict="$T/predict.html" compensate="$T/compensate.html" || fail "the reports do not render cleanly in Chromium (see above)"
+  predict="$T/predict.html" compensate="$T/compensate.html" \
+  compensate-all="$T/compensate_all.html" || fail "the reports do not render cleanly in Chromium (see above)"
 
 # The checker must fail on a broken page: a console error, a missing element, a network resource.
 sed -e 's|<body>|<body><script>console.error("injected failure")</script><img src="https://example.invalid/x.png">|' \

@@ -132,6 +132,11 @@ CompensateResult compensate_flat(std::string_view text, std::string_view file, c
   copt.line_map = opt.line_map != nullptr ? &contour_lines : nullptr;
   if (!sink.has_errors()) {
     const std::string intermediate = mem.take();
+    if (cd.keep_geometric_stage) {
+      cd.geometric_input = std::string(text);
+      cd.geometric_output = intermediate;
+      cd.geometric_line_map = geo_lines;
+    }
     copt.input_bytes = intermediate.size();
     // The contour stage's diagnostics (PP-W611, PP-W620 …) name lines of the intermediate text:
     // carried back to the input's lines (the text shown is the line as the geometric stage wrote it).

@@ -55,6 +55,11 @@ std::string percent_less(double before, double after) {
 }  // namespace
 
 std::string geometric_report_html(const GeometricReport& r) {
+  const std::string title = r.title.empty() ? "postproc compensate report" : r.title;
+  return io::page_head(title) + geometric_report_section(r) + io::page_tail();
+}
+
+std::string geometric_report_section(const GeometricReport& r) {
   if (r.verify == nullptr || r.points == nullptr)
     throw Error(ExitCode::internal, "geometric report: the verification and its points are required");
   const std::vector<VerifyPoint>& pts = *r.points;
@@ -73,9 +78,9 @@ std::string geometric_report_html(const GeometricReport& r) {
   const Figures ftb = figures_of(tip_b), fta = figures_of(tip_a), fab = figures_of(ax_b), faa = figures_of(ax_a);
 
   const std::string title = r.title.empty() ? "postproc compensate report" : r.title;
-  std::string h = io::page_head(title);
-  h += fmt::format("<h1>{}</h1>\n", io::html_escape(title));
-  h += fmt::format("<p id=\"summary\">Program <code>{}</code>", io::html_escape(r.program));
+  const auto id = [&](std::string_view name) { return r.id_prefix + std::string(name); };
+  std::string h = fmt::format("<h1 id=\"{}\">{}</h1>\n", id("title"), io::html_escape(title));
+  h += fmt::format("<p id=\"{}\">Program <code>{}</code>", id("summary"), io::html_escape(r.program));
   if (!r.output.empty()) h += fmt::format(", written to <code>{}</code>", io::html_escape(r.output));
   if (!r.machine_file.empty()) h += fmt::format("; machine file <code>{}</code>", io::html_escape(r.machine_file));
   if (!r.machine_sha256.empty()) h += fmt::format(" (SHA-256 {})", io::html_escape(r.machine_sha256));
@@ -87,24 +92,24 @@ std::string geometric_report_html(const GeometricReport& r) {
       "program.</p>\n",
       r.verify->compared, r.verify->skipped);
 
-  h += "<h2>Error on the calibrated machine</h2><table id=\"figures\"><tr><th class=l></th><th>tip max (µm)</th>"
+  h += "<h2>Error on the calibrated machine</h2><table id=\"" + id("figures") + "\"><tr><th class=l></th><th>tip max (µm)</th>"
        "<th>tip RMS (µm)</th><th>tip p95 (µm)</th><th>axis max (arcsec)</th><th>axis RMS (arcsec)</th>"
        "<th>axis p95 (arcsec)</th><th>line of the largest tip error</th></tr>\n";
-  const auto row = [&](const char* name, const char* id, const Figures& t, const Figures& a) {
+  const auto row = [&](const char* name, const char* key, const Figures& t, const Figures& a) {
     h += fmt::format(
-        "<tr><td class=l>{}</td><td id=\"{}-tip-max-um\">{}</td><td>{}</td><td>{}</td><td id=\"{}-axis-max-arcsec\">{}</td>"
+        "<tr><td class=l>{}</td><td id=\"{}{}-tip-max-um\">{}</td><td>{}</td><td>{}</td><td id=\"{}{}-axis-max-arcsec\">{}</td>"
         "<td>{}</td><td>{}</td><td>{}</td></tr>\n",
-        name, id, io::cell(t.max), io::cell(t.rms), io::cell(t.p95), id, io::cell(a.max, "{:.2f}"),
+        name, r.id_prefix, key, io::cell(t.max), io::cell(t.rms), io::cell(t.p95), r.id_prefix, key, io::cell(a.max, "{:.2f}"),
         io::cell(a.rms, "{:.2f}"), io::cell(a.p95, "{:.2f}"), t.count > 0 ? std::to_string(pts[t.worst].line) : std::string("–"));
   };
   row("original program (before)", "before", ftb, fab);
   row("compensated program (after)", "after", fta, faa);
   h += "</table>\n";
   h += fmt::format(
-      "<p id=\"reduction\">Reduction of the largest error: tool tip {}, tool axis {}. The largest rounding bound of the "
+      "<p id=\"{}\">Reduction of the largest error: tool tip {}, tool axis {}. The largest rounding bound of the "
       "written words (half a unit of the last written decimal of every axis, carried to the tool tip) is {} µm; the "
       "largest residual beyond it is {} µm (≤ 0: every point within its rounding).</p>\n",
-      percent_less(ftb.max, fta.max), percent_less(fab.max, faa.max), io::cell(r.verify->max_bound_mm * kUmPerMm),
+      id("reduction"), percent_less(ftb.max, fta.max), percent_less(fab.max, faa.max), io::cell(r.verify->max_bound_mm * kUmPerMm),
       io::cell(r.verify->max_excess_mm * kUmPerMm));
 
   const auto series = [&](const std::vector<double>& v, const char* name, const char* colour) {
@@ -119,21 +124,21 @@ std::string geometric_report_html(const GeometricReport& r) {
   h += "<h2>Along the path</h2>\n<h3>Tool-tip error, before and after</h3>\n";
   h += io::line_plot({series(tip_b, "before (original program)", "#d7191c"),
                       series(tip_a, "after (compensated program)", "#1f6fb4")},
-                     x, "tool-tip error (µm)", "tip_along") +
+                     x, "tool-tip error (µm)", id("tip_along")) +
        "\n";
   h += "<h3>Tool-axis error, before and after</h3>\n";
   h += io::line_plot({series(ax_b, "before (original program)", "#d7191c"),
                       series(ax_a, "after (compensated program)", "#1f6fb4")},
-                     x, "tool-axis error (arcsec)", "axis_along") +
+                     x, "tool-axis error (arcsec)", id("axis_along")) +
        "\n";
   h += "<h3>Residual after compensation and the rounding bound of the written words</h3>\n";
   h += io::line_plot({series(tip_a, "tool-tip residual", "#1f6fb4"), series(bound, "rounding bound", "#999999")}, x,
-                     "tool-tip residual (µm)", "residual_along") +
+                     "tool-tip residual (µm)", id("residual_along")) +
        "\n";
 
   h += "<h2>Distribution</h2>\n<div class=views>";
-  h += io::histogram(tip_b, 30, "tool-tip error before (µm)", "hist_before");
-  h += io::histogram(tip_a, 30, "tool-tip residual after (µm)", "hist_after");
+  h += io::histogram(tip_b, 30, "tool-tip error before (µm)", id("hist_before"));
+  h += io::histogram(tip_a, 30, "tool-tip residual after (µm)", id("hist_after"));
   h += "</div>\n";
 
   io::PlotPath path;
@@ -161,10 +166,11 @@ std::string geometric_report_html(const GeometricReport& r) {
                         const double va = std::isfinite(key[a]) ? key[a] : -1, vb = std::isfinite(key[b]) ? key[b] : -1;
                         return va > vb;
                       });
-    h += fmt::format("<h2>Largest tool-tip errors {}</h2><table id=\"{}\"><tr><th>line</th><th>X (mm)</th><th>Y (mm)</th>"
+    h += fmt::format("<h2>Largest tool-tip errors {}</h2><table id=\"{}{}\"><tr><th>line</th><th>X (mm)</th><th>Y (mm)</th>"
                      "<th>Z (mm)</th><th>tip before (µm)</th><th>tip after (µm)</th><th>axis before (arcsec)</th>"
                      "<th>axis after (arcsec)</th></tr>\n",
-                     after ? "after compensation" : "before compensation", after ? "worst_after" : "worst_before");
+                     after ? "after compensation" : "before compensation", r.id_prefix,
+                     after ? "worst_after" : "worst_before");
     for (std::size_t j = 0; j < k; ++j) {
       const std::size_t i = order[j];
       h += fmt::format("<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>\n",
@@ -174,7 +180,7 @@ std::string geometric_report_html(const GeometricReport& r) {
     }
     h += "</table>\n";
   }
-  return h + io::page_tail();
+  return h;
 }
 
 }  // namespace postproc::comp

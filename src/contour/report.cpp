@@ -382,7 +382,7 @@ std::string report_html(const ContourReport& r) {
     }
     s += "</table>\n";
   }
-  return s + io::page_tail();
+  return s + r.appendix + io::page_tail();
 }
 
 }  // namespace postproc::contour

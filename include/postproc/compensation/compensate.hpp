@@ -191,6 +191,12 @@ struct ContourDetails {
   std::optional<contour::Simulation> simulated_before, simulated_after;
   /// result.after is the prediction of the commands as written (withheld runs: the input's
   /// commands), not the iteration's last iterate, when a run was withheld.
+
+  /// Request (set before the call): in `--mode all`, keep the geometric stage's input, output and
+  /// line map (output line → input line) below, for its report (comp::verify).
+  bool keep_geometric_stage = false;
+  std::string geometric_input, geometric_output;
+  std::vector<std::uint64_t> geometric_line_map;
 };
 
 /// `compensate --mode contour`: predicts the servo contour errors of the program held in `text`

@@ -21,9 +21,13 @@ struct GeometricReport {
   std::string tool_version;
   const VerifyResult* verify = nullptr;             ///< required
   const std::vector<VerifyPoint>* points = nullptr; ///< required: verify()'s compared end points
+  std::string id_prefix;       ///< prefixed to every element id (a section inside another page)
 };
 
 /// The page; throws Error(internal) without verify or points.
 [[nodiscard]] std::string geometric_report_html(const GeometricReport& r);
+/// The same content without the page's head and tail, headed by an <h1> of `r.title`, to go into
+/// another page (compensate --mode all: the contour report's appendix).
+[[nodiscard]] std::string geometric_report_section(const GeometricReport& r);
 
 }  // namespace postproc::comp

@@ -28,6 +28,7 @@ struct ContourReport {
   const Simulation* simulated_before = nullptr;  ///< optional: time-domain results
   const Simulation* simulated_after = nullptr;   ///< optional
   double fit_residual_mm = 0;                    ///< largest NURBS fit residual of the reference
+  std::string appendix;                          ///< HTML appended to the page (e.g. compensate --mode all's geometric part)
   std::size_t worst = 10;                        ///< how many worst places to list
 };
 
