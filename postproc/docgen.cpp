@@ -243,6 +243,9 @@ std::string man_page(const Command& c, const std::vector<Command>& all, const st
     if (o->get_expected_max() > 1 || o->get_items_expected_max() > 1) text += " (repeatable)";
     m += fmt::format(".TP\n{}\n{}\n", names, text);
   }
+  if (!c.path.empty())
+    m += ".TP\n\\fB\\-\\-help\\-all\\fR\nthe help with every option's whole description (\\fB\\-\\-help\\fR shortens "
+         "them to fit the screen)\n";
   m += ".SH EXIT STATUS\n";
   m += kExitStatus;
   m += ".SH SEE ALSO\n";

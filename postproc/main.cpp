@@ -7,6 +7,7 @@
 #include <fmt/format.h>
 
 #include "common.hpp"
+#include "help_format.hpp"
 #include "docgen.hpp"
 #include "option_hints.hpp"
 #include "postproc/io/input_guard.hpp"
@@ -17,6 +18,8 @@ int main(int argc, char** argv) {
   const postproc::io::RunInputs run;  // no output of this run over any of its inputs
   CLI::App app{"postproc: read, check, rewrite and compensate NC programs through calibrated machine models"};
   app.set_version_flag("--version", std::string("postproc ") + POSTPROC_VERSION);
+  // Before the commands are added: they inherit it. --help fits a screen, --help-all is whole.
+  app.formatter(std::make_shared<postproc::cli::ScreenHelpFormatter>(postproc::cli::take_help_all(argc, argv)));
   app.require_subcommand(1);
   int rc = 0;
   postproc::cli::setup_check(app, rc);

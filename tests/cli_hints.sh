@@ -25,6 +25,21 @@ expect 64 "unknown option '-z' for 'postproc check'" -- check a.nc --dialect fan
 expect 64 "unknown option '--hlp' for 'postproc calibrate plan'; did you mean '--help'?" -- calibrate plan --hlp
 expect 64 "'frobnicate' is not a postproc command (postproc --help lists them)" -- frobnicate
 expect 64 "did you mean '--refine-iterations'?" -- compensate a.nc -m m.toml -o o.nc --refine-iteration 3
+# Every command's --help fits a screen (50 lines of 100 columns); --help-all has the whole text.
+for c in "" check dump convert compensate diff batch calibrate "calibrate plan" "calibrate simulate" predict simulate; do
+  # shellcheck disable=SC2086
+  out=$(COLUMNS=100 "$P" $c --help 2>&1)
+  lines=$(wc -l <<<"$out")
+  widest=$(python3 -c 'import sys; print(max(len(l) for l in sys.stdin.read().split("\n")))' <<<"$out")
+  if (( lines > 50 || widest >= 100 )); then
+    echo "FAIL: postproc $c --help: $lines lines, widest $widest columns (a screen: 50 × 100)"
+    fail=1
+  fi
+done
+out=$(COLUMNS=100 "$P" compensate --help-all 2>&1)
+grep -q "warning PP-W005 either way" <<<"$out" || { echo "FAIL: compensate --help-all lacks the whole --dialect text"; fail=1; }
+grep -q "has them whole" <<<"$out" && { echo "FAIL: --help-all says it is shortened"; fail=1; }
+grep -q "has them whole" <<<"$(COLUMNS=100 "$P" compensate --help 2>&1)" || { echo "FAIL: --help does not point to --help-all"; fail=1; }
 # Valid lines keep CLI11's own messages and codes.
 expect 0 "postproc" -- --version
 expect 0 "Usage:" -- check --help
