@@ -17,6 +17,7 @@
 #include "postproc/compensation/residual_bounds.hpp"
 #include "postproc/compensation/result_json.hpp"
 #include "postproc/contour/report.hpp"
+#include "postproc/gcode/convert.hpp"
 #include "postproc/gcode/detect.hpp"
 #include "postproc/gcode/line_reader.hpp"
 #include "postproc/io/input_file.hpp"
@@ -34,6 +35,7 @@ struct CompensateArgs {
   std::string mode = "geometric";
   std::string dialect;  ///< "" = the machine file's
   bool filter_progress = false;  ///< FILTER_PROGRESS=N lines on stderr (LinuxCNC program filters)
+  std::string renumber;          ///< "START[,STEP]": renumber the written program's blocks
   std::string integer_input;
   double max_deviation_um = 1.0;
   double max_angle_arcsec = 4.0;
@@ -159,6 +161,9 @@ void setup_compensate(CLI::App& app, int& rc) {
                               "controller's); a program whose first lines hold another dialect's construct gets "
                               "warning PP-W005 either way",
                               gcode::dialect_names()));
+  cmd->add_option("--renumber", o->renumber,
+                  "renumber the written program's blocks START[,STEP] as convert --renumber does (Klartext: every "
+                  "block, the inserted ones included, which the TNC needs; ISO: the existing N words)");
   cmd->add_flag("--filter-progress", o->filter_progress,
                 "print the progress as 'FILTER_PROGRESS=N' lines (percent) on stderr, as LinuxCNC's GUIs read them "
                 "from a [FILTER] program (on by itself when AXIS_PROGRESS_BAR=1, which AXIS sets; docs/linuxcnc-filter.md)");
@@ -293,7 +298,12 @@ void setup_compensate(CLI::App& app, int& rc) {
     // With bounds, and for the geometric HTML report, the written program is read back: it is
     // held in memory first.
     const bool geometric_html = !o->html.empty() && o->mode == "geometric";
-    const bool hold = bounds || geometric_html;
+    gcode::ConvertOptions renumber;
+    if (!o->renumber.empty()) {
+      parse_renumber(o->renumber, renumber);
+      opt.renumbered_after = true;
+    }
+    const bool hold = bounds || geometric_html || renumber.renumber_start.has_value();
     io::OutputFile held = io::OutputFile::memory();
     io::OutputFile& target = hold ? held : out;
     std::vector<std::uint64_t> line_map;
@@ -328,7 +338,13 @@ void setup_compensate(CLI::App& app, int& rc) {
     std::optional<comp::BoundsResult> bound;
     std::string geometric_page;
     if (hold && !sink.has_errors()) {
-      const std::string written = held.take();
+      std::string written = held.take();
+      if (renumber.renumber_start) {
+        // Block numbers only: the lines stay where they are, so the line map still holds.
+        auto numbered = io::OutputFile::memory();
+        (void)gcode::convert_program(written, o->output, d, renumber, numbered, sink);
+        if (!sink.has_errors()) written = numbered.take();
+      }
       if (bounds) bound = bound_written(*o, written, line_map, d, *machine, sink);
       if (geometric_html) {
         // The report's figures are those of the written program read back (comp::verify).

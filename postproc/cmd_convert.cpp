@@ -30,17 +30,6 @@ struct ConvertArgs {
 /// Letters --decimals accepts: axes, and the arc centre words that go with them.
 constexpr std::string_view kDecimalLetters = "XYZABCUVWIJKR";
 
-void parse_renumber(const std::string& s, gcode::ConvertOptions& opt) {
-  const auto comma = s.find(',');
-  try {
-    opt.renumber_start = std::stoull(s.substr(0, comma));
-    if (comma != std::string::npos) opt.renumber_step = std::stoull(s.substr(comma + 1));
-  } catch (const std::exception&) {
-    throw Error(ExitCode::usage, fmt::format("--renumber '{}': expected START[,STEP], e.g. 10,10", s));
-  }
-  if (opt.renumber_step == 0) throw Error(ExitCode::usage, "--renumber: STEP must be at least 1");
-}
-
 void parse_decimals(const std::string& s, gcode::ConvertOptions& opt) {
   auto bad = [&s](std::string_view why) {
     return Error(ExitCode::usage, fmt::format("--decimals '{}': {}; expected e.g. X=4,Y=4,Z=4,A=3", s, why));

@@ -11,6 +11,7 @@
 
 #include <fmt/format.h>
 
+#include "postproc/gcode/convert.hpp"
 #include "postproc/gcode/tool_table.hpp"
 #include "postproc/io/input_file.hpp"
 #include "postproc/io/output_file.hpp"
@@ -25,6 +26,17 @@ unsigned usable_cores() {
     if (n > 0) return static_cast<unsigned>(n);
   }
   return std::max(1u, std::thread::hardware_concurrency());
+}
+
+void parse_renumber(const std::string& s, gcode::ConvertOptions& opt) {
+  const auto comma = s.find(',');
+  try {
+    opt.renumber_start = std::stoull(s.substr(0, comma));
+    if (comma != std::string::npos) opt.renumber_step = std::stoull(s.substr(comma + 1));
+  } catch (const std::exception&) {
+    throw Error(ExitCode::usage, fmt::format("--renumber '{}': expected START[,STEP], e.g. 10,10", s));
+  }
+  if (opt.renumber_step == 0) throw Error(ExitCode::usage, "--renumber: STEP must be at least 1");
 }
 
 std::string head_of(const std::string& path, std::size_t bytes) {

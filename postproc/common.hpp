@@ -8,6 +8,7 @@
 #include <CLI/CLI.hpp>
 
 #include "postproc/error.hpp"
+#include "postproc/gcode/convert.hpp"
 #include "postproc/gcode/dialect.hpp"
 #include "postproc/gcode/diagnostic.hpp"
 #include "postproc/gcode/resolve.hpp"
@@ -30,6 +31,9 @@ struct DialectArgs {
   std::string basic_system = "metric";  ///< Siemens MD10240: "metric" or "inch"
   std::string reset_motion = "G1";      ///< Siemens MD20150[0]: "G0" or "G1"
 };
+
+/// "START[,STEP]" of --renumber (convert, compensate) into `opt`; throws Error(usage) otherwise.
+void parse_renumber(const std::string& s, gcode::ConvertOptions& opt);
 
 /// The first `bytes` of a program file, for dialect suggestions; "" for standard input ("-"),
 /// which cannot be read twice (nor can a pipe: callers that read the program afterwards ask only

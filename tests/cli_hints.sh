@@ -86,6 +86,20 @@ if [[ -n "$SRC" ]]; then
   grep -q 'PP-W005' "$tmp/job_out2"/*.json 2>/dev/null || { echo "FAIL: batch --dialect fanuc: no PP-W005 in the manifest"; fail=1; }
   grep -q 'dialect=fanuc' "$tmp/job_out2"/*.json 2>/dev/null || { echo "FAIL: batch --dialect is not in the manifest's settings"; fail=1; }
   expect 64 "unknown dialect 'fanuk'" -- batch "$tmp/job" -o "$tmp/job_out3" -m "$S/machines/trunnion_ac_siemens.toml" --dialect fanuk
+  # compensate --renumber: a Klartext program whose subdivided moves insert blocks comes out with
+  # every block numbered 0, 1, 2 … (the TNC needs it; PP-W603 is then not said), otherwise the same.
+  "$P" compensate "$S/programs/impeller_axes_bc.h" -m "$S/machines/trunnion_bc_heidenhain.toml" -o "$tmp/h1.h" \
+    2> "$tmp/h1.err" || { echo "FAIL: compensate (Klartext)"; fail=1; }
+  grep -q PP-W603 "$tmp/h1.err" || { echo "FAIL: Klartext with inserted blocks: no PP-W603"; fail=1; }
+  "$P" compensate "$S/programs/impeller_axes_bc.h" -m "$S/machines/trunnion_bc_heidenhain.toml" -o "$tmp/h2.h" \
+    --renumber 0,1 2> "$tmp/h2.err" || { echo "FAIL: compensate --renumber (Klartext)"; fail=1; }
+  grep -q PP-W603 "$tmp/h2.err" && { echo "FAIL: compensate --renumber still says PP-W603"; fail=1; }
+  awk '$1 != NR - 1 { bad++ } END { exit bad > 0 }' "$tmp/h2.h" || { echo "FAIL: --renumber 0,1 left blocks misnumbered"; fail=1; }
+  cmp -s <(sed -E 's/^[0-9]+ *//' "$tmp/h1.h") <(sed -E 's/^[0-9]+ *//' "$tmp/h2.h") ||
+    { echo "FAIL: --renumber changed more than the block numbers"; fail=1; }
+  "$P" check "$tmp/h2.h" --dialect heidenhain > /dev/null 2>&1 || { echo "FAIL: the renumbered program does not read"; fail=1; }
+  expect 64 "--renumber 'x': expected START[,STEP]" -- compensate "$S/programs/impeller_axes_bc.h" \
+    -m "$S/machines/trunnion_bc_heidenhain.toml" -o "$tmp/h3.h" --renumber x
   # Colour: GCC's colours on a terminal or with POSTPROC_COLOR=always, none with NO_COLOR or
   # when stderr is not a terminal.
   printf '%%\nO1\nG21 G90\nG0 X0. Y0.\nG2 X5. Y5. F100\nM30\n%%\n' > "$tmp/bad.nc"

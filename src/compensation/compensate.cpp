@@ -62,7 +62,7 @@ void Compensator::write_segments(const Block& b, const Motion& m, gcode::BlockEd
     if (!line->empty()) after_.push_back(std::move(*line));
     prev = p.c;
   }
-  if (d_.id == gcode::DialectId::heidenhain && !after_.empty() && !unnumbered_warned_) {
+  if (d_.id == gcode::DialectId::heidenhain && !after_.empty() && !unnumbered_warned_ && !opt_.renumbered_after) {
     // Klartext numbers every block; the new lines have none (numbers are renumbered only when asked).
     unnumbered_warned_ = true;
     note(b, m.column, kUnnumberedBlocks,

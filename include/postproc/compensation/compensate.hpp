@@ -64,6 +64,9 @@ struct CompensateOptions {
   /// Compensate a program that already carries postproc's compensation header (header_comment);
   /// without it such a program is refused (PP-E620, docs/compensation-verification.md).
   bool allow_recompensation = false;
+  /// The caller renumbers the written program's blocks afterwards (compensate --renumber): no
+  /// PP-W603 for Klartext blocks inserted without numbers.
+  bool renumbered_after = false;
   /// Threads for the geometric stage of one program (compensate_parallel.cpp). The program is
   /// read once, in order, and cut into chunks of `chunk_blocks` blocks that are corrected in
   /// parallel, each starting from the state it guesses by correcting the `warmup_blocks` blocks
