@@ -56,6 +56,26 @@ struct CompensateArgs {
 /// The bounds of the written program (residual_bounds.hpp) and their located warnings: PP-W640
 /// where a block leaves the region the calibration was measured in, PP-W641 where the tip bound
 /// exceeds --bound-limit. Located at the input line each written line came from.
+/// The geometric report of `written` against `original` (comp::verify: both read back and run
+/// through the calibrated model): a whole page, or with an `id_prefix` a section for another page.
+std::string geometric_report(const CompensateArgs& a, const machine::Machine& m, const gcode::Dialect& d,
+                             std::string_view original, std::string_view written,
+                             const std::vector<std::uint64_t>& line_map, std::string title, std::string id_prefix) {
+  std::vector<comp::VerifyPoint> points;
+  const comp::VerifyResult v = comp::verify(original, written, line_map, d, m, &points);
+  comp::GeometricReport gr;
+  gr.title = std::move(title);
+  gr.program = a.input;
+  if (id_prefix.empty()) gr.output = a.output;
+  gr.machine_file = m.file;
+  gr.machine_sha256 = m.sha256;
+  gr.tool_version = POSTPROC_VERSION;
+  gr.verify = &v;
+  gr.points = &points;
+  gr.id_prefix = std::move(id_prefix);
+  return gr.id_prefix.empty() ? comp::geometric_report_html(gr) : comp::geometric_report_section(gr);
+}
+
 comp::BoundsResult bound_written(const CompensateArgs& a, std::string_view written,
                                  const std::vector<std::uint64_t>& line_map, const gcode::Dialect& d,
                                  const machine::Machine& m, gcode::DiagnosticSink& sink) {
@@ -348,18 +368,8 @@ void setup_compensate(CLI::App& app, int& rc) {
       if (bounds) bound = bound_written(*o, written, line_map, d, *machine, sink);
       if (geometric_html) {
         // The report's figures are those of the written program read back (comp::verify).
-        std::vector<comp::VerifyPoint> points;
-        const comp::VerifyResult v = comp::verify(text, written, line_map, d, *machine, &points);
-        comp::GeometricReport gr;
-        gr.title = fmt::format("compensate {}", o->input);
-        gr.program = o->input;
-        gr.output = o->output;
-        gr.machine_file = machine->file;
-        gr.machine_sha256 = machine->sha256;
-        gr.tool_version = POSTPROC_VERSION;
-        gr.verify = &v;
-        gr.points = &points;
-        geometric_page = comp::geometric_report_html(gr);
+        geometric_page = geometric_report(*o, *machine, d, text, written, line_map,
+                                          fmt::format("compensate {}", o->input), {});
       }
       out.write(written);
     }
@@ -400,19 +410,10 @@ void setup_compensate(CLI::App& app, int& rc) {
       if (contour.keep_geometric_stage && !contour.geometric_output.empty()) {
         // --mode all: the geometric stage's part, checked on its own output (comp::verify), after
         // the contour part.
-        std::vector<comp::VerifyPoint> points;
-        const comp::VerifyResult v = comp::verify(contour.geometric_input, contour.geometric_output,
-                                                  contour.geometric_line_map, d, *machine, &points);
-        comp::GeometricReport gr;
-        gr.title = "Geometric part: the calibrated machine's errors, before the contour stage";
-        gr.id_prefix = "geometric-";
-        gr.program = o->input;
-        gr.machine_file = machine->file;
-        gr.machine_sha256 = machine->sha256;
-        gr.tool_version = POSTPROC_VERSION;
-        gr.verify = &v;
-        gr.points = &points;
-        cr.appendix = comp::geometric_report_section(gr);
+        cr.appendix = geometric_report(*o, *machine, d, contour.geometric_input, contour.geometric_output,
+                                       contour.geometric_line_map,
+                                       "Geometric part: the calibrated machine's errors, before the contour stage",
+                                       "geometric-");
       }
       outputs.add(o->html, contour::report_html(cr));
     }
