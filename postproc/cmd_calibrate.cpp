@@ -10,6 +10,7 @@
 #include "calibrate_support.hpp"
 #include "common.hpp"
 #include "progress_bar.hpp"
+#include "postproc/calibration/measurement_files.hpp"
 #include "postproc/calibration/identify.hpp"
 #include "postproc/calibration/machine_update.hpp"
 #include "postproc/calibration/report.hpp"
@@ -46,22 +47,6 @@ struct CalibrateArgs {
   std::size_t max_per_code = 20;
   unsigned jobs = 0;  ///< -j: threads of the solver's evaluations (0: the usable cores)
 };
-
-/// One data file: the parsed table and its bytes' hash.
-struct DataFile {
-  std::string path, text, kind;
-  std::optional<cal::CsvTable> table;
-};
-
-DataFile read_data(const std::string& path, gcode::DiagnosticSink& sink) {
-  DataFile f;
-  f.path = path;
-  f.text = io::read_file(path, "measurement file");
-  f.table = cal::CsvTable::parse(path, f.text, sink);
-  if (f.table)
-    if (auto k = cal::measurement_file_kind(*f.table)) f.kind = *k;
-  return f;
-}
 
 /// "EX0C=-50um:50um": bounds on the deviation from nominal (error parameters) or the value.
 void parse_bound(const std::string& text, const kin::Model& model, cal::IdentifyOptions& opt) {
@@ -229,32 +214,13 @@ void run_calibrate(const CalibrateArgs& a, int& rc) {
   }
   const kin::Model& start = *machine->actual;
 
-  std::vector<cal::Measurement> data;
-  cal::StepGaugeData gauge;
-  bool have_gauge = false;
-  std::vector<cal::InputFile> inputs;
-  auto add_file = [&](const std::string& path, bool validate) {
-    DataFile f = read_data(path, sink);
-    if (!f.table || f.kind.empty()) return;
-    cal::InputFile in{path, machine::sha256_hex(f.text), f.kind, 0};
-    if (f.kind == "step-gauge" || f.kind == "step-gauge-edge") {
-      if (validate) {
-        f.table->error(cal::CsvTable::kHeader, -1, cal::codes::kCsvColumns,
-                       "step-gauge files build the map; they cannot be held out with --validate");
-        return;
-      }
-      have_gauge = cal::add_step_gauge_file(*f.table, gauge, f.text) || have_gauge;
-      in.measurements = f.table->rows().size();
-    } else {
-      const std::size_t before = data.size();
-      if (!cal::read_measurements(*f.table, start, data)) return;
-      for (std::size_t i = before; i < data.size(); ++i) data[i].validate = data[i].validate || validate;
-      in.measurements = data.size() - before;
-    }
-    inputs.push_back(in);
-  };
-  for (const std::string& p : a.data) add_file(p, false);
-  for (const std::string& p : a.validate) add_file(p, true);
+  cal::MeasurementFiles files;
+  for (const std::string& p : a.data) cal::add_measurement_file(p, false, start, files, sink);
+  for (const std::string& p : a.validate) cal::add_measurement_file(p, true, start, files, sink);
+  std::vector<cal::Measurement>& data = files.data;
+  const cal::StepGaugeData& gauge = files.gauge;
+  const bool have_gauge = files.have_gauge;
+  const std::vector<cal::InputFile>& inputs = files.inputs;
   if (sink.has_errors()) {
     printer.finish();
     std::fputs("postproc: measurement files refused; nothing was written\n", stderr);
@@ -279,7 +245,6 @@ void run_calibrate(const CalibrateArgs& a, int& rc) {
       sg.outside = a.map_outside == "clamp"  ? kin::VolumetricMap::Outside::clamp
                    : a.map_outside == "zero" ? kin::VolumetricMap::Outside::zero
                                              : kin::VolumetricMap::Outside::refuse;
-
     const auto map = cal::build_volumetric_map(gauge, sg, sink, &sgr);
     if (!map) {
       printer.finish();

@@ -53,9 +53,6 @@ struct CompensateArgs {
   double bound_limit_um = 0;      ///< --bound-limit: warn where the tip bound exceeds it (0: no limit)
 };
 
-/// The bounds of the written program (residual_bounds.hpp) and their located warnings: PP-W640
-/// where a block leaves the region the calibration was measured in, PP-W641 where the tip bound
-/// exceeds --bound-limit. Located at the input line each written line came from.
 /// The geometric report of `written` against `original` (comp::verify: both read back and run
 /// through the calibrated model): a whole page, or with an `id_prefix` a section for another page.
 std::string geometric_report(const CompensateArgs& a, const machine::Machine& m, const gcode::Dialect& d,
@@ -76,6 +73,9 @@ std::string geometric_report(const CompensateArgs& a, const machine::Machine& m,
   return gr.id_prefix.empty() ? comp::geometric_report_html(gr) : comp::geometric_report_section(gr);
 }
 
+/// The bounds of the written program (residual_bounds.hpp) and their located warnings: PP-W640
+/// where a block leaves the region the calibration was measured in, PP-W641 where the tip bound
+/// exceeds --bound-limit. Located at the input line each written line came from.
 comp::BoundsResult bound_written(const CompensateArgs& a, std::string_view written,
                                  const std::vector<std::uint64_t>& line_map, const gcode::Dialect& d,
                                  const machine::Machine& m, gcode::DiagnosticSink& sink) {
@@ -302,12 +302,12 @@ void setup_compensate(CLI::App& app, int& rc) {
         }
         if (n > was) std::fputs(fmt::format("FILTER_PROGRESS={}\n", n).c_str(), stderr);
       };
-      std::error_code ec;
-      if (o->input != "-") opt.input_bytes = std::filesystem::file_size(o->input, ec);
     } else if (bar.enabled()) {
       opt.progress = [&bar](std::string_view stage, double done, double total) { bar.update(stage, done, total); };
+    }
+    if (opt.progress && o->input != "-") {
       std::error_code ec;
-      if (o->input != "-") opt.input_bytes = std::filesystem::file_size(o->input, ec);
+      opt.input_bytes = std::filesystem::file_size(o->input, ec);
     }
     const bool bounds = !o->bounds_csv.empty() || o->bound_limit_um > 0;
     if (bounds && !machine->uncertainty)

@@ -18,6 +18,7 @@
 #include "postproc/calibration/csv.hpp"
 #include "postproc/calibration/identify.hpp"
 #include "postproc/calibration/measurement.hpp"
+#include "postproc/calibration/measurement_files.hpp"
 #include "postproc/calibration/report.hpp"
 #include "postproc/compensation/compensate.hpp"
 #include "postproc/compensation/result_json.hpp"
@@ -160,30 +161,19 @@ py::dict calibrate_machine(const std::vector<std::string>& data_paths, const std
   const auto m = machine_of(machine_path);
   const kin::Model& start = *m->actual;
   gcode::DiagnosticSink sink;
-  std::vector<cal::Measurement> data;
-  std::vector<cal::InputFile> inputs;
-  const auto add = [&](const std::string& path, bool validate) {
-    const std::string text = io::read_file(path, "measurement file");
-    auto table = cal::CsvTable::parse(path, text, sink);
-    if (!table) return;
-    const auto kind = cal::measurement_file_kind(*table);
-    if (!kind) return;
-    if (*kind == "step-gauge" || *kind == "step-gauge-edge")
-      throw py::value_error(fmt::format("{}: step-gauge files build a volumetric map: use postproc calibrate", path));
-    const std::size_t before = data.size();
-    if (!cal::read_measurements(*table, start, data)) return;
-    for (std::size_t i = before; i < data.size(); ++i) data[i].validate = data[i].validate || validate;
-    inputs.push_back({path, machine::sha256_hex(text), *kind, data.size() - before});
-  };
-  for (const std::string& p : data_paths) add(p, false);
-  for (const std::string& p : validate_paths) add(p, true);
+  cal::MeasurementFiles files;
+  for (const std::string& p : data_paths) cal::add_measurement_file(p, false, start, files, sink);
+  for (const std::string& p : validate_paths) cal::add_measurement_file(p, true, start, files, sink);
+  if (files.have_gauge)
+    throw py::value_error("step-gauge files build a volumetric map: use postproc calibrate for them");
+  const std::vector<cal::Measurement>& data = files.data;
   if (sink.has_errors() || data.empty()) refuse("measurement files refused", sink);
   cal::CalibrationRun run;
   run.tool_version = POSTPROC_VERSION;
   run.machine_file = machine_path;
   run.machine_sha256 = m->sha256;
   run.machine_name = m->name;
-  run.inputs = inputs;
+  run.inputs = files.inputs;
   run.result = cal::identify(start, data, run.options);
   const kin::ModelPtr solved = start.with_values(run.result.values);
   run.start = &start;

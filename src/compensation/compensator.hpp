@@ -507,7 +507,7 @@ class Compensator final : public gcode::BlockVisitor {
       r_.max_axis_correction_rad = std::max(r_.max_axis_correction_rad,
                                             std::acos(std::clamp(written_axis->dot(want.axis()), -1.0, 1.0)));
     const double e = (before.p - want.p).norm();
-    const double ea = std::acos(std::clamp(before.axis().dot(want.axis()), -1.0, 1.0));
+    const double ea = kin::angle_between(before.axis(), want.axis());
     if (e > r_.max_error_before_mm) {
       r_.max_error_before_mm = e;
       r_.worst_line = m.line;

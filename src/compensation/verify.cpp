@@ -66,14 +66,14 @@ VerifyResult verify(std::string_view original, std::string_view corrected, const
     double before_mm = std::numeric_limits<double>::quiet_NaN(), before_rad = before_mm;
     if (map_o->real(Command{mo.end, mo.tool_vector}, start, before, q3).ok()) {
       before_mm = (before.p - want.p).norm();
-      before_rad = std::acos(std::clamp(before.axis().dot(want.axis()), -1.0, 1.0));
+      before_rad = kin::angle_between(before.axis(), want.axis());
       v.max_error_before_mm = std::max(v.max_error_before_mm, before_mm);
       v.max_error_before_rad = std::max(v.max_error_before_rad, before_rad);
     }
     // The rounding bound: half a unit of each written axis, carried to the tool tip.
     const double bound = rounding_bound(m, *map_c, mc, need, f, start, got).tip_mm;
     const double err = (got.p - want.p).norm();
-    const double ang = std::acos(std::clamp(got.axis().dot(want.axis()), -1.0, 1.0));
+    const double ang = kin::angle_between(got.axis(), want.axis());
     ++v.compared;
     v.max_error_mm = std::max(v.max_error_mm, err);
     v.max_error_rad = std::max(v.max_error_rad, ang);
