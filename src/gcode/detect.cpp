@@ -79,7 +79,12 @@ std::optional<DialectGuess> guess_dialect(std::string_view text, std::size_t max
     if (const auto v = klartext_verb(line))
       return DialectGuess{DialectId::heidenhain, std::string(*v), ln,
                           static_cast<std::uint32_t>(line.find(v->substr(0, 1)) + 1)};
+    // The (upper-case) characters of the line: a marker whose first character is not among them
+    // cannot match anywhere in it (most lines of a CAM program hold no G, #, % or ;).
+    std::array<bool, 256> present{};
+    for (const char c : line) present[static_cast<unsigned char>(upper(c))] = true;
     for (const Marker& m : kMarkers) {
+      if (!present[static_cast<unsigned char>(m.text[0])]) continue;
       // Markers inside ( ) comments say nothing about the dialect: "(ROUGH SUB-PROGRAM)".
       const std::size_t last = m.at_line_start ? 0 : line.size();
       int depth = 0;
