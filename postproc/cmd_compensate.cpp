@@ -44,6 +44,7 @@ struct CompensateArgs {
   std::size_t max_per_code = 20;
   int iterations = 12;
   int refine_iterations = 8;
+  std::string contour_split = "auto";
   bool quiet = false;
   bool flatten = false;
   bool allow_recompensation = false;
@@ -210,6 +211,11 @@ void setup_compensate(CLI::App& app, int& rc) {
                   "written program (0: none)")
       ->capture_default_str()
       ->check(CLI::NonNegativeNumber);
+  cmd->add_option("--contour-split", o->contour_split,
+                  "contour modes: 'auto' also tries the program with long moves split near their ends and feed arcs "
+                  "as chords, and writes it when its simulation is better; 'off' corrects block end points only")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"auto", "off"}));
   cmd->add_option("--bounds-csv", o->bounds_csv,
                   "write the 95 % bound of the tool-tip (mm) and tool-axis (rad) error left after compensation, one "
                   "row per motion of the written program (needs the machine file's [uncertainty] from calibrate)");
@@ -351,6 +357,7 @@ void setup_compensate(CLI::App& app, int& rc) {
       contour::PrecompensateOptions popt;
       popt.max_iterations = o->iterations;
       popt.learning_iterations = o->refine_iterations;
+      opt.contour_split = o->contour_split == "auto";
       r = comp::compensate_program(text, o->input, d, *machine, opt, popt, target, sink, &contour);
     }
     bar.finish();
@@ -479,6 +486,16 @@ void setup_compensate(CLI::App& app, int& rc) {
                                                                            r.contour_runs_refined),
                              r.contour_runs_stopped[1], r.contour_runs_stopped[2], r.contour_runs_stopped[3],
                              r.contour_runs_stopped[0], r.fit_residual_mm * 1000)
+                     .c_str(),
+                 stderr);
+    if (servo && r.contour_split_tried)
+      std::fputs(fmt::format("postproc: contour: split candidate ({} long moves split near their ends, {} arcs as chords): "
+                             "simulated {:.3f} µm / {:.2f} arcsec against {:.3f} µm / {:.2f} arcsec with the block end "
+                             "points only; written {}\n",
+                             r.moves_split, r.contour_split_arcs, r.contour_split_after_mm * 1000,
+                             r.contour_split_after_rad * 206264.80624709636, r.contour_unsplit_after_mm * 1000,
+                             r.contour_unsplit_after_rad * 206264.80624709636,
+                             r.contour_split_written ? "split" : "with the block end points only")
                      .c_str(),
                  stderr);
     rc = 0;

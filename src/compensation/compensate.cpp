@@ -46,6 +46,7 @@ void Compensator::write_segments(const Block& b, const Motion& m, gcode::BlockEd
   }
   r_.words_changed += o.changed;
   r_.words_inserted += o.inserted;
+  const std::size_t first_new = after_.size();
   AxisVector prev = pts.front().c;
   for (std::size_t i = 1; i <= pts.size(); ++i) {
     const Command& p = i < pts.size() ? pts[i] : out;
@@ -61,6 +62,22 @@ void Compensator::write_segments(const Block& b, const Motion& m, gcode::BlockEd
     }
     if (!line->empty()) after_.push_back(std::move(*line));
     prev = p.c;
+  }
+  // A one-shot exact stop (G9) acts at the end of its block's move: it goes with the last piece.
+  if (const auto* g = track_.find(gcode::GMeaning::exact_stop);
+      g != nullptr && g->def->group == gcode::GGroup::non_modal && after_.size() > first_new) {
+    const std::string word(b.text(b.words[g->word].span));
+    std::string& last = after_.back();
+    const std::string sep = word_separator(b);
+    if (!last.empty() && last.back() == '*') last.insert(last.size() - 1, word + sep);
+    else last += sep + word;
+    // The word and the blanks after it (before it, when it ends the block).
+    const gcode::Span w = b.words[g->word].span;
+    std::uint32_t from = w.begin, to = w.end;
+    while (to < b.raw.size() && (b.raw[to] == ' ' || b.raw[to] == '\t')) ++to;
+    if (to == b.raw.size())
+      while (from > 0 && (b.raw[from - 1] == ' ' || b.raw[from - 1] == '\t')) --from;
+    ed.remove({from, to});
   }
   if (d_.id == gcode::DialectId::heidenhain && !after_.empty() && !unnumbered_warned_ && !opt_.renumbered_after) {
     // Klartext numbers every block; the new lines have none (numbers are renumbered only when asked).

@@ -169,14 +169,12 @@ class ContourWriter final : public gcode::BlockVisitor {
   std::string line_, buffer_;
 };
 
+}  // namespace
 
-
-/// The written text read back through the reader and simulated against the reference of the
-/// contour stage's input; nullopt (with `why`) when it cannot be (diagnostics, other runs, throw).
 std::optional<contour::Simulation> simulate_written(const std::string& written, std::string_view file,
                                                     const gcode::Dialect& dialect, const machine::Machine& m,
                                                     const ContourDetails& d, std::string& why,
-                                                    const contour::SimulateOptions& so = {}) {
+                                                    const contour::SimulateOptions& so) {
   gcode::DiagnosticSink quiet(0);
   gcode::LineReader in{std::string_view(written)};
   const contour::Path p = contour::build_path(in, file, dialect, m, contour::PathOptions{}, quiet);
@@ -199,6 +197,8 @@ std::optional<contour::Simulation> simulate_written(const std::string& written, 
     return std::nullopt;
   }
 }
+
+namespace {
 
 /// Tool-axis angles closer than this are equal (numerical noise of the forward kinematics on
 /// machines that cannot tilt the tool, 2e-4 arcsec; the coarsest written rotary step, 0.0001°, is

@@ -106,6 +106,7 @@ void add_result(CompensateResult& t, const CompensateResult& c) {
   t.segments_added += c.segments_added;
   t.arcs_kept += c.arcs_kept;
   t.arcs_linearized += c.arcs_linearized;
+  t.moves_split += c.moves_split;
   t.reference_moves += c.reference_moves;
   t.rapids_as_written += c.rapids_as_written;
   t.axis_limited_blocks += c.axis_limited_blocks;

@@ -3,6 +3,8 @@
 #include <filesystem>
 
 #include "postproc/compensation/compensate.hpp"
+#include "postproc/contour/path.hpp"
+#include "src/compensation/compensate_support.hpp"
 #include "postproc/gcode/write_back.hpp"
 #include "postproc/error.hpp"
 
@@ -107,6 +109,122 @@ CompensateResult compensate_program(std::string_view text, std::string_view file
   return compensate_flat(text, file, dialect, m, opt, popt, out, sink, details);
 }
 
+namespace {
+
+/// Diagnostics held back until the candidate that reported them is chosen (at most kHeld; more,
+/// and the chosen candidate is run again on the caller's sink).
+constexpr std::size_t kHeld = 100000;
+struct Held {
+  std::vector<gcode::Diagnostic> list;
+  bool overflow = false;
+  gcode::DiagnosticSink sink{0};
+  Held() {
+    sink.on_report = [this](const gcode::Diagnostic& d) {
+      if (list.size() < kHeld) list.push_back(d);
+      else overflow = true;
+    };
+  }
+  Held(const Held&) = delete;
+  Held& operator=(const Held&) = delete;
+};
+
+/// The first stage of a contour mode: in --mode all the geometric remap, in --mode contour (only
+/// for the split candidate) the geometric stage's writer on the controller's own model, which
+/// changes nothing but the splits. Its output and line map (output line → input line).
+struct FirstStage {
+  CompensateResult r;
+  std::string text;
+  std::vector<std::uint64_t> lines;
+};
+
+FirstStage first_stage(std::string_view text, std::string_view file, const gcode::Dialect& dialect,
+                       const machine::Machine& m, const CompensateOptions& opt, gcode::DiagnosticSink& sink) {
+  FirstStage f;
+  CompensateOptions gopt = opt;
+  gopt.header = false;
+  gopt.line_map = &f.lines;
+  gopt.progress = {};
+  auto mem = io::OutputFile::memory();
+  gcode::LineReader reader{text};
+  if (opt.mode == Mode::all) {
+    f.r = compensate(reader, file, dialect, m, gopt, mem, sink);
+  } else {
+    machine::Machine nominal = m;
+    nominal.actual = m.nominal;
+    f.r = compensate(reader, file, dialect, nominal, gopt, mem, sink);
+  }
+  f.text = mem.take();
+  return f;
+}
+
+/// The contour stage on `input` (the first stage's output, or the program itself when `first`
+/// is null) into `out`, its diagnostics, worst lines, run lines and line map carried back to the
+/// program's lines; in --mode all with the geometric figures of the first stage.
+CompensateResult contour_stage(std::string_view input, const FirstStage* first, std::string_view file,
+                               const gcode::Dialect& dialect, const machine::Machine& m, const CompensateOptions& opt,
+                               const contour::PrecompensateOptions& popt, io::OutputFile& out,
+                               gcode::DiagnosticSink& sink, ContourDetails& cd) {
+  CompensateOptions copt = opt;
+  if (first == nullptr) return compensate_contour(input, file, dialect, m, copt, popt, out, sink, &cd);
+  const std::vector<std::uint64_t>& geo_lines = first->lines;
+  std::vector<std::uint64_t> contour_lines;  // output line → intermediate line
+  copt.line_map = opt.line_map != nullptr ? &contour_lines : nullptr;
+  copt.input_bytes = input.size();
+  // The contour stage's diagnostics (PP-W611, PP-W620 …) name lines of the intermediate text:
+  // carried back to the input's lines (the text shown is the line as the first stage wrote it).
+  gcode::DiagnosticSink to_input(0);
+  to_input.on_report = [&](const gcode::Diagnostic& diag) {
+    gcode::Diagnostic c = diag;
+    if (c.where.line >= 1 && c.where.line <= geo_lines.size() && geo_lines[c.where.line - 1] != 0)
+      c.where.line = geo_lines[c.where.line - 1];
+    sink.report(std::move(c));
+  };
+  CompensateResult r = compensate_contour(input, file, dialect, m, copt, popt, out, to_input, &cd);
+  if (opt.line_map != nullptr)
+    for (const std::uint64_t l : contour_lines)
+      opt.line_map->push_back(l >= 1 && l <= geo_lines.size() ? geo_lines[l - 1] : 0);
+  if (opt.mode == Mode::all) {
+    merge_geometric(r, first->r);
+  } else {
+    r.arcs_linearized = first->r.arcs_linearized;
+    r.segments_added = first->r.segments_added;
+  }
+  r.moves_split = first->r.moves_split;
+  if (r.contour_worst_line >= 1 && r.contour_worst_line <= geo_lines.size())
+    r.contour_worst_line = geo_lines[r.contour_worst_line - 1];
+  for (ContourRunReport& c : r.contour_run_reports)
+    if (c.line >= 1 && c.line <= geo_lines.size()) c.line = geo_lines[c.line - 1];
+  return r;
+}
+
+/// The splits of the contour candidate, from the slowest drive: time constant τ = 1/Kv (+ the
+/// velocity-loop time); pieces of 0.75 τ within 4 τ of a move's ends, where a corner's transient
+/// lies. Off (step 0) when a joint has no servo data (the contour stage reports it).
+CompensateOptions::SplitForContour split_settings(const machine::Machine& m) {
+  CompensateOptions::SplitForContour s;
+  std::string why;
+  const auto drives = contour::joint_drives(m, why);
+  if (!drives || drives->empty()) return s;
+  double tau = 0;
+  for (const contour::Drive& d : *drives)
+    if (d.kv > 0) tau = std::max(tau, 1 / d.kv + d.velocity_loop_time);
+  if (!(tau > 0)) return s;
+  s.step_s = 0.75 * tau;
+  s.span_s = 4 * tau;
+  s.linearize_arcs = true;
+  return s;
+}
+
+/// Largest error (tool tip + L × tool axis) and RMS of a simulation, for comparing candidates.
+struct Score {
+  double peak = 0, rms = 0;
+};
+Score score_of(const contour::Simulation& s, double length) {
+  return {s.tip.max + length * s.axis.max, s.tip.rms + length * s.axis.rms};
+}
+
+}  // namespace
+
 CompensateResult compensate_flat(std::string_view text, std::string_view file, const gcode::Dialect& dialect,
                                  const machine::Machine& m, const CompensateOptions& opt,
                                  const contour::PrecompensateOptions& popt, io::OutputFile& out,
@@ -117,46 +235,135 @@ CompensateResult compensate_flat(std::string_view text, std::string_view file, c
   }
   ContourDetails local;
   ContourDetails& cd = details ? *details : local;
-  if (opt.mode == Mode::contour) return compensate_contour(text, file, dialect, m, opt, popt, out, sink, &cd);
-  // all: the geometric stage into memory, then the contour stage on its output.
-  CompensateOptions gopt = opt;
-  CompensateOptions copt = opt;
-  gopt.header = false;
-  std::vector<std::uint64_t> geo_lines;  // intermediate line → input line
-  gopt.line_map = &geo_lines;
-  auto mem = io::OutputFile::memory();
-  gcode::LineReader reader{text};
-  const CompensateResult geo = compensate(reader, file, dialect, m, gopt, mem, sink);
-  CompensateResult r;
-  std::vector<std::uint64_t> contour_lines;  // output line → intermediate line
-  copt.line_map = opt.line_map != nullptr ? &contour_lines : nullptr;
-  if (!sink.has_errors()) {
-    const std::string intermediate = mem.take();
+  const bool all = opt.mode == Mode::all;
+  // The plain candidate's first stage (--mode all: the geometric remap; --mode contour: none).
+  std::optional<FirstStage> plain_first;
+  if (all) {
+    plain_first = first_stage(text, file, dialect, m, opt, sink);
+    if (sink.has_errors()) return plain_first->r;
     if (cd.keep_geometric_stage) {
       cd.geometric_input = std::string(text);
-      cd.geometric_output = intermediate;
-      cd.geometric_line_map = geo_lines;
+      cd.geometric_output = plain_first->text;
+      cd.geometric_line_map = plain_first->lines;
     }
-    copt.input_bytes = intermediate.size();
-    // The contour stage's diagnostics (PP-W611, PP-W620 …) name lines of the intermediate text:
-    // carried back to the input's lines (the text shown is the line as the geometric stage wrote it).
-    gcode::DiagnosticSink to_input(0);
-    to_input.on_report = [&](const gcode::Diagnostic& diag) {
-      gcode::Diagnostic c = diag;
-      if (c.where.line >= 1 && c.where.line <= geo_lines.size() && geo_lines[c.where.line - 1] != 0)
-        c.where.line = geo_lines[c.where.line - 1];
-      sink.report(std::move(c));
-    };
-    r = compensate_contour(intermediate, file, dialect, m, copt, popt, out, to_input, &cd);
   }
-  if (opt.line_map != nullptr)
-    for (const std::uint64_t l : contour_lines)
-      opt.line_map->push_back(l >= 1 && l <= geo_lines.size() ? geo_lines[l - 1] : 0);
-  merge_geometric(r, geo);
-  if (r.contour_worst_line >= 1 && r.contour_worst_line <= geo_lines.size())
-    r.contour_worst_line = geo_lines[r.contour_worst_line - 1];
-  for (ContourRunReport& c : r.contour_run_reports)
-    if (c.line >= 1 && c.line <= geo_lines.size()) c.line = geo_lines[c.line - 1];
+  const std::string_view plain_input = all ? std::string_view(plain_first->text) : text;
+  // The split candidate (CompensateOptions::contour_split): its first stage, kept only when it
+  // runs without errors and changes something.
+  std::optional<FirstStage> split_first;
+  Held split_first_diags;
+  if (opt.contour_split) {
+    CompensateOptions sopt = opt;
+    sopt.split = split_settings(m);
+    if (sopt.split.step_s > 0) {
+      split_first = first_stage(text, file, dialect, m, sopt, split_first_diags.sink);
+      if (split_first_diags.sink.has_errors() || split_first_diags.overflow || split_first->text == plain_input ||
+          split_first->r.moves_split + split_first->r.arcs_linearized == 0)
+        split_first.reset();
+    }
+  }
+  if (!split_first) return contour_stage(plain_input, all ? &*plain_first : nullptr, file, dialect, m, opt, popt, out, sink, cd);
+
+  // Both candidates, into memory with their diagnostics held back; the one whose written program
+  // simulates better against the split candidate's reference (the denser description of the same
+  // path) is written.
+  struct Candidate {
+    CompensateResult r;
+    std::string written;
+    std::vector<std::uint64_t> lines;
+    Held diags;
+    ContourDetails cd;
+  };
+  const auto run = [&](Candidate& c, std::string_view input, const FirstStage* first) {
+    c.cd.keep_geometric_stage = false;
+    CompensateOptions copt = opt;
+    copt.line_map = opt.line_map != nullptr ? &c.lines : nullptr;
+    auto mem = io::OutputFile::memory();
+    c.r = contour_stage(input, first, file, dialect, m, copt, popt, mem, c.diags.sink, c.cd);
+    c.written = mem.take();
+  };
+  Candidate plain, split;
+  run(plain, plain_input, all ? &*plain_first : nullptr);
+  const auto replay = [&](Candidate& c, std::string_view input, const FirstStage* first) -> CompensateResult {
+    if (c.diags.overflow) {  // run again on the caller's sink
+      c.cd = ContourDetails{};
+      auto mem = io::OutputFile::memory();
+      if (opt.line_map != nullptr) c.lines.clear();
+      CompensateOptions copt = opt;
+      copt.line_map = opt.line_map != nullptr ? &c.lines : nullptr;
+      c.r = contour_stage(input, first, file, dialect, m, copt, popt, mem, sink, c.cd);
+      c.written = mem.take();
+    } else {
+      for (gcode::Diagnostic& d : c.diags.list) sink.report(std::move(d));
+    }
+    if (sink.has_errors()) return c.r;
+    out.write(c.written);
+    if (opt.line_map != nullptr) opt.line_map->insert(opt.line_map->end(), c.lines.begin(), c.lines.end());
+    const bool keep = cd.keep_geometric_stage;
+    std::string gi = std::move(cd.geometric_input), go = std::move(cd.geometric_output);
+    std::vector<std::uint64_t> gl = std::move(cd.geometric_line_map);
+    cd = std::move(c.cd);
+    cd.keep_geometric_stage = keep;
+    cd.geometric_input = std::move(gi);
+    cd.geometric_output = std::move(go);
+    cd.geometric_line_map = std::move(gl);
+    return c.r;
+  };
+  if (plain.diags.sink.has_errors() || !plain.cd.reference || !plain.cd.simulated_after) {
+    return replay(plain, plain_input, all ? &*plain_first : nullptr);
+  }
+  run(split, split_first->text, &*split_first);
+  // Both written programs simulated against the original's intended contour (what `postproc
+  // simulate WRITTEN --reference ORIGINAL` shows, and what the report gives).
+  std::string why;
+  const std::optional<contour::Simulation>& plain_sim = plain.cd.simulated_after;
+  std::optional<contour::Simulation> split_sim;
+  if (!split.diags.sink.has_errors() && plain_sim && plain.cd.simulated_before)
+    split_sim = simulate_written(split.written, file, dialect, m, plain.cd, why);
+  bool take_split = false;
+  if (plain_sim && split_sim) {
+    const double L = popt.orientation_length_mm;
+    const Score a = score_of(*plain_sim, L), b = score_of(*split_sim, L);
+    const contour::Simulation& before = *plain.cd.simulated_before;
+    // Never worse than the input at its largest errors; then the smaller largest error (ties
+    // within 2 % decided by the RMS).
+    const bool sound = split_sim->tip.max <= before.tip.max + 1e-7 && split_sim->axis.max <= before.axis.max + 1e-9;
+    take_split = sound && (std::abs(a.peak - b.peak) > std::max(1e-6, 0.02 * std::min(a.peak, b.peak)) ? b.peak < a.peak
+                                                                                                          : b.rms < a.rms);
+  }
+  CompensateResult r;
+  if (take_split) {
+    std::optional<contour::Simulation> before = std::move(plain.cd.simulated_before);
+    r = replay(split, split_first->text, &*split_first);
+    // The split stage's own notes (PP-W603: Klartext blocks inserted without numbers).
+    for (const gcode::Diagnostic& d : split_first_diags.list)
+      if (d.code == "PP-W603") sink.report(d);
+    if (all && cd.keep_geometric_stage) {
+      cd.geometric_output = split_first->text;
+      cd.geometric_line_map = split_first->lines;
+    }
+    // The figures against the original's contour (the runs' own figures stay those of the split
+    // program's contour).
+    r.contour_worst_line = plain.r.contour_worst_line;
+    r.contour_before_mm = before->tip.max;
+    r.contour_before_rad = before->axis.max;
+    r.contour_after_mm = split_sim->tip.max;
+    r.contour_after_rad = split_sim->axis.max;
+    cd.simulated_before = std::move(before);
+    cd.simulated_after = split_sim;
+  } else {
+    r = replay(plain, plain_input, all ? &*plain_first : nullptr);
+  }
+  r.contour_split_tried = true;
+  r.contour_split_written = take_split;
+  if (plain_sim && split_sim) {
+    r.contour_unsplit_after_mm = plain_sim->tip.max;
+    r.contour_unsplit_after_rad = plain_sim->axis.max;
+    r.contour_split_after_mm = split_sim->tip.max;
+    r.contour_split_after_rad = split_sim->axis.max;
+  }
+  r.moves_split = split_first->r.moves_split;
+  r.contour_split_arcs = split_first->r.arcs_linearized;
   return r;
 }
 

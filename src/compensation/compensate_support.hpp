@@ -8,6 +8,8 @@
 #include <string>
 #include <utility>
 
+#include "postproc/compensation/compensate.hpp"
+#include "postproc/contour/simulate.hpp"
 #include "postproc/machine/program_map.hpp"
 #include "postproc/gcode/block_writer.hpp"
 #include "postproc/gcode/program.hpp"
@@ -142,5 +144,14 @@ class WordWriter {
   const machine::Machine& m_;
   const gcode::ModalTrack& track_;
 };
+
+/// The contour stage's written text read back through the reader and simulated against the
+/// reference of `d` (the path of the contour stage's input, or of another candidate with the same
+/// runs); nullopt (with `why`) when it cannot be (diagnostics, other runs, throw). With
+/// `so.visit` the written program must also have the path points of `d`.
+std::optional<contour::Simulation> simulate_written(const std::string& written, std::string_view file,
+                                                    const gcode::Dialect& dialect, const machine::Machine& m,
+                                                    const ContourDetails& d, std::string& why,
+                                                    const contour::SimulateOptions& so = {});
 
 }  // namespace postproc::comp

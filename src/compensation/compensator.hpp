@@ -2,6 +2,7 @@
 // compensate's block visitor: the state carried from block to block (controller map, corrected
 // positions the controller holds, modal tool vector, arc mode) and the steps per motion. Its
 // member functions are defined in compensate.cpp and compensate_shapes.cpp (arcs, cycles).
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <optional>
@@ -20,6 +21,7 @@
 #include "src/compensation/compensate_support.hpp"
 #include "src/gcode/convert_support.hpp"
 #include "src/gcode/linearize.hpp"
+#include "src/gcode/text.hpp"
 
 namespace postproc::comp::detail {
 using gcode::AxisMask;
@@ -460,8 +462,9 @@ class Compensator final : public gcode::BlockVisitor {
     }
     const bool arc = m.type == MotionType::arc_cw || m.type == MotionType::arc_ccw;
     if (arc) {
-      const ArcCheck k = arc_check(b, m, out);
+      ArcCheck k = arc_check(b, m, out);
       if (k == ArcCheck::refused) return;
+      if (k == ArcCheck::rigid && opt_.split.linearize_arcs) k = ArcCheck::linearize;
       if (k == ArcCheck::linearize) {
         if (linearize_arc(b, m, map, out, ed)) joints_ = q;
         return;
@@ -471,12 +474,15 @@ class Compensator final : public gcode::BlockVisitor {
     }
     // Subdivide feed moves whose joint-space interpolation would leave the intended path.
     std::vector<Command> points;
+    bool subdivided = false;
     if (m.type == MotionType::linear && (written_known_ & mask_) == mask_ && (m.known & mask_) == mask_) {
       if (!subdivide(b, m, map, out, points)) return;
+      subdivided = !points.empty();
+      if (opt_.split.step_s > 0 && splittable(b, m, map)) split_for_contour(m, map, out, points);
     }
     if (m.type != MotionType::rapid && !arc) restore_arc_mode(b, ed);
     if (!points.empty()) {
-      ++r_.subdivided_blocks;
+      if (subdivided) ++r_.subdivided_blocks;
       write_segments(b, m, ed, points, out);
     } else {
       write_end(b, m, ed, out);
@@ -615,6 +621,105 @@ class Compensator final : public gcode::BlockVisitor {
            fmt::format("even {} segments leave the intended path by more than --max-deviation {} mm; raise the limit",
                        kMaxSegments, opt_.max_deviation_mm));
     return false;
+  }
+
+  /// The contour candidate splits only plain moves: the block holds nothing but its motion word,
+  /// axis words, F, a tool vector (I J K under G43.5-like forms) and comments (Klartext: the L
+  /// verb and its words), all literal numbers, and is not block-deleted. Anything else (G9's exact
+  /// stop, M functions, S T D H, other G codes, radius compensation) would act at the first
+  /// piece instead of the move's end, or is left to the geometric stage's own rules.
+  [[nodiscard]] bool splittable(const Block& b, const Motion& m, const ProgramMap& map) const {
+    if (b.block_delete || m.words_transformed) return false;
+    const auto* g = track_.block_motion();
+    for (std::size_t i = 0; i < b.words.size(); ++i) {
+      const Word& w = b.words[i];
+      if (!gcode::plain_letter(w) || w.kind != gcode::ValueKind::number) return false;
+      if (w.letter == 'F') continue;
+      if (w.letter == 'G' && g != nullptr && g->word == i) continue;
+      if (const int a = track_.axis_of(w); a >= 0 && ((mask_ >> a) & 1u)) continue;
+      if ((w.letter == 'I' || w.letter == 'J' || w.letter == 'K') && map.form() == Form::tcp_vector)
+        continue;
+      return false;
+    }
+    for (std::size_t i = 0; i < b.tokens.size(); ++i) {
+      const gcode::Token& t = b.tokens[i];
+      if (t.kind == gcode::TokenKind::paren_comment || t.kind == gcode::TokenKind::line_comment ||
+          t.kind == gcode::TokenKind::block_end)
+        continue;
+      if (i == 0 && t.kind == gcode::TokenKind::keyword && d_.id == gcode::DialectId::heidenhain &&
+          (gcode::text::iequals(b.text(t.name), "L") || gcode::text::iequals(b.text(t.name), "LN")))
+        continue;
+      return false;
+    }
+    return true;
+  }
+
+  /// Where the contour candidate splits a linear feed move (CompensateOptions::split): fractions
+  /// in (0, 1), ascending. The move's time comes from its programmed feed over the root sum of
+  /// squares of its program axes (degrees as mm; G93: 1/F min); a heuristic for where the points
+  /// go, not the controller's timing, which the contour stage models.
+  [[nodiscard]] std::vector<double> split_fractions(const Motion& m) const {
+    const CompensateOptions::SplitForContour& s = opt_.split;
+    if (!m.feed_known || !(m.feed > 0)) return {};
+    double len2 = 0;
+    for (int a = 0; a < gcode::kAxisCount; ++a)
+      if ((mask_ >> a) & 1u) len2 += (m.end[a] - m.start[a]) * (m.end[a] - m.start[a]);
+    double t = 0;  // s
+    if (m.feed_mode == gcode::FeedMode::inverse_time) t = 60.0 / m.feed;
+    else if (m.feed_mode == gcode::FeedMode::per_minute) t = std::sqrt(len2) * 60.0 / m.feed;
+    if (!(t > s.step_s)) return {};
+    std::vector<double> f;
+    // Inverse time: equal pieces only (write_segments scales every piece's F by their count), so
+    // a move longer than both spans is not split (its pieces would all be short).
+    if (m.feed_mode == gcode::FeedMode::inverse_time && t > 2 * s.span_s) return {};
+    if (t <= 2 * s.span_s) {
+      const auto n = static_cast<std::uint32_t>(std::min(std::ceil(t / s.step_s), 256.0));
+      for (std::uint32_t i = 1; i < n; ++i) f.push_back(static_cast<double>(i) / n);
+      return f;
+    }
+    const auto k = static_cast<std::uint32_t>(std::min(std::floor(s.span_s / s.step_s), 128.0));
+    for (std::uint32_t i = 1; i <= k; ++i) f.push_back(i * s.step_s / t);
+    for (std::uint32_t i = k; i >= 1; --i) f.push_back(1 - i * s.step_s / t);
+    return f;
+  }
+
+  /// Adds the contour candidate's split points to `pts` (the subdivision's, equal pieces): each
+  /// corrected through the remap, every new piece checked against the intended path as the
+  /// subdivision's are. Leaves `pts` as it was when a point cannot be corrected or a piece leaves
+  /// the path.
+  void split_for_contour(const Motion& m, const ProgramMap& map, const Command& out, std::vector<Command>& pts) {
+    std::vector<double> f = split_fractions(m);
+    if (f.empty()) return;
+    const std::size_t n = pts.size() + 1;
+    if (m.feed_mode == gcode::FeedMode::inverse_time) {  // equal pieces, a multiple of the subdivision's
+      const std::size_t k = (f.size() + 1 + n - 1) / n;
+      f.clear();
+      for (std::size_t i = 1; i < k * n; ++i) f.push_back(static_cast<double>(i) / static_cast<double>(k * n));
+    }
+    for (std::size_t i = 1; i < n; ++i) f.push_back(static_cast<double>(i) / static_cast<double>(n));
+    std::sort(f.begin(), f.end());
+    f.erase(std::unique(f.begin(), f.end(), [](double a, double b) { return b - a < 1e-9; }), f.end());
+    if (f.size() + 1 > kMaxSegments) return;
+    const Command c0{m.start, prev_vector_};
+    const Command c1{m.end, m.tool_vector};
+    std::vector<Command> cand;
+    cand.reserve(f.size());
+    Command prev{written_, prev_written_vector_};
+    double t_prev = 0;
+    for (std::size_t i = 0; i <= f.size(); ++i) {
+      const double t = i < f.size() ? f[i] : 1.0;
+      Command k = out;
+      if (i < f.size()) {
+        kin::JointVector qq;
+        if (!map.correct(lerp(c0, c1, t), joints_, k, qq).ok()) return;
+        cand.push_back(k);
+      }
+      if (!within(map, lerp(c0, c1, t_prev), lerp(c0, c1, t), prev, k, opt_.max_deviation_mm)) return;
+      prev = k;
+      t_prev = t;
+    }
+    pts = std::move(cand);
+    ++r_.moves_split;
   }
 
   static Command lerp(const Command& a, const Command& b, double t) {

@@ -69,6 +69,15 @@ nlohmann::json result_json(const CompensateResult& r, Mode mode, const ContourDe
     j["contour"]["runs_iterated"] = r.contour_runs_iterated;
     j["contour"]["runs_lag"] = r.contour_runs_lag;
     j["contour"]["runs_refined"] = r.contour_runs_refined;
+    // The split candidate (compensate --contour-split auto), both simulated against the original's contour.
+    j["contour"]["split"] = {{"tried", r.contour_split_tried},
+                             {"written", r.contour_split_written},
+                             {"moves_split", r.moves_split},
+                             {"arcs_as_chords", r.contour_split_arcs},
+                             {"split_after_tip_um", r.contour_split_after_mm * 1000},
+                             {"split_after_axis_arcsec", r.contour_split_after_rad * kArcsec},
+                             {"unsplit_after_tip_um", r.contour_unsplit_after_mm * 1000},
+                             {"unsplit_after_axis_arcsec", r.contour_unsplit_after_rad * kArcsec}};
     j["contour"]["runs_uncorrected"] =
         r.contour_runs - std::min(r.contour_runs, r.contour_runs_iterated + r.contour_runs_lag + r.contour_runs_refined);
     j["contour"]["stops"] = {{"converged", r.contour_runs_stopped[1]},

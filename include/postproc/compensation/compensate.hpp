@@ -76,6 +76,21 @@ struct CompensateOptions {
   unsigned jobs = 1;
   std::size_t chunk_blocks = 4096;
   std::size_t warmup_blocks = 32;
+  /// The contour modes' second candidate (docs/contour.md, "Long moves and arcs"): the servo error
+  /// a corner leaves lies inside the long move after it, and on an arc, where moving block end
+  /// points cannot reach it. With `contour_split`, compensate_program also runs the contour stage
+  /// on the program with those moves split near their ends and its feed arcs written as chords,
+  /// and writes that candidate when the simulation of both written programs finds it better.
+  bool contour_split = true;
+  /// How the geometric stage's writer splits for that candidate (set by compensate_program; off
+  /// when step_s is 0): pieces of a linear feed move last at most `step_s` within `span_s` of
+  /// either end (a move shorter than 2·span_s: everywhere), from its programmed feed; with
+  /// `linearize_arcs` every feed arc is written as chords within max_deviation_mm / 2.
+  struct SplitForContour {
+    double step_s = 0;
+    double span_s = 0;
+    bool linearize_arcs = false;
+  } split;
 };
 
 /// Where `line` carries postproc's compensation header (as header_comment writes it: "postproc
@@ -125,6 +140,7 @@ struct CompensateResult {
   std::uint64_t segments_added = 0;      ///< lines added by subdivision
   std::uint64_t arcs_kept = 0;           ///< arcs whose correction is rigid: end point rewritten
   std::uint64_t arcs_linearized = 0;     ///< arcs replaced by corrected G1 chords
+  std::uint64_t moves_split = 0;         ///< moves the contour modes' split candidate splits (written or not)
   std::uint64_t reference_moves = 0;     ///< G28/G30 blocks (machine reference: left as written)
   std::uint64_t rapids_as_written = 0;   ///< rapids before every axis was known (left as written, PP-W601)
   /// End points corrected by the bounded solve (kinematics/bounded_inverse.hpp): near a singular
@@ -166,6 +182,13 @@ struct CompensateResult {
   std::uint64_t contour_runs_stopped[4] = {0, 0, 0, 0};  ///< runs per contour::RunStop
   std::vector<ContourRunReport> contour_run_reports;   ///< per run of the contour stage
   double fit_residual_mm = 0;            ///< largest NURBS fit residual of the intended contour, mm
+  /// The split candidate (CompensateOptions::contour_split): tried (the program has long feed
+  /// moves or feed arcs), written, and both written programs simulated against its reference.
+  bool contour_split_tried = false;
+  bool contour_split_written = false;
+  std::uint64_t contour_split_arcs = 0;  ///< arcs the split candidate writes as chords
+  double contour_unsplit_after_mm = 0, contour_unsplit_after_rad = 0;
+  double contour_split_after_mm = 0, contour_split_after_rad = 0;
   std::uint64_t resolved_lines = 0;      ///< lines of the resolved program (0: not resolved)
   std::uint64_t source_lines_rewritten = 0;  ///< resolved without --flatten: program lines rewritten
   bool flattened = false;                 ///< written as the resolved literal program (--flatten)
