@@ -174,7 +174,15 @@ void setup_simulate(CLI::App& app, int& rc) {
                                 "own original",
                                 o->input, l->path.runs.size(), o->reference, ref_prog->path.runs.size()));
     }
-    const contour::Path& intended = ref_prog ? ref_prog->path : l->path;
+    // The intended contour: the reference program's path with its long moves densified as the
+    // controller interpolates them (PathOptions::densify_mm; compensate's verification does the same).
+    const Loaded& intended_prog = ref_prog ? *ref_prog : *l;
+    contour::PathOptions dense;
+    dense.densify_mm = contour::kReferenceDensifyMm;
+    gcode::DiagnosticSink quiet(0);
+    const contour::Path intended =
+        contour::build_path(intended_prog.text, ref_prog ? o->reference : o->input, intended_prog.dialect,
+                            intended_prog.machine, dense, quiet, make_resolve_options(o->resolve));
     contour::ReferenceOptions ropt;
     ropt.nominal = o->nominal;
     bar.update("fitting the NURBS reference", 0, 0);

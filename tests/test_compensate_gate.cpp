@@ -58,11 +58,15 @@ void compensate(const std::string& program, const mc::Machine& m, const std::str
   run.written = out.take();
 }
 
-ct::Path path_of(const std::string& text, const mc::Machine& m) {
+/// `dense`: the intended contour as simulate and the verification take it (long moves densified,
+/// contour::kReferenceDensifyMm), for building a reference.
+ct::Path path_of(const std::string& text, const mc::Machine& m, bool dense = false) {
   const gc::Dialect d = *gc::make_dialect(m.dialect_name, m.dialect_options);
   gc::DiagnosticSink sink;
   gc::LineReader in{std::string_view(text)};
-  ct::Path p = ct::build_path(in, "t.nc", d, m, ct::PathOptions{}, sink);
+  ct::PathOptions o;
+  if (dense) o.densify_mm = ct::kReferenceDensifyMm;
+  ct::Path p = ct::build_path(in, "t.nc", d, m, o, sink);
   EXPECT_FALSE(sink.has_errors());
   return p;
 }
@@ -73,7 +77,7 @@ std::pair<ct::Simulation, ct::Simulation> simulate_both(const std::string& origi
                                                          const mc::Machine& m) {
   const ct::Path po = path_of(original, m);
   const ct::Path pw = path_of(written, m);
-  const ct::Reference ref(po, *m.actual);
+  const ct::Reference ref(path_of(original, m, true), *m.actual);
   return {ct::simulate(po, ref, *m.actual), ct::simulate(pw, ref, *m.actual)};
 }
 
@@ -246,7 +250,7 @@ TEST(CompensateGate, ModeAllWithheldRunKeepsTheGeometricCorrection) {
   // contour stage's "before"; the written program is not worse than it.
   const ct::Path g = path_of(geo.written, m);
   const ct::Path w = path_of(all.written, m);
-  const ct::Reference ref(g, *m.actual);
+  const ct::Reference ref(path_of(geo.written, m, true), *m.actual);
   const ct::Simulation s0 = ct::simulate(g, ref, *m.actual);
   const ct::Simulation s1 = ct::simulate(w, ref, *m.actual);
   EXPECT_NEAR(all.r.contour_before_mm, s0.tip.max, 1e-9);
@@ -450,7 +454,7 @@ TEST(CompensateGate, RandomProgramsAreNeverWorseOnTheSimulator) {
     total_runs += c.r.contour_runs;
     const ct::Path original = path_of(prog, m);
     const ct::Path written = path_of(c.written, m);
-    const ct::Reference ref(original, *m.actual);
+    const ct::Reference ref(path_of(prog, m, true), *m.actual);
     const ct::Simulation s0 = ct::simulate(original, ref, *m.actual);
     const ct::Simulation s1 = ct::simulate(written, ref, *m.actual);
     ASSERT_EQ(s0.run_tip_max.size(), s1.run_tip_max.size());

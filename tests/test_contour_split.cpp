@@ -136,15 +136,17 @@ struct Simulated {
 };
 Simulated simulate_both(const std::string& original, const std::string& written, const mc::Machine& m) {
   const gc::Dialect d = *gc::make_dialect(m.dialect_name, m.dialect_options);
-  const auto path = [&](const std::string& text) {
+  const auto path = [&](const std::string& text, double densify) {
     gc::DiagnosticSink sink;
     gc::LineReader in{std::string_view(text)};
-    ct::Path p = ct::build_path(in, "t.nc", d, m, ct::PathOptions{}, sink);
+    ct::PathOptions o;
+    o.densify_mm = densify;
+    ct::Path p = ct::build_path(in, "t.nc", d, m, o, sink);
     EXPECT_FALSE(sink.has_errors());
     return p;
   };
-  const ct::Path po = path(original), pw = path(written);
-  const ct::Reference ref(po, *m.actual);
+  const ct::Path po = path(original, 0), pw = path(written, 0);
+  const ct::Reference ref(path(original, ct::kReferenceDensifyMm), *m.actual);
   return {ct::simulate(po, ref, *m.actual), ct::simulate(pw, ref, *m.actual)};
 }
 

@@ -191,7 +191,7 @@ std::optional<contour::Simulation> simulate_written(const std::string& written, 
     return std::nullopt;
   }
   try {
-    return contour::simulate(p, *d.reference, *m.actual, so);
+    return contour::simulate(p, d.check_reference ? *d.check_reference : *d.reference, *m.actual, so);
   } catch (const Error& e) {
     why = e.what();
     return std::nullopt;
@@ -370,6 +370,14 @@ CompensateResult compensate_contour(std::string_view text, std::string_view file
   if (sink.count(gcode::Severity::error) > errors) return r;
   stage("contour: fitting the NURBS reference", 0);
   d.reference.emplace(d.path, *m.actual);
+  {
+    contour::PathOptions dense;
+    dense.densify_mm = contour::kReferenceDensifyMm;
+    gcode::DiagnosticSink quiet(0);
+    gcode::LineReader in{text};
+    const contour::Path p = contour::build_path(in, file, dialect, m, dense, quiet);
+    if (!quiet.has_errors() && p.runs.size() == d.path.runs.size()) d.check_reference.emplace(p, *m.actual);
+  }
   contour::PrecompensateOptions po = popt;
   if (!po.progress) po.progress = opt.progress;
   d.result = contour::precompensate(d.path, *m.actual, *d.reference, po);
@@ -416,7 +424,9 @@ CompensateResult compensate_contour(std::string_view text, std::string_view file
   // The simulations run on other threads while the candidates are written on this one (the
   // written texts are read back into paths of their own; models and reference are immutable).
   std::future<contour::Simulation> input_sim =
-      std::async(std::launch::async, [&d, &m] { return contour::simulate(d.path, *d.reference, *m.actual); });
+      std::async(std::launch::async, [&d, &m] {
+        return contour::simulate(d.path, d.check_reference ? *d.check_reference : *d.reference, *m.actual);
+      });
   std::unique_ptr<Pass> iterated = write_pass(d.result.commands, none);
   std::string why_iterated, why_lag;
   std::future<std::optional<contour::Simulation>> iterated_sim = std::async(std::launch::async, [&] {

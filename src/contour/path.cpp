@@ -342,9 +342,19 @@ class Builder final : public gcode::BlockVisitor {
       ++p_.arcs;
       const auto k = gcode::arc_segments(mo.arc.radius, mo.arc.sweep, opt_.arc_tolerance_mm, 0.0);
       n = k ? std::max<std::uint64_t>(*k, 2) : 2;
+    } else if (opt_.densify_mm > 0) {
+      const double len = metric(map, prev_cmd_, machine::Command{mo.end, mo.tool_vector}, need).length;
+      n = static_cast<std::uint64_t>(std::clamp(std::ceil(len / opt_.densify_mm), 1.0, 1024.0));
     }
+    const machine::Command from = prev_cmd_;
     for (std::uint64_t i = 1; i <= n; ++i) {
-      machine::Command c{arc ? gcode::arc_point(mo, static_cast<double>(i) / static_cast<double>(n)) : mo.end, mo.tool_vector};
+      const double f = static_cast<double>(i) / static_cast<double>(n);
+      machine::Command c{arc ? gcode::arc_point(mo, f) : mo.end, mo.tool_vector};
+      if (!arc && i < n) {  // an inner point of a densified move
+        c.c = from.c + f * (mo.end - from.c);
+        const Eigen::Vector3d v = from.vector + f * (mo.tool_vector - from.vector);
+        if (v.norm() > 1e-12) c.vector = v.normalized();
+      }
       if (i == n) c.c = mo.end;
       kin::JointVector q;
       if (!map.joints(c, q_, q).ok()) {
@@ -353,7 +363,7 @@ class Builder final : public gcode::BlockVisitor {
         note_position(mo);
         return;
       }
-      add_point(b, mo, mi, c, q, i == n, arc);
+      add_point(b, mo, mi, c, q, i == n, arc || i < n);
     }
     ++p_.feed_moves;
     note_position(mo);

@@ -210,6 +210,10 @@ CompensateResult compensate(gcode::LineReader& in, std::string_view file, const 
 struct ContourDetails {
   contour::Path path;
   std::optional<contour::Reference> reference;
+  /// The verification's reference (simulated_before / simulated_after, the gate, the refinement):
+  /// the input's contour with long moves densified (contour::PathOptions::densify_mm), so that
+  /// the curve between far block end points is the one the controller interpolates.
+  std::optional<contour::Reference> check_reference;
   contour::Precompensation result;
   std::vector<char> run_withheld;  ///< per run of `path`: written without the contour correction
   /// The verification (docs/compensation-verification.md): time-domain simulation of the contour

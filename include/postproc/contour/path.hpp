@@ -96,7 +96,18 @@ struct Path {
 struct PathOptions {
   /// Chord tolerance for arcs on the path, mm.
   double arc_tolerance_mm = 0.0005;
+  /// For paths that only describe the intended contour (the reference of simulate and of the
+  /// verification): a linear feed move longer than this in the feed metric (mm, degrees as mm)
+  /// gets inner points (block_end false) at most this far apart, interpolated as the controller
+  /// interpolates it (the program coordinates linearly, a tool vector normalised): the contour
+  /// fitted through the block end points alone cuts across a long move whose tool tip or tool
+  /// axis the controller moves along a curve (rotary axes turning). 0: none (the commanded path).
+  double densify_mm = 0;
 };
+
+/// PathOptions::densify_mm of the intended contour that `simulate` and compensate's verification
+/// measure against (mm, degrees as mm).
+inline constexpr double kReferenceDensifyMm = 1.0;
 
 /// The model of path point i: the calibrated (or, with `nominal`, the controller's nominal) model
 /// of the point's controller context, which carries the block's tool length; `fallback` for paths
