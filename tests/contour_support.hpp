@@ -31,6 +31,21 @@ inline std::string mill3_toml(const std::string& axis_extra = "", const std::str
   return s;
 }
 
+#ifdef POSTPROC_SOURCE_DIR
+/// The repository's samples folder (tests built with POSTPROC_SOURCE_DIR).
+inline const std::string kSamples = std::string(POSTPROC_SOURCE_DIR) + "/samples/";
+
+/// A machine file of samples/machines, loaded (a failure is a test failure).
+inline postproc::machine::Machine sample_machine(const std::string& name) {
+  postproc::gcode::DiagnosticSink sink;
+  auto m = postproc::machine::load_machine(kSamples + "machines/" + name, sink);
+  for (const auto& d : sink.stored())
+    if (d.severity == postproc::gcode::Severity::error) ADD_FAILURE() << postproc::gcode::format(d);
+  if (!m) throw std::runtime_error("sample machine " + name + " does not load");
+  return std::move(*m);
+}
+#endif
+
 /// The mill above, parsed once.
 inline const postproc::machine::Machine& mill() {
   static const postproc::machine::Machine m = [] {

@@ -27,14 +27,8 @@ namespace mc = postproc::machine;
 namespace gc = postproc::gcode;
 namespace comp = postproc::comp;
 
-const std::string kSamples = std::string(POSTPROC_SOURCE_DIR) + "/samples/";
-
-mc::Machine machine(const std::string& name) {
-  gc::DiagnosticSink sink;
-  auto m = mc::load_machine(kSamples + "machines/" + name, sink);
-  EXPECT_TRUE(m.has_value()) << name;
-  return *m;
-}
+mc::Machine machine(const std::string& name) { return pptest::sample_machine(name); }
+using pptest::kSamples;
 
 /// The geometric stage's writer with the split options on the controller's own model (nothing
 /// to correct): only the splits change the program.

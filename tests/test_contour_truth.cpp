@@ -29,14 +29,8 @@ namespace gc = postproc::gcode;
 namespace comp = postproc::comp;
 namespace kin = postproc::kin;
 
-const std::string kSamples = std::string(POSTPROC_SOURCE_DIR) + "/samples/";
-
-mc::Machine machine(const std::string& name) {
-  gc::DiagnosticSink sink;
-  auto m = mc::load_machine(kSamples + "machines/" + name, sink);
-  EXPECT_TRUE(m.has_value()) << name;
-  return *m;
-}
+mc::Machine machine(const std::string& name) { return pptest::sample_machine(name); }
+using pptest::kSamples;
 
 ct::Path path_of(const std::string& text, const mc::Machine& m) {
   const gc::Dialect d = *gc::make_dialect(m.dialect_name, m.dialect_options);
