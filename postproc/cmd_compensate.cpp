@@ -495,7 +495,11 @@ void setup_compensate(CLI::App& app, int& rc) {
                              r.moves_split, r.contour_split_arcs, r.contour_split_after_mm * 1000,
                              r.contour_split_after_rad * 206264.80624709636, r.contour_unsplit_after_mm * 1000,
                              r.contour_unsplit_after_rad * 206264.80624709636,
-                             r.contour_split_written ? "split" : "with the block end points only")
+                             !r.contour_split_written ? std::string("with the block end points only")
+                             : r.contour_split_runs < r.contour_runs
+                                 ? fmt::format("split in {} of {} runs, the others on their block end points",
+                                               r.contour_split_runs, r.contour_runs)
+                                 : std::string("split"))
                      .c_str(),
                  stderr);
     rc = 0;

@@ -81,7 +81,8 @@ std::optional<Predictions> predict_both(const DiffArgs& o, const machine::Machin
   if (p.original.points.size() != p.corrected.points.size() || !same_runs())
     throw Error(ExitCode::usage,
                 fmt::format("--predict: {} has {} path points in {} runs but {} has {} in {}; predict needs a corrected "
-                            "program with the original's structure (e.g. from compensate --mode contour)",
+                            "program with the original's structure (compensate --mode contour --contour-split off); "
+                            "for a program with split moves, run postproc simulate CORRECTED --reference ORIGINAL",
                             o.corrected, p.corrected.points.size(), p.corrected.runs.size(), o.original,
                             p.original.points.size(), p.original.runs.size()));
   const contour::Reference ref(p.original, *m.actual);

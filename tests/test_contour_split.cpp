@@ -6,6 +6,7 @@
 // the split writer itself (what it splits and what it must leave whole), the choice and the
 // report's figures against an independent simulation of the written text, and the moved G9 of a
 // subdivided block in the geometric stage.
+#include <cmath>
 #include <string>
 
 #include <fmt/format.h>
@@ -231,6 +232,34 @@ TEST(ContourSplit, ACornerBetweenLongMoves) {
   EXPECT_LT(s.after.tip.max, 0.5 * plain.r.contour_after_mm);
   std::printf("corner: max %.3f -> %.3f um (end points only %.3f), RMS %.3f -> %.3f um\n", s.before.tip.max * 1000,
               s.after.tip.max * 1000, plain.r.contour_after_mm * 1000, s.before.tip.rms * 1000, s.after.tip.rms * 1000);
+}
+
+// Two runs: a corner between long moves (the split candidate is far better there) and a run of
+// short blocks that the split candidate does not change. The program is written run by run: the
+// first run split, the second as the end-point candidate wrote it (byte for byte), and the figures
+// reported are those of an independent simulation of the text written.
+TEST(ContourSplit, RunByRunWhenTheCandidatesDifferPerRun) {
+  std::string prog = "G90 G54 G0 X0. Y0. Z0.\nG1 X40. F6000.\nX60. Y20.\nX100.\nY60.\nX60.\nG0 Z10.\n";
+  prog += "G0 X0. Y-20. Z0.\n";
+  for (int i = 1; i <= 60; ++i)
+    prog += fmt::format("G1 X{:.4f} Y{:.4f}{}\n", 0.25 * i, -20 + 2 * std::sin(0.1 * i), i == 1 ? " F3000." : "");
+  prog += "G0 Z10.\nM30\n";
+  Outcome plain, split;
+  contour(prog, pptest::mill(), false, plain);
+  contour(prog, pptest::mill(), true, split);
+  ASSERT_FALSE(split.sink.has_errors());
+  EXPECT_EQ(split.r.contour_runs, 2u);
+  ASSERT_TRUE(split.r.contour_split_written);
+  EXPECT_EQ(split.r.contour_split_runs, 1u);
+  // The second part as the end-point candidate wrote it.
+  const std::string tail_plain = plain.written.substr(plain.written.find("G0 X0. Y-20. Z0."));
+  const std::string tail_split = split.written.substr(split.written.find("G0 X0. Y-20. Z0."));
+  EXPECT_EQ(tail_split, tail_plain);
+  const Simulated s = simulate_both(prog, split.written, pptest::mill());
+  EXPECT_NEAR(split.r.contour_after_mm, s.after.tip.max, 1e-9);
+  EXPECT_NEAR(split.r.contour_after_rad, s.after.axis.max, 1e-12);
+  EXPECT_LE(s.after.tip.max, s.before.tip.max);
+  EXPECT_LT(s.after.tip.max, 0.5 * plain.r.contour_after_mm);
 }
 
 // The geometric stage's own subdivision (a move whose joint interpolation leaves the path on the

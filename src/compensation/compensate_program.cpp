@@ -223,6 +223,169 @@ Score score_of(const contour::Simulation& s, double length) {
   return {s.tip.max + length * s.axis.max, s.tip.rms + length * s.axis.rms};
 }
 
+/// One candidate of the contour modes, held in memory until the choice: its result, written text,
+/// line map (written line → input line, 0 for the header), held diagnostics and details.
+struct Candidate {
+  CompensateResult r;
+  std::string written;
+  std::vector<std::uint64_t> lines;
+  Held diags;
+  ContourDetails cd;
+};
+
+/// a is preferred over b: the smaller largest error, and within 2 % of each other the smaller RMS.
+bool prefer_score(const Score& a, const Score& b) {
+  if (std::abs(a.peak - b.peak) > std::max(1e-6, 0.02 * std::min(a.peak, b.peak))) return a.peak < b.peak;
+  return a.rms < b.rms;
+}
+
+/// The lines of a text, each with its end of line.
+std::vector<std::string_view> lines_of(std::string_view text) {
+  std::vector<std::string_view> v;
+  for (std::size_t at = 0; at < text.size();) {
+    std::size_t e = text.find('\n', at);
+    e = e == std::string_view::npos ? text.size() : e + 1;
+    v.push_back(text.substr(at, e - at));
+    at = e;
+  }
+  return v;
+}
+
+/// A program written run by run from the two candidates.
+struct Merged {
+  std::string text;
+  std::vector<std::uint64_t> lines;                          ///< written line → input line
+  std::vector<std::pair<std::uint64_t, std::uint64_t>> ranges;  ///< input lines of the runs taken split
+  contour::Simulation sim;                                   ///< against the original's contour
+  [[nodiscard]] bool split_line(std::uint64_t l) const {
+    for (const auto& [lo, hi] : ranges)
+      if (l >= lo && l <= hi) return true;
+    return false;
+  }
+};
+
+/// The program with the runs marked in `split_runs` taken from `split` and everything else from
+/// `plain` (by the input lines the written lines come from; `first_lines`: in --mode all, the
+/// geometric stage's line map, the contour stage's lines → input lines). Kept only when every run
+/// of it reads back with exactly the path of the candidate it came from (a modal arc after a run
+/// written as chords would not) and it simulates; then its simulation against the original's
+/// contour. nullopt otherwise.
+std::optional<Merged> merge_runs(const Candidate& plain, const Candidate& split, const std::vector<char>& split_runs,
+                                 const std::vector<std::uint64_t>* first_lines, std::string_view file,
+                                 const gcode::Dialect& dialect, const machine::Machine& m, const ContourDetails& original) {
+  const contour::Path& path = plain.cd.path;
+  if (path.runs.size() != split_runs.size()) return std::nullopt;
+  const auto input_line = [&](std::uint64_t l) {
+    if (first_lines == nullptr) return l;
+    return l >= 1 && l <= first_lines->size() ? (*first_lines)[l - 1] : 0;
+  };
+  Merged mg;
+  for (std::size_t k = 0; k < split_runs.size(); ++k) {
+    if (split_runs[k] == 0) continue;
+    const contour::Run& run = path.runs[k];
+    if (run.begin >= run.end) return std::nullopt;
+    const std::uint64_t lo = input_line(path.points[run.begin].line), hi = input_line(path.points[run.end - 1].line);
+    if (lo == 0 || hi < lo || (!mg.ranges.empty() && lo <= mg.ranges.back().second)) return std::nullopt;
+    mg.ranges.emplace_back(lo, hi);
+  }
+  const std::vector<std::string_view> pl = lines_of(plain.written), sl = lines_of(split.written);
+  if (pl.size() != plain.lines.size() || sl.size() != split.lines.size()) return std::nullopt;
+  std::size_t range = 0, js = 0;
+  for (std::size_t i = 0; i < pl.size(); ++i) {
+    const std::uint64_t l = plain.lines[i];
+    while (range < mg.ranges.size() && l > mg.ranges[range].second) ++range;
+    if (range < mg.ranges.size() && l >= mg.ranges[range].first) {
+      if (i > 0 && plain.lines[i - 1] >= mg.ranges[range].first && plain.lines[i - 1] <= mg.ranges[range].second)
+        continue;  // the range is written already
+      const auto [lo, hi] = mg.ranges[range];
+      while (js < sl.size() && split.lines[js] < lo) ++js;
+      for (; js < sl.size() && split.lines[js] <= hi; ++js) {
+        mg.text.append(sl[js]);
+        mg.lines.push_back(split.lines[js]);
+      }
+      continue;
+    }
+    mg.text.append(pl[i]);
+    mg.lines.push_back(l);
+  }
+  // Read back: every run exactly as in the candidate it came from.
+  const auto read = [&](std::string_view text) -> std::optional<contour::Path> {
+    gcode::DiagnosticSink quiet(0);
+    gcode::LineReader in{text};
+    contour::Path p = contour::build_path(in, file, dialect, m, contour::PathOptions{}, quiet);
+    if (quiet.has_errors()) return std::nullopt;
+    return p;
+  };
+  const auto pm = read(mg.text), pp = read(plain.written), ps = read(split.written);
+  if (!pm || !pp || !ps || pm->runs.size() != split_runs.size() || pp->runs.size() != split_runs.size() ||
+      ps->runs.size() != split_runs.size())
+    return std::nullopt;
+  for (std::size_t k = 0; k < split_runs.size(); ++k) {
+    const contour::Path& src = split_runs[k] != 0 ? *ps : *pp;
+    const contour::Run a = pm->runs[k], b = src.runs[k];
+    if (a.size() != b.size()) return std::nullopt;
+    for (std::size_t i = 0; i < a.size(); ++i) {
+      const contour::PathPoint &x = pm->points[a.begin + i], &y = src.points[b.begin + i];
+      if ((x.q - y.q).cwiseAbs().maxCoeff() > 1e-9 || (x.command.c - y.command.c).cwiseAbs().maxCoeff() > 1e-9)
+        return std::nullopt;
+    }
+  }
+  std::string why;
+  std::optional<contour::Simulation> sim = simulate_written(mg.text, file, dialect, m, original, why);
+  if (!sim) return std::nullopt;
+  mg.sim = std::move(*sim);
+  return mg;
+}
+
+/// Writes a merged program: its text and line map, the diagnostics of each candidate on its own
+/// lines, the run reports per run from the candidate written, the figures of its simulation.
+CompensateResult write_merged(Merged mg, Candidate& plain, Candidate& split, const std::vector<char>& split_runs,
+                              const Held& split_first_diags, io::OutputFile& out, gcode::DiagnosticSink& sink,
+                              ContourDetails& cd, const CompensateOptions& opt) {
+  for (gcode::Diagnostic& d : plain.diags.list)
+    if (!mg.split_line(d.where.line)) sink.report(std::move(d));
+  for (gcode::Diagnostic& d : split.diags.list)
+    if (mg.split_line(d.where.line)) sink.report(std::move(d));
+  for (const gcode::Diagnostic& d : split_first_diags.list)
+    if (d.code == "PP-W603" && mg.split_line(d.where.line)) sink.report(d);
+  out.write(mg.text);
+  if (opt.line_map != nullptr) opt.line_map->insert(opt.line_map->end(), mg.lines.begin(), mg.lines.end());
+  CompensateResult r = plain.r;
+  r.segments_added = plain.r.segments_added + (mg.lines.size() - std::min(mg.lines.size(), plain.lines.size()));
+  if (r.contour_run_reports.size() == split_runs.size() && split.r.contour_run_reports.size() == split_runs.size())
+    for (std::size_t k = 0; k < split_runs.size(); ++k)
+      if (split_runs[k] != 0) r.contour_run_reports[k] = split.r.contour_run_reports[k];
+  r.contour_runs_iterated = r.contour_runs_lag = r.contour_runs_refined = r.contour_runs_withheld = 0;
+  for (auto& n : r.contour_runs_stopped) n = 0;
+  r.contour_iterations = 0;
+  for (std::size_t k = 0; k < r.contour_run_reports.size(); ++k) {
+    const ContourRunReport& rep = r.contour_run_reports[k];
+    if (rep.written == "iterated") ++r.contour_runs_iterated;
+    if (rep.written == "lag") ++r.contour_runs_lag;
+    if (rep.written == "refined") ++r.contour_runs_refined;
+    const ContourDetails& from = split_runs[k] != 0 ? split.cd : plain.cd;
+    if (k < from.run_withheld.size() && from.run_withheld[k] != 0) ++r.contour_runs_withheld;
+    for (int s = 0; s < 4; ++s)
+      if (rep.stop == contour::to_string(static_cast<contour::RunStop>(s))) ++r.contour_runs_stopped[s];
+    r.contour_iterations = std::max(r.contour_iterations, rep.iterations);
+  }
+  r.contour_converged = r.contour_runs_stopped[static_cast<int>(contour::RunStop::cap)] == 0;
+  r.contour_after_mm = mg.sim.tip.max;
+  r.contour_after_rad = mg.sim.axis.max;
+  r.max_correction_mm = std::max(plain.r.max_correction_mm, split.r.max_correction_mm);
+  r.max_correction_deg = std::max(plain.r.max_correction_deg, split.r.max_correction_deg);
+  const bool keep = cd.keep_geometric_stage;
+  std::string gi = std::move(cd.geometric_input), go = std::move(cd.geometric_output);
+  std::vector<std::uint64_t> gl = std::move(cd.geometric_line_map);
+  cd = std::move(plain.cd);
+  cd.keep_geometric_stage = keep;
+  cd.geometric_input = std::move(gi);
+  cd.geometric_output = std::move(go);
+  cd.geometric_line_map = std::move(gl);
+  cd.simulated_after = std::move(mg.sim);
+  return r;
+}
+
 }  // namespace
 
 CompensateResult compensate_flat(std::string_view text, std::string_view file, const gcode::Dialect& dialect,
@@ -267,17 +430,10 @@ CompensateResult compensate_flat(std::string_view text, std::string_view file, c
   // Both candidates, into memory with their diagnostics held back; the one whose written program
   // simulates better against the split candidate's reference (the denser description of the same
   // path) is written.
-  struct Candidate {
-    CompensateResult r;
-    std::string written;
-    std::vector<std::uint64_t> lines;
-    Held diags;
-    ContourDetails cd;
-  };
   const auto run = [&](Candidate& c, std::string_view input, const FirstStage* first) {
     c.cd.keep_geometric_stage = false;
     CompensateOptions copt = opt;
-    copt.line_map = opt.line_map != nullptr ? &c.lines : nullptr;
+    copt.line_map = &c.lines;  // always: the merge per run needs it
     auto mem = io::OutputFile::memory();
     c.r = contour_stage(input, first, file, dialect, m, copt, popt, mem, c.diags.sink, c.cd);
     c.written = mem.take();
@@ -288,9 +444,9 @@ CompensateResult compensate_flat(std::string_view text, std::string_view file, c
     if (c.diags.overflow) {  // run again on the caller's sink
       c.cd = ContourDetails{};
       auto mem = io::OutputFile::memory();
-      if (opt.line_map != nullptr) c.lines.clear();
+      c.lines.clear();
       CompensateOptions copt = opt;
-      copt.line_map = opt.line_map != nullptr ? &c.lines : nullptr;
+      copt.line_map = &c.lines;
       c.r = contour_stage(input, first, file, dialect, m, copt, popt, mem, sink, c.cd);
       c.written = mem.take();
     } else {
@@ -321,18 +477,51 @@ CompensateResult compensate_flat(std::string_view text, std::string_view file, c
   if (!split.diags.sink.has_errors() && plain_sim && plain.cd.simulated_before)
     split_sim = simulate_written(split.written, file, dialect, m, plain.cd, why);
   bool take_split = false;
+  std::vector<char> split_runs;  // per run: the split candidate's run is better
+  const double L = popt.orientation_length_mm;
   if (plain_sim && split_sim) {
-    const double L = popt.orientation_length_mm;
     const Score a = score_of(*plain_sim, L), b = score_of(*split_sim, L);
     const contour::Simulation& before = *plain.cd.simulated_before;
     // Never worse than the input at its largest errors; then the smaller largest error (ties
     // within 2 % decided by the RMS).
     const bool sound = split_sim->tip.max <= before.tip.max + 1e-7 && split_sim->axis.max <= before.axis.max + 1e-9;
-    take_split = sound && (std::abs(a.peak - b.peak) > std::max(1e-6, 0.02 * std::min(a.peak, b.peak)) ? b.peak < a.peak
-                                                                                                          : b.rms < a.rms);
+    take_split = sound && prefer_score(b, a);
+    // The same rule per run.
+    const std::size_t runs = before.run_tip_max.size();
+    if (plain_sim->run_tip_max.size() == runs && split_sim->run_tip_max.size() == runs) {
+      split_runs.assign(runs, 0);
+      for (std::size_t k = 0; k < runs; ++k) {
+        const Score pa{plain_sim->run_tip_max[k] + L * plain_sim->run_axis_max[k],
+                       plain_sim->run_tip_rms[k] + L * plain_sim->run_axis_rms[k]};
+        const Score pb{split_sim->run_tip_max[k] + L * split_sim->run_axis_max[k],
+                       split_sim->run_tip_rms[k] + L * split_sim->run_axis_rms[k]};
+        const bool run_sound = split_sim->run_tip_max[k] <= before.run_tip_max[k] + 1e-7 &&
+                               split_sim->run_axis_max[k] <= before.run_axis_max[k] + 1e-9;
+        split_runs[k] = run_sound && pb.peak < pa.peak - 1e-7 && prefer_score(pb, pa) ? 1 : 0;
+      }
+    }
+  }
+  const std::size_t split_count = static_cast<std::size_t>(std::count(split_runs.begin(), split_runs.end(), 1));
+  std::optional<Merged> merged;
+  if (split_count > 0 && split_count < split_runs.size() && !plain.diags.overflow && !split.diags.overflow) {
+    // Some runs better split, others on their end points: the program written per run, kept only
+    // when every run reads back as the candidate it came from and the whole is not worse.
+    merged = merge_runs(plain, split, split_runs, all ? &plain_first->lines : nullptr, file,
+                                              dialect, m, plain.cd);
+    if (merged) {
+      const Score mb = score_of(merged->sim, L);
+      const Score best = take_split ? score_of(*split_sim, L) : score_of(*plain_sim, L);
+      const contour::Simulation& before = *plain.cd.simulated_before;
+      if (!(merged->sim.tip.max <= before.tip.max + 1e-7 && merged->sim.axis.max <= before.axis.max + 1e-9) ||
+          prefer_score(best, mb))
+        merged.reset();
+    }
   }
   CompensateResult r;
-  if (take_split) {
+  if (merged) {
+    r = write_merged(std::move(*merged), plain, split, split_runs, split_first_diags, out, sink, cd, opt);
+    r.contour_split_runs = split_count;
+  } else if (take_split) {
     std::optional<contour::Simulation> before = std::move(plain.cd.simulated_before);
     r = replay(split, split_first->text, &*split_first);
     // The split stage's own notes (PP-W603: Klartext blocks inserted without numbers).
@@ -355,7 +544,8 @@ CompensateResult compensate_flat(std::string_view text, std::string_view file, c
     r = replay(plain, plain_input, all ? &*plain_first : nullptr);
   }
   r.contour_split_tried = true;
-  r.contour_split_written = take_split;
+  r.contour_split_written = take_split || r.contour_split_runs > 0;
+  if (take_split && r.contour_split_runs == 0) r.contour_split_runs = split_runs.empty() ? r.contour_runs : split_runs.size();
   if (plain_sim && split_sim) {
     r.contour_unsplit_after_mm = plain_sim->tip.max;
     r.contour_unsplit_after_rad = plain_sim->axis.max;

@@ -72,6 +72,7 @@ nlohmann::json result_json(const CompensateResult& r, Mode mode, const ContourDe
     // The split candidate (compensate --contour-split auto), both simulated against the original's contour.
     j["contour"]["split"] = {{"tried", r.contour_split_tried},
                              {"written", r.contour_split_written},
+                             {"runs_split", r.contour_split_runs},
                              {"moves_split", r.moves_split},
                              {"arcs_as_chords", r.contour_split_arcs},
                              {"split_after_tip_um", r.contour_split_after_mm * 1000},

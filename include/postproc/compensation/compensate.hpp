@@ -187,6 +187,9 @@ struct CompensateResult {
   bool contour_split_tried = false;
   bool contour_split_written = false;
   std::uint64_t contour_split_arcs = 0;  ///< arcs the split candidate writes as chords
+  /// Runs written from the split candidate (all of them when it is written whole; some, when the
+  /// program is written run by run from both candidates).
+  std::uint64_t contour_split_runs = 0;
   double contour_unsplit_after_mm = 0, contour_unsplit_after_rad = 0;
   double contour_split_after_mm = 0, contour_split_after_rad = 0;
   std::uint64_t resolved_lines = 0;      ///< lines of the resolved program (0: not resolved)
