@@ -342,12 +342,17 @@ std::optional<Merged> merge_runs(const Candidate& plain, const Candidate& split,
 CompensateResult write_merged(Merged mg, Candidate& plain, Candidate& split, const std::vector<char>& split_runs,
                               const Held& split_first_diags, io::OutputFile& out, gcode::DiagnosticSink& sink,
                               ContourDetails& cd, const CompensateOptions& opt) {
+  // Each candidate's diagnostics on its own lines, in line order.
+  std::vector<gcode::Diagnostic> diags;
   for (gcode::Diagnostic& d : plain.diags.list)
-    if (!mg.split_line(d.where.line)) sink.report(std::move(d));
+    if (!mg.split_line(d.where.line)) diags.push_back(std::move(d));
   for (gcode::Diagnostic& d : split.diags.list)
-    if (mg.split_line(d.where.line)) sink.report(std::move(d));
+    if (mg.split_line(d.where.line)) diags.push_back(std::move(d));
   for (const gcode::Diagnostic& d : split_first_diags.list)
-    if (d.code == "PP-W603" && mg.split_line(d.where.line)) sink.report(d);
+    if (d.code == "PP-W603" && mg.split_line(d.where.line)) diags.push_back(d);
+  std::stable_sort(diags.begin(), diags.end(),
+                   [](const gcode::Diagnostic& a, const gcode::Diagnostic& b) { return a.where.line < b.where.line; });
+  for (gcode::Diagnostic& d : diags) sink.report(std::move(d));
   out.write(mg.text);
   if (opt.line_map != nullptr) opt.line_map->insert(opt.line_map->end(), mg.lines.begin(), mg.lines.end());
   CompensateResult r = plain.r;
@@ -476,6 +481,13 @@ CompensateResult compensate_flat(std::string_view text, std::string_view file, c
   std::optional<contour::Simulation> split_sim;
   if (!split.diags.sink.has_errors() && plain_sim && plain.cd.simulated_before)
     split_sim = simulate_written(split.written, file, dialect, m, plain.cd, why);
+  // Both candidates' figures for the report, copied before either candidate's details move out.
+  struct Figures {
+    double unsplit_mm, unsplit_rad, split_mm, split_rad;
+  };
+  std::optional<Figures> figures;
+  if (plain_sim && split_sim)
+    figures = Figures{plain_sim->tip.max, plain_sim->axis.max, split_sim->tip.max, split_sim->axis.max};
   bool take_split = false;
   std::vector<char> split_runs;  // per run: the split candidate's run is better
   const double L = popt.orientation_length_mm;
@@ -546,11 +558,11 @@ CompensateResult compensate_flat(std::string_view text, std::string_view file, c
   r.contour_split_tried = true;
   r.contour_split_written = take_split || r.contour_split_runs > 0;
   if (take_split && r.contour_split_runs == 0) r.contour_split_runs = split_runs.empty() ? r.contour_runs : split_runs.size();
-  if (plain_sim && split_sim) {
-    r.contour_unsplit_after_mm = plain_sim->tip.max;
-    r.contour_unsplit_after_rad = plain_sim->axis.max;
-    r.contour_split_after_mm = split_sim->tip.max;
-    r.contour_split_after_rad = split_sim->axis.max;
+  if (figures) {
+    r.contour_unsplit_after_mm = figures->unsplit_mm;
+    r.contour_unsplit_after_rad = figures->unsplit_rad;
+    r.contour_split_after_mm = figures->split_mm;
+    r.contour_split_after_rad = figures->split_rad;
   }
   r.moves_split = split_first->r.moves_split;
   r.contour_split_arcs = split_first->r.arcs_linearized;
