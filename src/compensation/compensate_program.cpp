@@ -233,6 +233,19 @@ struct Candidate {
   ContourDetails cd;
 };
 
+/// The caller's details become a candidate's; the geometric stage's part (--mode all, kept on
+/// request before the candidates ran) stays.
+void take_details(ContourDetails& cd, ContourDetails&& from) {
+  const bool keep = cd.keep_geometric_stage;
+  std::string gi = std::move(cd.geometric_input), go = std::move(cd.geometric_output);
+  std::vector<std::uint64_t> gl = std::move(cd.geometric_line_map);
+  cd = std::move(from);
+  cd.keep_geometric_stage = keep;
+  cd.geometric_input = std::move(gi);
+  cd.geometric_output = std::move(go);
+  cd.geometric_line_map = std::move(gl);
+}
+
 /// a is preferred over b: the smaller largest error, and within 2 % of each other the smaller RMS.
 bool prefer_score(const Score& a, const Score& b) {
   if (std::abs(a.peak - b.peak) > std::max(1e-6, 0.02 * std::min(a.peak, b.peak))) return a.peak < b.peak;
@@ -379,14 +392,7 @@ CompensateResult write_merged(Merged mg, Candidate& plain, Candidate& split, con
   r.contour_after_rad = mg.sim.axis.max;
   r.max_correction_mm = std::max(plain.r.max_correction_mm, split.r.max_correction_mm);
   r.max_correction_deg = std::max(plain.r.max_correction_deg, split.r.max_correction_deg);
-  const bool keep = cd.keep_geometric_stage;
-  std::string gi = std::move(cd.geometric_input), go = std::move(cd.geometric_output);
-  std::vector<std::uint64_t> gl = std::move(cd.geometric_line_map);
-  cd = std::move(plain.cd);
-  cd.keep_geometric_stage = keep;
-  cd.geometric_input = std::move(gi);
-  cd.geometric_output = std::move(go);
-  cd.geometric_line_map = std::move(gl);
+  take_details(cd, std::move(plain.cd));
   cd.simulated_after = std::move(mg.sim);
   return r;
 }
@@ -460,14 +466,7 @@ CompensateResult compensate_flat(std::string_view text, std::string_view file, c
     if (sink.has_errors()) return c.r;
     out.write(c.written);
     if (opt.line_map != nullptr) opt.line_map->insert(opt.line_map->end(), c.lines.begin(), c.lines.end());
-    const bool keep = cd.keep_geometric_stage;
-    std::string gi = std::move(cd.geometric_input), go = std::move(cd.geometric_output);
-    std::vector<std::uint64_t> gl = std::move(cd.geometric_line_map);
-    cd = std::move(c.cd);
-    cd.keep_geometric_stage = keep;
-    cd.geometric_input = std::move(gi);
-    cd.geometric_output = std::move(go);
-    cd.geometric_line_map = std::move(gl);
+    take_details(cd, std::move(c.cd));
     return c.r;
   };
   if (plain.diags.sink.has_errors() || !plain.cd.reference || !plain.cd.simulated_after) {
