@@ -27,6 +27,7 @@ struct BatchArgs {
   double max_deviation_um = 1.0;
   double max_angle_arcsec = 4.0;
   int iterations = 12;
+  std::string contour_split = "auto";
   bool no_header = false, force = false, quiet = false, flatten = false, allow_recompensation = false;
   ResolveArgs resolve;
   // merge
@@ -177,6 +178,9 @@ void setup_batch(CLI::App& app, int& rc) {
   cmd->add_option("--max-angle-deviation", o->max_angle_arcsec, "as for compensate, arcsec")->capture_default_str();
   cmd->add_option("--iterations,--max-iterations", o->iterations, "contour modes: most prediction / correction rounds")
       ->capture_default_str();
+  cmd->add_option("--contour-split", o->contour_split, "contour modes: auto or off, as for compensate")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"auto", "off"}));
   cmd->add_flag("--no-header", o->no_header, "do not write the header comment into the programs");
   cmd->add_flag("--allow-recompensation", o->allow_recompensation,
                 "compensate programs that already carry postproc's compensation header (refused otherwise, PP-E620)");
@@ -216,6 +220,7 @@ void setup_batch(CLI::App& app, int& rc) {
     opt.compensate.allow_recompensation = o->allow_recompensation;
     opt.compensate.resolve = make_resolve_options(o->resolve);
     opt.precompensate.max_iterations = o->iterations;
+    opt.compensate.contour_split = o->contour_split == "auto";
     opt.jobs = o->jobs > 0 ? o->jobs : usable_cores();
     if (!o->shard.empty()) opt.shard = batch::parse_shard(o->shard);
     opt.force = o->force;

@@ -86,7 +86,8 @@ std::string settings_of(const BatchOptions& o) {
   const comp::CompensateOptions& c = o.compensate;
   std::string s = fmt::format("mode={};max_deviation_mm={:.17g};max_angle_rad={:.17g};header={}", comp::to_string(c.mode),
                               c.max_deviation_mm, c.max_angle_rad, c.header ? 1 : 0);
-  if (c.mode != comp::Mode::geometric) s += fmt::format(";iterations={}", o.precompensate.max_iterations);
+  if (c.mode != comp::Mode::geometric)
+    s += fmt::format(";iterations={};contour_split={}", o.precompensate.max_iterations, c.contour_split ? "auto" : "off");
   if (c.flatten) s += ";flatten=1";
   if (!o.dialect.empty()) s += fmt::format(";dialect={}", o.dialect);
   for (const auto& [name, value] : c.resolve.set) s += fmt::format(";set {}={:.17g}", name, value);
