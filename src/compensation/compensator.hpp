@@ -628,99 +628,17 @@ class Compensator final : public gcode::BlockVisitor {
   /// verb and its words), all literal numbers, and is not block-deleted. Anything else (G9's exact
   /// stop, M functions, S T D H, other G codes, radius compensation) would act at the first
   /// piece instead of the move's end, or is left to the geometric stage's own rules.
-  [[nodiscard]] bool splittable(const Block& b, const Motion& m, const ProgramMap& map) const {
-    if (b.block_delete || m.words_transformed) return false;
-    const auto* g = track_.block_motion();
-    for (std::size_t i = 0; i < b.words.size(); ++i) {
-      const Word& w = b.words[i];
-      if (!gcode::plain_letter(w) || w.kind != gcode::ValueKind::number) return false;
-      if (w.letter == 'F') continue;
-      if (w.letter == 'G' && g != nullptr && g->word == i) continue;
-      if (const int a = track_.axis_of(w); a >= 0 && ((mask_ >> a) & 1u)) continue;
-      if ((w.letter == 'I' || w.letter == 'J' || w.letter == 'K') && map.form() == Form::tcp_vector)
-        continue;
-      return false;
-    }
-    for (std::size_t i = 0; i < b.tokens.size(); ++i) {
-      const gcode::Token& t = b.tokens[i];
-      if (t.kind == gcode::TokenKind::paren_comment || t.kind == gcode::TokenKind::line_comment ||
-          t.kind == gcode::TokenKind::block_end)
-        continue;
-      if (i == 0 && t.kind == gcode::TokenKind::keyword && d_.id == gcode::DialectId::heidenhain &&
-          (gcode::text::iequals(b.text(t.name), "L") || gcode::text::iequals(b.text(t.name), "LN")))
-        continue;
-      return false;
-    }
-    return true;
-  }
-
+  [[nodiscard]] bool splittable(const Block& b, const Motion& m, const ProgramMap& map) const;
   /// Where the contour candidate splits a linear feed move (CompensateOptions::split): fractions
   /// in (0, 1), ascending. The move's time comes from its programmed feed over the root sum of
   /// squares of its program axes (degrees as mm; G93: 1/F min); a heuristic for where the points
   /// go, not the controller's timing, which the contour stage models.
-  [[nodiscard]] std::vector<double> split_fractions(const Motion& m) const {
-    const CompensateOptions::SplitForContour& s = opt_.split;
-    if (!m.feed_known || !(m.feed > 0)) return {};
-    double len2 = 0;
-    for (int a = 0; a < gcode::kAxisCount; ++a)
-      if ((mask_ >> a) & 1u) len2 += (m.end[a] - m.start[a]) * (m.end[a] - m.start[a]);
-    double t = 0;  // s
-    if (m.feed_mode == gcode::FeedMode::inverse_time) t = 60.0 / m.feed;
-    else if (m.feed_mode == gcode::FeedMode::per_minute) t = std::sqrt(len2) * 60.0 / m.feed;
-    if (!(t > s.step_s)) return {};
-    std::vector<double> f;
-    // Inverse time: equal pieces only (write_segments scales every piece's F by their count), so
-    // a move longer than both spans is not split (its pieces would all be short).
-    if (m.feed_mode == gcode::FeedMode::inverse_time && t > 2 * s.span_s) return {};
-    if (t <= 2 * s.span_s) {
-      const auto n = static_cast<std::uint32_t>(std::min(std::ceil(t / s.step_s), 256.0));
-      for (std::uint32_t i = 1; i < n; ++i) f.push_back(static_cast<double>(i) / n);
-      return f;
-    }
-    const auto k = static_cast<std::uint32_t>(std::min(std::floor(s.span_s / s.step_s), 128.0));
-    for (std::uint32_t i = 1; i <= k; ++i) f.push_back(i * s.step_s / t);
-    for (std::uint32_t i = k; i >= 1; --i) f.push_back(1 - i * s.step_s / t);
-    return f;
-  }
-
+  [[nodiscard]] std::vector<double> split_fractions(const Motion& m) const;
   /// Adds the contour candidate's split points to `pts` (the subdivision's, equal pieces): each
   /// corrected through the remap, every new piece checked against the intended path as the
   /// subdivision's are. Leaves `pts` as it was when a point cannot be corrected or a piece leaves
   /// the path.
-  void split_for_contour(const Motion& m, const ProgramMap& map, const Command& out, std::vector<Command>& pts) {
-    std::vector<double> f = split_fractions(m);
-    if (f.empty()) return;
-    const std::size_t n = pts.size() + 1;
-    if (m.feed_mode == gcode::FeedMode::inverse_time) {  // equal pieces, a multiple of the subdivision's
-      const std::size_t k = (f.size() + 1 + n - 1) / n;
-      f.clear();
-      for (std::size_t i = 1; i < k * n; ++i) f.push_back(static_cast<double>(i) / static_cast<double>(k * n));
-    }
-    for (std::size_t i = 1; i < n; ++i) f.push_back(static_cast<double>(i) / static_cast<double>(n));
-    std::sort(f.begin(), f.end());
-    f.erase(std::unique(f.begin(), f.end(), [](double a, double b) { return b - a < 1e-9; }), f.end());
-    if (f.size() + 1 > kMaxSegments) return;
-    const Command c0{m.start, prev_vector_};
-    const Command c1{m.end, m.tool_vector};
-    std::vector<Command> cand;
-    cand.reserve(f.size());
-    Command prev{written_, prev_written_vector_};
-    double t_prev = 0;
-    for (std::size_t i = 0; i <= f.size(); ++i) {
-      const double t = i < f.size() ? f[i] : 1.0;
-      Command k = out;
-      if (i < f.size()) {
-        kin::JointVector qq;
-        if (!map.correct(lerp(c0, c1, t), joints_, k, qq).ok()) return;
-        cand.push_back(k);
-      }
-      if (!within(map, lerp(c0, c1, t_prev), lerp(c0, c1, t), prev, k, opt_.max_deviation_mm)) return;
-      prev = k;
-      t_prev = t;
-    }
-    pts = std::move(cand);
-    ++r_.moves_split;
-  }
+  void split_for_contour(const Motion& m, const ProgramMap& map, const Command& out, std::vector<Command>& pts);
 
   static Command lerp(const Command& a, const Command& b, double t) {
     Command c;
