@@ -224,6 +224,24 @@ TEST(Compensate, UnknownWorkOffsetAndToolLengthAreRefusedNamingTheFix) {
   EXPECT_NE(r2.sink.stored().front().message.find("H12"), std::string::npos);
 }
 
+/// G92 at a point the program does not know (after G28 the axes are at the controller's reference
+/// point) shifts the program's coordinates by an unknown amount: the later moves are refused,
+/// located and naming the shift, not placed on the machine with a made-up shift.
+TEST(Compensate, G92WhereThePositionIsUnknownIsRefusedNamingTheShift) {
+  const mc::Machine m = load("trunnion_bc_fanuc.toml");
+  Comp r;
+  compensate(m, "G90 G54\nG0 X0 Y0 Z100 B0 C0\nG91 G28 Z0\nG90 G92 Z50\nG1 X10 F100\n", r);
+  EXPECT_FALSE(r.committed);
+  bool found = false;
+  for (const auto& d : r.sink.stored())
+    found = found || (d.code == "PP-E602" && d.where.line == 5 && d.message.find("G92 shift of Z") != std::string::npos);
+  EXPECT_TRUE(found) << (r.sink.stored().empty() ? std::string() : r.sink.stored().front().message);
+  // The same G92 where Z is known is an ordinary shift.
+  Comp known;
+  compensate(m, "G90 G54\nG0 X0 Y0 Z100 B0 C0\nG92 Z50\nG1 X10 F100\n", known);
+  EXPECT_TRUE(known.committed) << (known.sink.stored().empty() ? std::string() : known.sink.stored().front().message);
+}
+
 TEST(Compensate, FeedMoveWithUnknownAxisIsRefusedRapidIsKept) {
   const mc::Machine m = load("trunnion_bc_fanuc.toml");
   Comp r;

@@ -194,6 +194,34 @@ TEST(ReaderLinuxcnc, G52AndG92ShareOneOffset) {
   EXPECT_NEAR(r.motions[3].position_offset[0], 0, kTol);
 }
 
+// G92 where the position is unknown (after G28 the axes are at #5161…, which the program does not
+// state): the program coordinates are known again, the shift is not. G52 replacing that shift
+// (LinuxCNC G-code reference "G52") and G92.1 clearing it leave the position unknown; before, the
+// old shift was taken as 0 and X came out shifted by it (found by a random comparison with rs274).
+TEST(ReaderLinuxcnc, G92AtAnUnknownPositionLeavesTheShiftUnknown) {
+  const Program r(dialect("linuxcnc"),
+                  "G21 G90\nG0 X0 Y0 Z1\nG28\nG92 X0 Y0 Z0\nG0 X1\nG52 X5\nG0 Y1\nG92.1\nG0 Z2\nG0 X3 Y3\n");
+  ASSERT_EQ(r.motions.size(), 5u) << r.all_codes();
+  const gc::AxisMask xyz = 7;
+  EXPECT_EQ(r.motions[1].position_offset_unknown, xyz);
+  EXPECT_TRUE(r.motions[1].known & 1u);             // X1 in program coordinates
+  EXPECT_FALSE(r.motions[2].known & 1u);            // G52 replaced a shift nobody knows
+  EXPECT_EQ(r.motions[2].position_offset_unknown, 6u);
+  EXPECT_FALSE(r.motions[3].known & 2u);            // G92.1: Y back in work coordinates, unknown
+  EXPECT_EQ(r.motions[3].position_offset_unknown, 0u);
+  EXPECT_EQ(r.motions[4].known & 3u, 3u);
+}
+
+// rs274: "J word missing in absolute center arc" — under G90.1 I J K are the centre's coordinates and
+// both of the plane's are needed (LinuxCNC G-code reference "G90.1, G91.1").
+TEST(ReaderLinuxcnc, AbsoluteCentreArcNeedsBothCentreWords) {
+  const Program r(dialect("linuxcnc"), "G21 G90 G17\nG0 X0 Y0 Z0\nG90.1\nG2 X10 Y0 I5 F100\nG2 X0 Y0 I5 J0\n");
+  expect_diag_at(r, "PP-E204", 4, 1);
+  const Program ok(dialect("linuxcnc"), "G21 G90 G17\nG0 X0 Y0 Z0\nG90.1\nG2 X10 Y0 I5 J0 F100\n");
+  ASSERT_EQ(ok.motions.size(), 2u) << ok.all_codes();
+  EXPECT_NEAR(ok.motions[1].arc.centre[0], 5, kTol);
+}
+
 // LinuxCNC refuses G53 in G91; Fanuc series disagree: refused everywhere.
 TEST(ReaderLinuxcnc, G53UnderG91IsRefused) {
   for (const char* d : {"linuxcnc", "fanuc"}) {

@@ -69,9 +69,10 @@ class Compensator final : public gcode::BlockVisitor {
     bool length_active = false;
     std::uint16_t h = 0;
     AxisVector shift = AxisVector::Zero();
+    gcode::AxisMask shift_unknown = 0;
     bool operator==(const MapKey& o) const {
       return form == o.form && frame == o.frame && code10 == o.code10 && p == o.p && length_active == o.length_active &&
-             h == o.h && shift == o.shift;
+             h == o.h && shift == o.shift && shift_unknown == o.shift_unknown;
     }
   };
 
@@ -249,11 +250,7 @@ class Compensator final : public gcode::BlockVisitor {
   std::optional<ProgramMap> map_of(const Block& b, const Motion& m, Form form) {
     const auto offset = program_offset(m_, m);
     if (!offset) {
-      const std::string name = machine::work_offset_name(m.work_offset);
-      refuse(b, m.column, kMachine,
-             fmt::format("work offset {} is not in machine file {}; add [work_offsets] {} = {{ X = …, Y = …, Z = … }} "
-                         "with the controller's values",
-                         name, m_.file, name));
+      refuse(b, m.column, kMachine, machine::program_offset_refusal(m_, m));
       return std::nullopt;
     }
     double length = m_.tool_length;
@@ -323,7 +320,7 @@ class Compensator final : public gcode::BlockVisitor {
     const Form form = form_of(m);
     // The controller map depends on the modal context only: reuse it while that stays the same.
     const MapKey key{form, m.frame, m.work_offset.code10, m.work_offset.p, m.tool_length_active, m.tool_length_h,
-                     m.local_offset + m.position_offset};
+                     m.local_offset + m.position_offset, m.position_offset_unknown};
     if (!map_ || !(key == map_key_)) {  // map_ is empty whenever !map_held_
       // The held corrected position is in the old context's coordinates unless only the tool
       // length changed (the program still names the same points).

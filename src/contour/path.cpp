@@ -214,9 +214,7 @@ class Builder final : public gcode::BlockVisitor {
     }
     const auto offset = machine::program_offset(m_, m);
     if (!offset) {
-      error(b, m, kMachineData,
-            fmt::format("work offset {} is not in machine file {}; add it under [work_offsets]",
-                        machine::work_offset_name(m.work_offset), m_.file));
+      error(b, m, kMachineData, machine::program_offset_refusal(m_, m));
       return -1;
     }
     const auto tool = machine::tool_length_of(m_, m);

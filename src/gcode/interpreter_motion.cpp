@@ -25,6 +25,7 @@ void Interpreter::fill_state(Motion& m) const {
   m.work_offset = s_.work_offset;
   m.local_offset = s_.local_offset;
   m.position_offset = s_.position_offset;
+  m.position_offset_unknown = s_.position_offset_unknown;
   m.tool_length_active = s_.tool_length_active;
   m.spindle_turning = s_.spindle_turning;
   m.tool_length_h = s_.tool_length_h;
@@ -159,6 +160,7 @@ void Interpreter::non_modal(const Block& b, BlockWords& w, MotionSink& out) {
           if (g.def->meaning == GMeaning::set_position) {
             // G92: the current point takes the value v; the shift absorbs the difference.
             if (s_.known & m) s_.position_offset[a] += s_.position[a] - v;
+            else s_.position_offset_unknown |= m;  // the shift is the unknown position minus v
             s_.position[a] = v;
             s_.known |= m;
           } else if (d_.id == DialectId::linuxcnc && g.def->meaning == GMeaning::local_offset) {
@@ -167,6 +169,8 @@ void Interpreter::non_modal(const Block& b, BlockWords& w, MotionSink& out) {
             const double old = s_.position_offset[a];
             s_.position_offset[a] = v;
             s_.position[a] -= v - old;
+            if (s_.position_offset_unknown & m) s_.known &= static_cast<AxisMask>(~m);  // old shift unknown
+            s_.position_offset_unknown &= static_cast<AxisMask>(~m);
           } else {
             const double old = s_.local_offset[a];
             s_.local_offset[a] = v;
@@ -177,13 +181,22 @@ void Interpreter::non_modal(const Block& b, BlockWords& w, MotionSink& out) {
       }
       case GMeaning::reset_position_offset:
         s_.position += s_.position_offset;
-        if (std::lround(g.def->code10) == 921) s_.saved_position_offset.setZero();
-        else s_.saved_position_offset = s_.position_offset;
+        s_.known &= static_cast<AxisMask>(~s_.position_offset_unknown);
+        if (std::lround(g.def->code10) == 921) {
+          s_.saved_position_offset.setZero();
+          s_.saved_position_offset_unknown = 0;
+        } else {
+          s_.saved_position_offset = s_.position_offset;
+          s_.saved_position_offset_unknown = s_.position_offset_unknown;
+        }
         s_.position_offset.setZero();
+        s_.position_offset_unknown = 0;
         break;
       case GMeaning::restore_position_offset:
         s_.position_offset = s_.saved_position_offset;
         s_.position -= s_.position_offset;
+        s_.position_offset_unknown = s_.saved_position_offset_unknown;
+        s_.known &= static_cast<AxisMask>(~s_.position_offset_unknown);
         break;
       case GMeaning::home_return: {
         // Intermediate point (if any) is an ordinary rapid; then the axes go home (unknown here).
@@ -706,6 +719,16 @@ bool Interpreter::arc(const Block& b, const BlockWords& w, Motion& m, AxisMask s
     if (!w.has(cu) && !w.has(cv)) {
       report(b, at, Severity::error, codes::kMissingWord,
              fmt::format("arc without centre ({} {}) or radius (R); add them", cu, cv));
+      return false;
+    }
+    if (s_.arc_absolute && (!w.has(cu) || !w.has(cv))) {
+      // LinuxCNC G-code "G90.1, G91.1": in absolute arc distance mode I J K are the centre's
+      // coordinates; rs274 refuses an arc that leaves one out ("J word missing in absolute center arc").
+      report(b, at, Severity::error, codes::kMissingWord,
+             fmt::format("{} word missing in an absolute-centre arc (G90.1): the centre's {} coordinate is not "
+                         "given; write both {} and {}",
+                         w.has(cu) ? cv : cu, kAxisLetters[static_cast<std::size_t>(w.has(cu) ? p.v : p.u)], cu, cv));
+      s_.known &= static_cast<AxisMask>(~need);
       return false;
     }
     const double iu = w.has(cu) ? w.get(cu) * scale : 0.0;

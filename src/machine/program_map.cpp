@@ -42,9 +42,27 @@ Form form_of(const machine::Machine& m, const gcode::Motion& mo) {
 
 std::optional<gcode::AxisVector> program_offset(const machine::Machine& m, const gcode::Motion& mo) {
   if (mo.frame != gcode::Frame::work) return gcode::AxisVector::Zero();
+  if (mo.position_offset_unknown != 0) return std::nullopt;  // the G92 shift is not known
   const auto it = m.work_offsets.find(machine::work_offset_name(mo.work_offset));
   if (it == m.work_offsets.end()) return std::nullopt;
   return gcode::AxisVector(it->second + mo.local_offset + mo.position_offset);
+}
+
+std::string program_offset_refusal(const machine::Machine& m, const gcode::Motion& mo) {
+  if (mo.frame == gcode::Frame::work && mo.position_offset_unknown != 0) {
+    std::string axes;
+    for (int a = 0; a < gcode::kAxisCount; ++a)
+      if (mo.position_offset_unknown & (1u << a)) axes += gcode::kAxisLetters[static_cast<std::size_t>(a)];
+    return fmt::format("the G92 shift of {} is not known: G92 was given where the position of {} was unknown (after "
+                       "G28/G30, probing or an unknown work offset), so the program's coordinates cannot be placed on "
+                       "the machine; move the axes to a known point before G92, or use a work offset (G54…) that the "
+                       "machine file gives",
+                       axes, axes);
+  }
+  const std::string name = machine::work_offset_name(mo.work_offset);
+  return fmt::format("work offset {} is not in machine file {}; add [work_offsets] {} = {{ X = …, Y = …, Z = … }} with "
+                     "the controller's values",
+                     name, m.file, name);
 }
 
 Eigen::Vector3d virtual_ab_axis(double a_deg, double b_deg) {

@@ -59,6 +59,9 @@ struct ModalState {
   AxisVector local_offset = AxisVector::Zero();
   AxisVector position_offset = AxisVector::Zero();
   AxisVector saved_position_offset = AxisVector::Zero();
+  /// Axes whose G92 shift is not known: G92 named them where their position was unknown (after
+  /// G28/G30, probing, an unknown work offset). Their program coordinates are still known.
+  AxisMask position_offset_unknown = 0, saved_position_offset_unknown = 0;
   bool tool_length_active = false;
   bool spindle_turning = false;  ///< M3/M4 given, not stopped by M5 / M2 / M30 (every dialect)
   std::uint16_t tool_length_h = 0;

@@ -91,6 +91,9 @@ struct Motion {
   WorkOffset work_offset;
   AxisVector local_offset = AxisVector::Zero();     ///< G52 / TRANS shift, mm / degrees
   AxisVector position_offset = AxisVector::Zero();  ///< G92 shift, mm / degrees
+  /// Axes whose G92 shift is not known (G92 given where the axis's position was unknown): their
+  /// work (and machine) position is unknown although the program coordinates are.
+  AxisMask position_offset_unknown = 0;
   bool tool_length_active = false;
   /// The spindle turns (M3 / M4 active): on a machine whose C axis is the turning spindle
   /// ([machine] turning_spindle) the block is a turning move, C is not a position.

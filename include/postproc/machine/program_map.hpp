@@ -144,8 +144,10 @@ class ProgramMap {
 [[nodiscard]] Form form_of(const machine::Machine& m, const gcode::Motion& mo);
 /// The offset from the program's coordinates to the workpiece frame for a motion: the work
 /// offset (nullopt when the machine file does not give it) + G52/TRANS + G92 shifts; zero in
-/// machine coordinates (G53).
+/// machine coordinates (G53); nullopt too when a G92 shift is not known (Motion::position_offset_unknown).
 [[nodiscard]] std::optional<gcode::AxisVector> program_offset(const machine::Machine& m, const gcode::Motion& mo);
+/// Why program_offset() has no answer for `mo`: the refusal's text, naming what to do.
+[[nodiscard]] std::string program_offset_refusal(const machine::Machine& m, const gcode::Motion& mo);
 
 /// Newton on the linear joints of q only, so that the tool tip reaches `target` (mm, workpiece
 /// frame); the rotary joints keep their values.
