@@ -212,6 +212,24 @@ TEST(ReaderLinuxcnc, G92AtAnUnknownPositionLeavesTheShiftUnknown) {
   EXPECT_EQ(r.motions[4].known & 3u, 3u);
 }
 
+// rs274 keeps the G92 shift in #5211–#5219: every G92 and G52 writes them, G92.1 clears them, G92.2
+// keeps them, G92.3 applies them again (LinuxCNC G-code reference "G92.1, G92.2", "G92.3"). Before
+// the program writes them they hold the var file's values: G92.3 then leaves the position unknown.
+TEST(ReaderLinuxcnc, G92RestoreTakesTheLastWrittenShift) {
+  const Program r(dialect("linuxcnc"), "G21 G90\nG0 X0 Y0 Z0\nG92 X5\nG92.2\nG0 X1\nG92.2\nG92.3\nG0 Z1\n"
+                                       "G52 X5\nG92.2\nG92.3\nG0 Z2\nG92.1\nG92.3\nG0 Z3\n");
+  ASSERT_EQ(r.motions.size(), 5u) << r.all_codes();
+  EXPECT_NEAR(r.motions[2].position_offset[0], -5, kTol);  // G92.2 twice still keeps -5 (rs274: X6)
+  EXPECT_NEAR(r.motions[2].end[0], 6, kTol);
+  EXPECT_NEAR(r.motions[3].position_offset[0], 5, kTol);   // G52's value comes back
+  EXPECT_NEAR(r.motions[3].end[0], -4, kTol);                // rs274: X-4 (work X1 less G52's 5)
+  EXPECT_NEAR(r.motions[4].position_offset[0], 0, kTol);   // G92.1 cleared the parameters
+  EXPECT_NEAR(r.motions[4].end[0], 1, kTol);
+  const Program start(dialect("linuxcnc"), "G21 G90\nG0 X0 Y0 Z0\nG92.3\nG0 Z1\n");
+  ASSERT_EQ(start.motions.size(), 2u);
+  EXPECT_FALSE(start.motions[1].known & 1u) << "the var file's shift is not known";
+}
+
 // rs274: "J word missing in absolute center arc" — under G90.1 I J K are the centre's coordinates and
 // both of the plane's are needed (LinuxCNC G-code reference "G90.1, G91.1").
 TEST(ReaderLinuxcnc, AbsoluteCentreArcNeedsBothCentreWords) {

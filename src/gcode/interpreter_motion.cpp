@@ -135,7 +135,8 @@ void Interpreter::non_modal(const Block& b, BlockWords& w, MotionSink& out) {
           for (int a = 0; a < kAxisCount; ++a) {
             if (!(w.axis_present & (1u << a))) continue;
             if (l == 20 && !(w.axis_unresolved & (1u << a))) {
-              s_.position[a] = to_mm(a, w.axis[a]);
+              // rs274: under G7 the X of G10 L20 is a diameter too (as G92's and G52's).
+              s_.position[a] = to_mm(a, w.axis[a]) / (a == 0 && s_.diameter_mode ? 2.0 : 1.0);
               s_.known |= static_cast<AxisMask>(1u << a);
             } else {
               s_.known &= static_cast<AxisMask>(~(1u << a));
@@ -177,26 +178,29 @@ void Interpreter::non_modal(const Block& b, BlockWords& w, MotionSink& out) {
             s_.position[a] -= v - old;
           }
         }
+        if (g.def->meaning == GMeaning::set_position || d_.id == DialectId::linuxcnc) {
+          // rs274: G92 and G52 write the shift to #5211–#5219 (all axes), from where G92.3 takes it.
+          s_.saved_position_offset = s_.position_offset;
+          s_.saved_position_offset_unknown = s_.position_offset_unknown;
+        }
         break;
       }
       case GMeaning::reset_position_offset:
         s_.position += s_.position_offset;
         s_.known &= static_cast<AxisMask>(~s_.position_offset_unknown);
-        if (std::lround(g.def->code10) == 921) {
+        if (std::lround(g.def->code10) == 921) {  // G92.1 clears the parameters too; G92.2 keeps them
           s_.saved_position_offset.setZero();
           s_.saved_position_offset_unknown = 0;
-        } else {
-          s_.saved_position_offset = s_.position_offset;
-          s_.saved_position_offset_unknown = s_.position_offset_unknown;
         }
         s_.position_offset.setZero();
         s_.position_offset_unknown = 0;
         break;
       case GMeaning::restore_position_offset:
+        // The shift in force is replaced (it is not 0 unless G92.1/G92.2 came before).
+        s_.position += s_.position_offset - s_.saved_position_offset;
+        s_.known &= static_cast<AxisMask>(~(s_.position_offset_unknown | s_.saved_position_offset_unknown));
         s_.position_offset = s_.saved_position_offset;
-        s_.position -= s_.position_offset;
         s_.position_offset_unknown = s_.saved_position_offset_unknown;
-        s_.known &= static_cast<AxisMask>(~s_.position_offset_unknown);
         break;
       case GMeaning::home_return: {
         // Intermediate point (if any) is an ordinary rapid; then the axes go home (unknown here).

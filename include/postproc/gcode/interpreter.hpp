@@ -61,7 +61,11 @@ struct ModalState {
   AxisVector saved_position_offset = AxisVector::Zero();
   /// Axes whose G92 shift is not known: G92 named them where their position was unknown (after
   /// G28/G30, probing, an unknown work offset). Their program coordinates are still known.
-  AxisMask position_offset_unknown = 0, saved_position_offset_unknown = 0;
+  AxisMask position_offset_unknown = 0;
+  /// LinuxCNC keeps the G92 shift in parameters #5211–#5219, which G92.3 applies again: written by
+  /// every G92 and G52, cleared by G92.1, kept by G92.2. Before the program writes them they hold
+  /// what the var file holds (unknown here).
+  AxisMask saved_position_offset_unknown = (1u << kAxisCount) - 1;
   bool tool_length_active = false;
   bool spindle_turning = false;  ///< M3/M4 given, not stopped by M5 / M2 / M30 (every dialect)
   std::uint16_t tool_length_h = 0;
