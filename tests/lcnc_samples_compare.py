@@ -56,8 +56,8 @@ def without_zero_length(moves, start):
 
 def expand_drilling(rows):
     """postproc's rows with G81/G82 holes (one row each) replaced by the moves rs274's
-    convert_cycle_xy prints: at the first hole of a block a rise to R when the cycle's initial level
-    is below it, then per hole a traverse in the plane at the clear level (the initial level for
+    convert_cycle_xy prints: at the first hole of a block a rise to R when the chain's initial level
+    is below it, then per hole a traverse in the plane at the tool's height (the initial level for
     the chain's first hole, the last retract after that), down to R, a feed to the bottom and the
     retract. The initial level is the Z before the first of a chain of cycle rows. Returns None when
     a row is another cycle (pecking, boring) or not in G17. Rows of one block are consecutive rows
@@ -86,9 +86,11 @@ def expand_drilling(rows):
         if initial is None: initial = last["z"]
         moves = []
         if prev is None or prev[0] != r["line"]:
-            # A later block of the chain starts where the last hole's retract left the tool.
+            # Each block rises to R when the chain's initial level is below it (rs274 prints the
+            # rise even where the tool already is at R); its first traverse is at the tool's height:
+            # the initial level, or where the last hole's retract left it.
             old = initial if prev is None else prev[1]
-            if old < rr:
+            if initial < rr:
                 moves.append((last["x"], last["y"], rr)); old = rr
         else:
             old = prev[1]

@@ -242,6 +242,19 @@ TEST(Compensate, G92WhereThePositionIsUnknownIsRefusedNamingTheShift) {
   EXPECT_TRUE(known.committed) << (known.sink.stored().empty() ? std::string() : known.sink.stored().front().message);
 }
 
+/// G10 L10 rewrites H1's geometry offset: the machine file's length for H1 is no longer the
+/// controller's, so the moves under G43 H1 are refused, naming the G10, not compensated with it.
+TEST(Compensate, ToolLengthRewrittenByG10IsRefused) {
+  const mc::Machine m = load("trunnion_bc_fanuc.toml");
+  Comp r;
+  compensate(m, "G90 G54\nG0 X0 Y0 Z100 B0 C0\nG10 L10 P1 R5.\nG43 H1 Z100.\nG1 X10. F100.\n", r);
+  EXPECT_FALSE(r.committed);
+  bool found = false;
+  for (const auto& d : r.sink.stored())
+    found = found || (d.where.line == 4 && d.message.find("rewrote the length of tool H1") != std::string::npos);
+  EXPECT_TRUE(found) << (r.sink.stored().empty() ? std::string() : r.sink.stored().front().message);
+}
+
 TEST(Compensate, FeedMoveWithUnknownAxisIsRefusedRapidIsKept) {
   const mc::Machine m = load("trunnion_bc_fanuc.toml");
   Comp r;

@@ -230,6 +230,22 @@ TEST(ReaderLinuxcnc, G92RestoreTakesTheLastWrittenShift) {
   EXPECT_FALSE(start.motions[1].known & 1u) << "the var file's shift is not known";
 }
 
+// rs274: M72 restores whether a G92/G52 shift is applied (#5210): applied at M70 → the stored
+// shift comes back as by G92.3; not applied → the shift in force is removed as by G92.2.
+TEST(ReaderLinuxcnc, M72RestoresWhetherTheG92ShiftIsApplied) {
+  const Program r(dialect("linuxcnc"), "G21 G90\nG0 X0 Y0 Z0\nM70\nG92 X5\nM72\nG0 Z1\n"
+                                       "G92 X5\nM70\nG92.2\nM72\nG0 Z2\nG52 X3\nM70\nG92 X7\nM72\nG0 Z3\n");
+  ASSERT_EQ(r.motions.size(), 4u) << r.all_codes();
+  EXPECT_NEAR(r.motions[1].end[0], 0, kTol);   // rs274: X0, the shift removed
+  EXPECT_NEAR(r.motions[1].position_offset[0], 0, kTol);
+  EXPECT_NEAR(r.motions[2].end[0], 5, kTol);   // rs274: X5, G92 X5's shift applied again
+  EXPECT_NEAR(r.motions[3].end[0], 7, kTol);   // the stored shift is G92 X7's, the last one written
+  // G7: G10 L20's X is a diameter (rs274 SET_G5X_OFFSET(1, -5) for G10 L20 P1 X10 at X0).
+  const Program dia(dialect("linuxcnc"), "G21 G18 G90\nG0 X0 Z0\nG7\nG10 L20 P1 X10\nG0 Z1\n");
+  ASSERT_EQ(dia.motions.size(), 2u) << dia.all_codes();
+  EXPECT_NEAR(dia.motions[1].end[0], 5, kTol);
+}
+
 // rs274: "J word missing in absolute center arc" — under G90.1 I J K are the centre's coordinates and
 // both of the plane's are needed (LinuxCNC G-code reference "G90.1, G91.1").
 TEST(ReaderLinuxcnc, AbsoluteCentreArcNeedsBothCentreWords) {

@@ -50,6 +50,29 @@ TEST(ToolOffsets, LinuxcncOffsetChangesShiftProgramZ) {
   EXPECT_TRUE(r.sink.stored().empty()) << r.all_codes();
 }
 
+// LinuxCNC G-code reference "G10 L1 Set Tool Table" (checked with rs274 -t): G10 L1 P1 Z5 writes
+// tool 1's length (program units, G91 or not); the offset in force changes at the next G43 only.
+// G10 L10/L11 compute the entry from the machine position, unknown here: Z after G43 is unknown.
+// Fanuc G10 L10/L11 write the geometry/wear of H: the sum is not known, so neither is Z.
+// Before, the written length was ignored and the tool table file's used (a silent misread).
+TEST(ToolOffsets, G10WritesTheToolTable) {
+  const auto d = with_tools("linuxcnc", {{1, 10}, {2, 20}});
+  const Program r(d, "G21 G90 G17\nG0 X0 Y0 Z0\nG43 H1\nG91 G10 L1 P1 Z5\nG90 G0 X1\nG43 H1\nG0 X2\n"
+                     "G20 G10 L1 P2 Z1\nG21 G43 H2\nG0 X3\nG10 L10 P1 Z3\nG43 H1\nG0 X4\nG43 H2\nG0 X5\n");
+  ASSERT_EQ(r.motions.size(), 6u) << r.all_codes();
+  EXPECT_NEAR(r.motions[1].end[2], -10, kTol);  // the table changed, the offset in force did not
+  EXPECT_NEAR(r.motions[2].end[2], -5, kTol);   // rs274: Z-5 after G43 H1
+  EXPECT_NEAR(r.motions[3].end[2], -25.4, kTol);  // 1 in
+  EXPECT_FALSE(known(r.motions[4], Axis::z));   // L10: from the machine position
+  EXPECT_NEAR(r.motions[5].end[2], -25.4, kTol);
+  const auto f = with_tools("fanuc", {{1, 10}});
+  const Program fr(f, "G21 G90 G17\nG0 X0 Y0 Z0\nG10 L10 P1 R5.\nG43 H1 Z10.\nG0 X1.\n");
+  ASSERT_EQ(fr.motions.size(), 3u) << fr.all_codes();
+  EXPECT_FALSE(fr.motions[1].tool_length_known);
+  EXPECT_TRUE(fr.motions[1].tool_length_rewritten) << "compensation must not take the machine file's H1";
+  EXPECT_FALSE(fr.motions[0].tool_length_rewritten);
+}
+
 // Without the length, Z is unknown after the change: a rapid without Z is left unknown, a feed
 // move without Z is refused at its line (PP-U219); an absolute Z in the G43 block is exact.
 TEST(ToolOffsets, UnknownLengthRefusesTheFirstMoveThatDependsOnIt) {

@@ -254,7 +254,13 @@ class Compensator final : public gcode::BlockVisitor {
       return std::nullopt;
     }
     double length = m_.tool_length;
-    if (m.tool_length_active && m.tool_length_h != 0) {
+    if (m.tool_length_rewritten) {
+      refuse(b, m.column, kMachine, machine::rewritten_length_refusal(m));
+      return std::nullopt;
+    }
+    if (m.tool_length_active && m.tool_length_h != 0 && m.tool_length_known && m.tool_length != 0) {
+      length = m.tool_length;  // the reader's (the machine file's, or what the program wrote with G10 L1)
+    } else if (m.tool_length_active && m.tool_length_h != 0) {
       const auto it = m_.tool_lengths.find(m.tool_length_h);
       if (it == m_.tool_lengths.end()) {
         refuse(b, m.column, kMachine,

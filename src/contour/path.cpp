@@ -220,8 +220,10 @@ class Builder final : public gcode::BlockVisitor {
     const auto tool = machine::tool_length_of(m_, m);
     if (!tool) {
       error(b, m, kMachineData,
-            fmt::format("tool length H{} is not in machine file {}; add [tool.lengths] {} = \"<length> mm\"",
-                        m.tool_length_h, m_.file, m.tool_length_h));
+            m.tool_length_rewritten
+                ? machine::rewritten_length_refusal(m)
+                : fmt::format("tool length H{} is not in machine file {}; add [tool.lengths] {} = \"<length> mm\"",
+                              m.tool_length_h, m_.file, m.tool_length_h));
       return -1;
     }
     const double length = *tool;

@@ -57,8 +57,9 @@ void Interpreter::modal_save_restore(const Block& b, BlockWords& w) {
       }
       // What M72 restores (checked against rs274): units, plane, distance and arc-distance modes,
       // feed mode and F, the G54…G59.3 system, G98/G99, G7/G8, cutter compensation and the tool
-      // length offset (the program Z changes with it, the machine does not move). Not G92 offsets,
-      // not the motion mode.
+      // length offset (the program Z changes with it, the machine does not move), and whether a
+      // G92/G52 shift is applied (#5210): applied at M70, the stored shift (#5211…) is applied again
+      // as by G92.3, else the shift in force is removed as by G92.2. Not the motion mode.
       s_.inch = saved.inch;
       s_.plane = saved.plane;
       s_.absolute = saved.absolute;
@@ -76,6 +77,8 @@ void Interpreter::modal_save_restore(const Block& b, BlockWords& w) {
       s_.tool_length_active = saved.tool_length_active;
       s_.tool_length_h = saved.tool_length_h;
       tool_length_change(b, w, at, saved.tool_length, saved.tool_length_known);
+      if (saved.position_offset_applied) apply_stored_position_offset();
+      else remove_position_offset(false);
     }
   }
 }

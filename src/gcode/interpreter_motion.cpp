@@ -31,6 +31,9 @@ void Interpreter::fill_state(Motion& m) const {
   m.tool_length_h = s_.tool_length_h;
   m.tool_length = s_.tool_length;
   m.tool_length_known = s_.tool_length_known;
+  // A length the program rewrote (G10) and this version does not know: never the machine file's.
+  m.tool_length_rewritten = s_.tool_length_active && !s_.tool_length_known &&
+                            (tool_table_unknown_ || lengths_written_.count(s_.tool_length_h) > 0);
   m.tcp = s_.tcp;
   m.tilted_plane = s_.tilted_plane;
   m.orientation_machine_frame = s_.ori_mks;
@@ -125,10 +128,15 @@ void Interpreter::non_modal(const Block& b, BlockWords& w, MotionSink& out) {
           else if (l == 2) active = !p_known || p == 0 || (wc >= 540 && wc <= 590 && wc % 10 == 0 && p == (wc - 530) / 10);
           else if (l == 20) active = !p_known || (wc == 541 && s_.work_offset.p == p);
           if (active) s_.known &= static_cast<AxisMask>(~w.axis_present);
+          if (!l_known || (l >= 10 && l <= 13) || l == 1) tool_table_write(b, w, l_known ? l : 10, p_known ? p : -1);
           break;
         }
         // LinuxCNC: L2/L20 P0 is the active system, P1–P9 = G54–G59.3; L20 makes the current point take
         // the given values (exact), L2 writes the table (the active frame's position becomes unknown).
+        if (l == 1 || l == 10 || l == 11) {
+          tool_table_write(b, w, l, w.has('P') && !w.unresolved('P') ? p : -1);
+          break;
+        }
         const long index = wc == 541 ? -1 : wc <= 590 ? (wc - 530) / 10 : 6 + (wc - 590);
         const bool active = p == 0 || p == index;
         if ((l == 2 || l == 20) && active) {
@@ -182,26 +190,12 @@ void Interpreter::non_modal(const Block& b, BlockWords& w, MotionSink& out) {
           // rs274: G92 and G52 write the shift to #5211–#5219 (all axes), from where G92.3 takes it.
           s_.saved_position_offset = s_.position_offset;
           s_.saved_position_offset_unknown = s_.position_offset_unknown;
+          s_.position_offset_applied = true;
         }
         break;
       }
-      case GMeaning::reset_position_offset:
-        s_.position += s_.position_offset;
-        s_.known &= static_cast<AxisMask>(~s_.position_offset_unknown);
-        if (std::lround(g.def->code10) == 921) {  // G92.1 clears the parameters too; G92.2 keeps them
-          s_.saved_position_offset.setZero();
-          s_.saved_position_offset_unknown = 0;
-        }
-        s_.position_offset.setZero();
-        s_.position_offset_unknown = 0;
-        break;
-      case GMeaning::restore_position_offset:
-        // The shift in force is replaced (it is not 0 unless G92.1/G92.2 came before).
-        s_.position += s_.position_offset - s_.saved_position_offset;
-        s_.known &= static_cast<AxisMask>(~(s_.position_offset_unknown | s_.saved_position_offset_unknown));
-        s_.position_offset = s_.saved_position_offset;
-        s_.position_offset_unknown = s_.saved_position_offset_unknown;
-        break;
+      case GMeaning::reset_position_offset: remove_position_offset(std::lround(g.def->code10) == 921); break;
+      case GMeaning::restore_position_offset: apply_stored_position_offset(); break;
       case GMeaning::home_return: {
         // Intermediate point (if any) is an ordinary rapid; then the axes go home (unknown here).
         AxisMask named = w.axis_present;
@@ -597,6 +591,27 @@ void Interpreter::do_motion(const Block& b, BlockWords& w, MotionSink& out_all) 
     s_.known &= static_cast<AxisMask>(~((1u << p.u) | (1u << p.v)));
     corner_angle_ = false;
   }
+}
+
+void Interpreter::remove_position_offset(bool clear) {
+  s_.position += s_.position_offset;
+  s_.known &= static_cast<AxisMask>(~s_.position_offset_unknown);
+  if (clear) {  // G92.1 clears the parameters too; G92.2 keeps them
+    s_.saved_position_offset.setZero();
+    s_.saved_position_offset_unknown = 0;
+  }
+  s_.position_offset.setZero();
+  s_.position_offset_unknown = 0;
+  s_.position_offset_applied = false;
+}
+
+void Interpreter::apply_stored_position_offset() {
+  // The shift in force is replaced (it is not 0 unless G92.1/G92.2 came before).
+  s_.position += s_.position_offset - s_.saved_position_offset;
+  s_.known &= static_cast<AxisMask>(~(s_.position_offset_unknown | s_.saved_position_offset_unknown));
+  s_.position_offset = s_.saved_position_offset;
+  s_.position_offset_unknown = s_.saved_position_offset_unknown;
+  s_.position_offset_applied = true;
 }
 
 bool Interpreter::radii_agree(const Block& b, Span at, const Eigen::Vector2d& s, const Eigen::Vector2d& e,

@@ -22,10 +22,62 @@ bool Interpreter::table_length(long number, double& mm) const {
     mm = 0;
     return true;
   }
+  if (tool_table_unknown_) return false;
+  if (const auto w = lengths_written_.find(static_cast<std::uint32_t>(number)); w != lengths_written_.end()) {
+    if (!w->second) return false;
+    mm = *w->second;
+    return true;
+  }
   const auto it = d_.tool_lengths.find(static_cast<std::uint32_t>(number));
   if (it == d_.tool_lengths.end()) return false;
   mm = it->second;
   return true;
+}
+
+bool Interpreter::table_radius(long number, double& mm) const {
+  if (number == 0) {
+    mm = 0;
+    return true;
+  }
+  if (tool_table_unknown_) return false;
+  if (const auto w = radii_written_.find(static_cast<std::uint32_t>(number)); w != radii_written_.end()) {
+    if (!w->second) return false;
+    mm = *w->second;
+    return true;
+  }
+  const auto it = d_.tool_radii.find(static_cast<std::uint32_t>(number));
+  if (it == d_.tool_radii.end()) return false;
+  mm = it->second;
+  return true;
+}
+
+void Interpreter::tool_table_write(const Block& b, const BlockWords& w, long l, long p) {
+  (void)b;
+  if (p < 0) {  // the entry's number is not known: no entry is
+    tool_table_unknown_ = true;
+    return;
+  }
+  const auto n = static_cast<std::uint32_t>(p);
+  if (d_.id == DialectId::linuxcnc) {
+    // LinuxCNC G-code reference "G10 L1 Set Tool Table": Z is the length offset and R the radius,
+    // absolute in the program's units (G91 does not apply), kept until the next write; the offset
+    // in force changes only at the next G43. L10/L11 compute the entry from the machine position
+    // (not known here): the entry becomes unknown.
+    if (w.axis_present & bit(Axis::z)) {
+      if (l == 1 && !(w.axis_unresolved & bit(Axis::z))) lengths_written_[n] = to_mm(2, w.axis[2]);
+      else lengths_written_[n] = std::nullopt;
+    }
+    if (w.has('R')) {
+      if (l == 1 && !w.unresolved('R')) radii_written_[n] = w.get('R') * (s_.inch ? 25.4 : 1.0);
+      else radii_written_[n] = std::nullopt;
+    }
+    return;
+  }
+  // Fanuc (B-64484EN "Tool compensation values (G10)"): L10/L11 write the geometry/wear of length
+  // offset H p (L1 on older series), L12/L13 the geometry/wear of radius D p; the sum is what the
+  // control applies, and the other part is not known here: the entry becomes unknown.
+  if (l == 1 || l == 10 || l == 11) lengths_written_[n] = std::nullopt;
+  if (l == 12 || l == 13) radii_written_[n] = std::nullopt;
 }
 
 void Interpreter::tool_length_change(const Block& b, const BlockWords& w, Span at, double mm, bool known) {
@@ -122,9 +174,8 @@ void Interpreter::tool_offsets(const Block& b, BlockWords& w) {
         else if (d_.id == DialectId::linuxcnc) n = s_.current_tool;
         if (n == 0) known = true;  // D0 / tool 0: radius 0
         else if (n > 0) {
-          const auto it = d_.tool_radii.find(static_cast<std::uint32_t>(n));
-          known = it != d_.tool_radii.end();
-          r = known ? it->second : 0;
+          known = table_radius(n, r);
+          if (!known) r = 0;
         }
       }
       s_.cutter_radius = r;

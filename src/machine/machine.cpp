@@ -321,9 +321,18 @@ std::optional<double> tool_length_of(const Machine& m, const gcode::Motion& mo) 
   if (!mo.tool_length_active) return m.tool_length;
   if (mo.tool_length_known && mo.tool_length != 0) return mo.tool_length;
   if (mo.tool_length_h == 0) return m.tool_length;
+  if (mo.tool_length_rewritten) return std::nullopt;  // G10 rewrote it: the file's value is stale
   const auto it = m.tool_lengths.find(mo.tool_length_h);
   if (it == m.tool_lengths.end()) return std::nullopt;
   return it->second;
+}
+
+std::string rewritten_length_refusal(const gcode::Motion& mo) {
+  return fmt::format("the program rewrote the length of tool H{} (G10 L1/L10/L11) to a value that is not known here "
+                     "(set from the machine position, or an unresolved expression), so the machine file's length for "
+                     "it is not the controller's; write the length with G10 L1 P{} Z… as a number, or give the "
+                     "program without the G10",
+                     mo.tool_length_h, mo.tool_length_h);
 }
 
 std::string work_offset_name(const gcode::WorkOffset& w) {

@@ -4,6 +4,7 @@
 /// work coordinate system) and reports every construct it cannot resolve with a stable code.
 
 #include <memory>
+#include <map>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -66,6 +67,9 @@ struct ModalState {
   /// every G92 and G52, cleared by G92.1, kept by G92.2. Before the program writes them they hold
   /// what the var file holds (unknown here).
   AxisMask saved_position_offset_unknown = (1u << kAxisCount) - 1;
+  /// LinuxCNC #5210: a G92/G52 shift is applied (G92, G52, G92.3 set it; G92.1, G92.2 clear it).
+  /// M72 restores it: on, the stored shift is applied again (as G92.3); off, it is removed (G92.2).
+  bool position_offset_applied = false;
   bool tool_length_active = false;
   bool spindle_turning = false;  ///< M3/M4 given, not stopped by M5 / M2 / M30 (every dialect)
   std::uint16_t tool_length_h = 0;
@@ -171,8 +175,16 @@ class Interpreter {
   void tool_offsets(const Block& b, BlockWords& w);
   void tool_length_change(const Block& b, const BlockWords& w, Span at, double mm, bool known);
   [[nodiscard]] bool table_length(long number, double& mm) const;
+  /// The radius of tool / cutting edge `number` (D0 / tool 0: 0); false when unknown.
+  [[nodiscard]] bool table_radius(long number, double& mm) const;
+  /// G10 L1/L10/L11 (LinuxCNC tool table; Fanuc L10–L13 tool offset memory): the entries written.
+  void tool_table_write(const Block& b, const BlockWords& w, long l, long p);
   void cutter_comp_motion(const Block& b, Span at);
   void modal_save_restore(const Block& b, BlockWords& w);
+  /// G92.1 (`clear`: the stored shift too) / G92.2: the G92 shift leaves the coordinates.
+  void remove_position_offset(bool clear);
+  /// G92.3: the stored shift (#5211…) replaces the one in force.
+  void apply_stored_position_offset();
   bool polar_to_xy(const Block& b, BlockWords& w, bool cycle);
   void set_polar_xy(BlockWords& w, double x, double y) const;
   bool polar_cycle_step(const Block& b, BlockWords& w);
@@ -248,6 +260,12 @@ class Interpreter {
   void round_with_arcs(const Block& current, const Corner& c, Motion& m, const Motion& n, std::vector<Motion>& motions);
   void execute_block(const Block& block, MotionSink& out);
   std::uint64_t corner_pending_line_ = 0;
+  /// Tool table entries the program wrote (G10 L1/L10/L11…): the value, or nullopt where it is not
+  /// known here (set from the machine position, or by an expression this version did not resolve).
+  /// They take precedence over the tool table file / machine file. `tool_table_unknown_`: a G10 wrote
+  /// an entry whose number is not known, so no entry is.
+  std::map<std::uint32_t, std::optional<double>> lengths_written_, radii_written_;
+  bool tool_table_unknown_ = false;
   bool corner_angle_ = false;  ///< this block's refused corner word is a direct-drawing angle  ///< Fanuc: line of a ,C/,R whose next motion is moved by it
   bool corner_refused(const Block& b, const BlockWords& w, GMeaning mode);
   bool mcall_active_ = false;  ///< Siemens modal cycle call

@@ -103,6 +103,9 @@ struct Motion {
   /// Z, H0, G49, or a tool table that knows the number); else compensation looks tool_length_h up.
   double tool_length = 0;
   bool tool_length_known = false;
+  /// The program rewrote the length of tool_length_h (G10 L1/L10/L11…) to a value not known here:
+  /// the machine file's length for that number is not the controller's.
+  bool tool_length_rewritten = false;
   TcpMode tcp = TcpMode::off;
   bool tilted_plane = false;     ///< G68.2 / CYCLE800 / PLANE active
   /// Tool-axis direction programmed as a vector in this block (Siemens A3/B3/C3 under TRAORI,

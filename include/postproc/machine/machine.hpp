@@ -137,6 +137,8 @@ struct Machine {
 /// [tool.lengths] entry of its H/D number, else [tool] length when no number is active. nullopt: the
 /// motion names a number the machine file does not give.
 [[nodiscard]] std::optional<double> tool_length_of(const Machine& m, const gcode::Motion& mo);
+/// The refusal of a move whose tool length the program rewrote (G10) to a value not known here.
+[[nodiscard]] std::string rewritten_length_refusal(const gcode::Motion& mo);
 [[nodiscard]] std::string work_offset_name(const gcode::WorkOffset& w);
 
 /// Parses and validates a machine file's text; nullopt when any error was reported to `sink`.
