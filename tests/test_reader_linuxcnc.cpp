@@ -256,6 +256,19 @@ TEST(ReaderLinuxcnc, AbsoluteCentreArcNeedsBothCentreWords) {
   EXPECT_NEAR(ok.motions[1].arc.centre[0], 5, kTol);
 }
 
+// rs274 convert_arc: "K word given for arc in xy plane", "J word … in xz plane", "I word … in yz plane".
+TEST(ReaderLinuxcnc, CentreWordAlongThePlaneNormalIsRefused) {
+  const char* programs[] = {"G17 G2 X2 Y0 I1 K0 F100\n", "G18 G2 X2 Z0 I1 J0 F100\n", "G19 G2 Y2 Z0 J1 I0 F100\n"};
+  const char* words[] = {"K0", "J0", "I0"};
+  for (int k = 0; k < 3; ++k) {
+    const Program r(dialect("linuxcnc"), std::string("G21 G90\nG0 X0 Y0 Z0\n") + programs[k]);
+    const gc::Diagnostic* d = r.find("PP-E301");
+    ASSERT_NE(d, nullptr) << programs[k] << r.all_codes();
+    EXPECT_EQ(d->where.line, 3u);
+    EXPECT_EQ(d->where.column, std::string(programs[k]).find(words[k]) + 1) << "located at the word";
+  }
+}
+
 // LinuxCNC refuses G53 in G91; Fanuc series disagree: refused everywhere.
 TEST(ReaderLinuxcnc, G53UnderG91IsRefused) {
   for (const char* d : {"linuxcnc", "fanuc"}) {

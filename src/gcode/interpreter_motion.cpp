@@ -642,6 +642,18 @@ bool Interpreter::arc(const Block& b, const BlockWords& w, Motion& m, AxisMask s
     s_.known &= static_cast<AxisMask>(~need);
     return false;
   }
+  if (d_.id == DialectId::linuxcnc && w.has(centre_letter(p.n))) {
+    // rs274 convert_arc: "K word given for arc in XY plane" (J in XZ, I in YZ): the centre word of
+    // the plane's normal axis has no meaning there.
+    const char cn = centre_letter(p.n);
+    report(b, b.words[static_cast<std::size_t>(w.letter_word[static_cast<std::size_t>(cn - 'A')])].span,
+           Severity::error, codes::kArcGeometry,
+           fmt::format("{} word in an arc in the {}{} plane: LinuxCNC refuses a centre word along the plane's normal; "
+                       "remove it or select the plane the arc lies in",
+                       cn, kAxisLetters[static_cast<std::size_t>(p.u)], kAxisLetters[static_cast<std::size_t>(p.v)]));
+    s_.known &= static_cast<AxisMask>(~need);
+    return false;
+  }
   // Fanuc (B-64484EN "Circular interpolation (G02, G03)"): when R and I J K are both given, R is used
   // and I J K are ignored.
   const bool siemens = d_.id == DialectId::siemens;
