@@ -227,15 +227,21 @@ TEST(Compensate, UnknownWorkOffsetAndToolLengthAreRefusedNamingTheFix) {
 /// G92 at a point the program does not know (after G28 the axes are at the controller's reference
 /// point) shifts the program's coordinates by an unknown amount: the later moves are refused,
 /// located and naming the shift, not placed on the machine with a made-up shift.
+/// Whether the run refused at `line` with a message holding `text` (and, if given, code `code`).
+::testing::AssertionResult refused_at(const Comp& r, std::uint64_t line, std::string_view text, std::string_view code = {}) {
+  if (r.committed) return ::testing::AssertionFailure() << "the program was written";
+  for (const auto& d : r.sink.stored())
+    if (d.where.line == line && d.message.find(text) != std::string::npos && (code.empty() || d.code == code))
+      return ::testing::AssertionSuccess();
+  return ::testing::AssertionFailure() << "no refusal at line " << line << " naming '" << text << "'; first: "
+                                       << (r.sink.stored().empty() ? std::string() : r.sink.stored().front().message);
+}
+
 TEST(Compensate, G92WhereThePositionIsUnknownIsRefusedNamingTheShift) {
   const mc::Machine m = load("trunnion_bc_fanuc.toml");
   Comp r;
   compensate(m, "G90 G54\nG0 X0 Y0 Z100 B0 C0\nG91 G28 Z0\nG90 G92 Z50\nG1 X10 F100\n", r);
-  EXPECT_FALSE(r.committed);
-  bool found = false;
-  for (const auto& d : r.sink.stored())
-    found = found || (d.code == "PP-E602" && d.where.line == 5 && d.message.find("G92 shift of Z") != std::string::npos);
-  EXPECT_TRUE(found) << (r.sink.stored().empty() ? std::string() : r.sink.stored().front().message);
+  EXPECT_TRUE(refused_at(r, 5, "G92 shift of Z", "PP-E602"));
   // The same G92 where Z is known is an ordinary shift.
   Comp known;
   compensate(m, "G90 G54\nG0 X0 Y0 Z100 B0 C0\nG92 Z50\nG1 X10 F100\n", known);
@@ -248,11 +254,7 @@ TEST(Compensate, ToolLengthRewrittenByG10IsRefused) {
   const mc::Machine m = load("trunnion_bc_fanuc.toml");
   Comp r;
   compensate(m, "G90 G54\nG0 X0 Y0 Z100 B0 C0\nG10 L10 P1 R5.\nG43 H1 Z100.\nG1 X10. F100.\n", r);
-  EXPECT_FALSE(r.committed);
-  bool found = false;
-  for (const auto& d : r.sink.stored())
-    found = found || (d.where.line == 4 && d.message.find("rewrote the length of tool H1") != std::string::npos);
-  EXPECT_TRUE(found) << (r.sink.stored().empty() ? std::string() : r.sink.stored().front().message);
+  EXPECT_TRUE(refused_at(r, 4, "rewrote the length of tool H1"));
 }
 
 TEST(Compensate, FeedMoveWithUnknownAxisIsRefusedRapidIsKept) {

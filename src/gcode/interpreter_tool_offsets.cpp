@@ -17,38 +17,36 @@ constexpr AxisMask kZ = bit(Axis::z);
 
 }  // namespace
 
-bool Interpreter::table_length(long number, double& mm) const {
-  if (number == 0) {  // H0 / tool 0: no offset (Fanuc H00 is always 0; LinuxCNC "an offset value of zero")
-    mm = 0;
-    return true;
-  }
-  if (tool_table_unknown_) return false;
-  if (const auto w = lengths_written_.find(static_cast<std::uint32_t>(number)); w != lengths_written_.end()) {
-    if (!w->second) return false;
-    mm = *w->second;
-    return true;
-  }
-  const auto it = d_.tool_lengths.find(static_cast<std::uint32_t>(number));
-  if (it == d_.tool_lengths.end()) return false;
-  mm = it->second;
-  return true;
-}
+namespace {
 
-bool Interpreter::table_radius(long number, double& mm) const {
+/// Entry `number` of a tool table: 0 for number 0 (H0 / D0 / tool 0: no offset — Fanuc H00 is
+/// always 0, LinuxCNC "an offset value of zero"); what the program wrote (G10) before the file's
+/// value; false when unknown.
+bool table_entry(long number, bool all_unknown, const std::map<std::uint32_t, std::optional<double>>& written,
+                 const std::map<std::uint32_t, double>& file, double& mm) {
   if (number == 0) {
     mm = 0;
     return true;
   }
-  if (tool_table_unknown_) return false;
-  if (const auto w = radii_written_.find(static_cast<std::uint32_t>(number)); w != radii_written_.end()) {
-    if (!w->second) return false;
-    mm = *w->second;
-    return true;
+  if (all_unknown) return false;
+  if (const auto w = written.find(static_cast<std::uint32_t>(number)); w != written.end()) {
+    if (w->second) mm = *w->second;
+    return w->second.has_value();
   }
-  const auto it = d_.tool_radii.find(static_cast<std::uint32_t>(number));
-  if (it == d_.tool_radii.end()) return false;
+  const auto it = file.find(static_cast<std::uint32_t>(number));
+  if (it == file.end()) return false;
   mm = it->second;
   return true;
+}
+
+}  // namespace
+
+bool Interpreter::table_length(long number, double& mm) const {
+  return table_entry(number, tool_table_unknown_, lengths_written_, d_.tool_lengths, mm);
+}
+
+bool Interpreter::table_radius(long number, double& mm) const {
+  return table_entry(number, tool_table_unknown_, radii_written_, d_.tool_radii, mm);
 }
 
 void Interpreter::tool_table_write(const Block& b, const BlockWords& w, long l, long p) {
