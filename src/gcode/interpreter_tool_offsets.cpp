@@ -67,8 +67,14 @@ void Interpreter::tool_offsets(const Block& b, BlockWords& w) {
   if (w.has('T') && !w.unresolved('T') && d_.id != DialectId::siemens) s_.selected_tool = static_cast<int>(w.whole_or('T', 0, 99999, -1));
   for (int i = 0; i < w.m_count; ++i) {
     const double m = w.m[static_cast<std::size_t>(i)];
-    if (m == 6 && s_.selected_tool >= 0) s_.current_tool = s_.selected_tool;
-    if (m == 61 && d_.id == DialectId::linuxcnc) s_.current_tool = static_cast<int>(w.whole_or('Q', 0, 99999, -1));
+    if (m == 6 && s_.selected_tool >= 0) {
+      s_.current_tool = s_.selected_tool;
+      s_.current_tool_by_m61 = false;
+    }
+    if (m == 61 && d_.id == DialectId::linuxcnc) {
+      s_.current_tool = static_cast<int>(w.whole_or('Q', 0, 99999, -1));
+      s_.current_tool_by_m61 = true;
+    }
   }
   if (d_.id == DialectId::siemens && (w.has('D') || w.has('T'))) {
     // Sinumerik (840D sl Fundamentals, "Tool offset call (D)"): D selects the cutting edge whose
@@ -100,6 +106,11 @@ void Interpreter::tool_offsets(const Block& b, BlockWords& w) {
     const Span at = b.words[static_cast<std::size_t>(g.word)].span;
     if (g.def->group == GGroup::cutter_comp) {
       const std::uint16_t c = g.def->code10;
+      if (d_.id == DialectId::linuxcnc) {  // interpreter_cutter.cpp
+        if (c == 400) linuxcnc_comp_off();
+        else linuxcnc_comp_on(b, w, c, at);
+        continue;
+      }
       if (c == 400) {
         s_.cutter_comp = 0;
         continue;
@@ -206,6 +217,7 @@ void Interpreter::tool_offsets(const Block& b, BlockWords& w) {
 
 void Interpreter::cutter_comp_motion(const Block& b, Span at) {
   if (s_.cutter_comp == 0 || s_.cutter_comp_reported) return;
+  if (offset_active()) return;  // LinuxCNC: the tool-centre path is computed (interpreter_cutter.cpp)
   if (s_.cutter_radius_known && s_.cutter_radius == 0) return;  // D0 / a zero radius: the path is the program
   s_.cutter_comp_reported = true;
   report(b, at, Severity::warning, codes::kCutterComp,
