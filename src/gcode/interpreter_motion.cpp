@@ -699,7 +699,11 @@ bool Interpreter::arc(const Block& b, const BlockWords& w, Motion& m, AxisMask s
       return false;
     }
     const double rad = std::abs(r);
-    if (d > 2 * rad * (1 + 1e-6) + 1e-6) {
+    // LinuxCNC (arc_data_r): half the chord may exceed R by RADIUS_TOLERANCE (0.00005 in, 0.00127 mm)
+    // and is then a half circle.
+    const bool too_small = d_.id == DialectId::linuxcnc ? d / 2 - rad > (s_.inch ? 0.00005 * 25.4 : 0.00127)
+                                                       : d > 2 * rad * (1 + 1e-6) + 1e-6;
+    if (too_small) {
       report(b, at, Severity::error, codes::kArcGeometry,
              fmt::format("radius {:.6g} mm is smaller than half the chord {:.6g} mm; fix R or the end point", rad, d / 2));
       return false;
