@@ -121,7 +121,7 @@ TEST(ToolOffsets, CutterCompensationNeedsAZeroRadius) {
 TEST(ToolOffsets, LinuxcncToolTableFile) {
   const fs::path dir = fs::temp_directory_path() / ("pp_tooltable_" + std::to_string(::getpid()));
   fs::create_directories(dir);
-  std::ofstream(dir / "tool.tbl") << "T1 P1 Z50 D10 ;first\n\nT2 P2 Z+100.5 D0 ;second\r\n";
+  std::ofstream(dir / "tool.tbl") << "T1 P1 Z50 D10 ;first\n\nT2 P2 Z+100.5 D0 ;second\r\nT3 P3 D0.8 Q2\n";
   std::ofstream(dir / "bad.tbl") << "T1 P1 Z50\nT2 Zabc\n";
   gc::DialectOptions o;
   gc::DiagnosticSink sink;
@@ -130,6 +130,8 @@ TEST(ToolOffsets, LinuxcncToolTableFile) {
   EXPECT_NEAR(o.tool_lengths.at(2), 100.5, kTol);
   EXPECT_NEAR(o.tool_radii.at(1), 5, kTol);
   EXPECT_NEAR(o.tool_radii.at(2), 0, kTol);
+  EXPECT_EQ(o.tool_orientations.at(3), 2);  // Q: the lathe tool orientation
+  EXPECT_EQ(o.tool_orientations.count(1), 0u);
   gc::DialectOptions bad;
   EXPECT_FALSE(gc::read_linuxcnc_tool_table((dir / "bad.tbl").string(), bad, sink));
   ASSERT_FALSE(sink.stored().empty());

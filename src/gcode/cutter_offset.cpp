@@ -170,7 +170,9 @@ CutterOffset::Outcome CutterOffset::end_held_at(const Eigen::Vector2d& to, std::
       if (std::abs(r1 - r2) > 0.01 * unit_)
         return lcnc_stops(fmt::format("BUG: cutter compensation has generated an invalid arc with mismatched radii r1 {:f} r2 {:f}",
                            r1 / unit_, r2 / unit_));
-      if (h.sweep0 != 0 && from_valid_ && std::abs(sweep) > std::abs(h.sweep0) + 0.001)
+      // The arc may not grow by more than 0.0254 rad in a mm program, 0.001 rad in an inch one (the
+      // constants of LinuxCNC 2.9's move_endpoint_and_flush).
+      if (h.sweep0 != 0 && from_valid_ && std::abs(sweep) > std::abs(h.sweep0) + (unit_ == 1.0 ? 0.0254 : 0.001))
         return lcnc_stops("Arc move in concave corner cannot be reached by the tool without gouging");
     } else {
       // The move must still run the way it was programmed to (the shortened move did not reverse).

@@ -240,6 +240,14 @@ void Interpreter::linuxcnc_comp_modes(const Block& b, BlockWords& w, const CompB
                             : nullptr;
       if (why != nullptr) comp_refuse(b, at, why, "program G40 before it");
     }
+  // A tool change (M6, M61) makes LinuxCNC read its current point back from the machine
+  // (toolchange_flag): after G40 that is where compensation left the tool, not the programmed point.
+  if (comp_ && comp_->exit_start && before.comp == 0 && (w.has_m(6) || w.has_m(61))) {
+    const PlaneAxes p = plane_axes(comp_->exit_plane);
+    s_.position[p.u] = (*comp_->exit_start)[p.u];
+    s_.position[p.v] = (*comp_->exit_start)[p.v];
+    comp_->exit_start.reset();
+  }
   // convert_set_plane and convert_length_units run before convert_cutter_compensation.
   if (before.comp != 0)
     for (int k = 0; k < w.ng; ++k) {
