@@ -37,17 +37,17 @@ def mm_tool_table(inch_table, out_path):
 
 
 def rs274(program, table=None, cwd=None):
-    """(moves, error): LinuxCNC's moves, and its error text (None when it ran to the end)."""
+    """(moves, error, block): LinuxCNC's moves, its error text (None when it ran to the end) and the
+    text of the block it stopped at."""
     args = ["rs274", "-g", os.path.basename(program)] + (["-t", os.path.abspath(table)] if table else [])
     with tempfile.TemporaryDirectory() as home:
         out = subprocess.run(args, cwd=cwd or os.path.dirname(os.path.abspath(program)), capture_output=True,
                              text=True, timeout=60, env=dict(os.environ, HOME=home))
     text = out.stdout + out.stderr
-    error = None
-    for line in text.splitlines():
-        if line.strip() and not re.match(r"\s*\d+ N", line) and line.strip() != "executing":
-            error = line.strip()
-            break
+    # rs274 prints its error, then the block it stopped at
+    rest = [l for l in text.splitlines() if l.strip() and not re.match(r"\s*\d+ N", l) and l.strip() != "executing"]
+    error = rest[0].strip() if rest else None
+    stopped_at = rest[1].strip() if len(rest) > 1 else None
     moves, units, plane = [], 1.0, "XY"
     for line in text.splitlines():
         m = re.search(r"USE_LENGTH_UNITS\(CANON_UNITS_(\w+)\)", line)
@@ -70,7 +70,7 @@ def rs274(program, table=None, cwd=None):
             centre = {u: v[2] * units, w: v[3] * units}
             moves.append({"kind": "A", "end": end + v[6:9], "centre": centre, "turn": int(v[4]),
                           "tol": 6e-5 * units})
-    return without_zero_length(moves), error
+    return without_zero_length(moves), error, stopped_at
 
 
 def postproc(postproc_bin, program, mm_table=None, cwd=None):
@@ -111,11 +111,9 @@ def without_zero_length(moves):
 
 
 def differ(ref, got):
-    """None when the two lists agree, else the first difference described. An axis the program never
-    names (postproc: unknown in every move) is not compared: rs274 prints 0 for it."""
-    never = [all(mv["end"][k] is None for mv in got) for k in range(6)]
-    for mv in got:
-        mv["end"] = [0.0 if never[k] else v for k, v in enumerate(mv["end"])]
+    """None when the two lists agree, else the first difference described. A position postproc does not
+    know (an axis before the program names it: rs274 prints 0 there) is not compared; a move left
+    unknown by a refusal comes with a diagnostic, and postproc's exit code fails the comparison."""
     if len(ref) != len(got):
         n = min(len(ref), len(got))
         for i in range(n):
@@ -135,7 +133,7 @@ def differ_one(a, b):
         return f"rs274 {'arc' if a['kind'] == 'A' else 'straight move'}, postproc {'arc' if b['kind'] == 'A' else 'straight move'}"
     tol = a["tol"]
     for k in range(6):
-        if b["end"][k] is None or abs(a["end"][k] - b["end"][k]) > tol:
+        if b["end"][k] is not None and abs(a["end"][k] - b["end"][k]) > tol:
             return f"end {LETTERS[k].upper()}: rs274 {a['end'][k]:.4f}, postproc {b['end'][k]}"
     if a["kind"] == "A":
         for k, v in a["centre"].items():
@@ -153,11 +151,16 @@ def compare(postproc_bin, program, inch_table=None):
         if inch_table:
             mm = os.path.join(tmp, "tools_mm.tbl")
             mm_tool_table(inch_table, mm)
-        ref, error = rs274(program, inch_table)
+        ref, error, where = rs274(program, inch_table)
         got, rc, err = postproc(postproc_bin, program, mm)
     located = re.search(r":\d+:\d+: error: PP-E\d+", err)
     if error is not None:
         if rc == 2 and located:
+            # the block rs274 stops at is one postproc refuses
+            lines = open(program).read().split("\n")
+            at = [int(m.group(1)) for m in re.finditer(r":(\d+):\d+: error: PP-E\d+", err)]
+            if where is not None and not any(0 < n <= len(lines) and lines[n - 1].strip() == where for n in at):
+                return False, f"rs274 stops at '{where}' ({error}); postproc refuses lines {at}: {err.strip()[:300]}"
             return True, f"refused by both (rs274: {error})"
         return False, f"rs274 stops ({error}) but postproc exits {rc}{'' if located else ' without a located error'}: {err.strip()[:300]}"
     if rc != 0:
