@@ -5,8 +5,9 @@ LinuxCNC's own interpreter (`rs274 -g`) and `postproc dump`, compared move for m
 refuses must be refused by postproc too (exit 2, a located PP-E error).
 
 Each program: a lead-in, G41 or G42 (tool table radius, or G41.1/G42.1 D), an open or closed
-contour of random lines and arcs (I J or R, tangent or not, some in G91, some with Z-only moves or a
-rapid between them), G40 and a lead-out; G17 or G18, mm or inch. Radii are mostly smaller than the
+contour of random lines and arcs (I J or R, tangent or not, helices, P turns, some in G91, some with
+moves along the normal only or a rapid between them), G40 and a lead-out; G17 or G18 (with lathe tool
+orientations: tool table Q, G41.1 L), mm or inch. Radii are mostly smaller than the
 features, sometimes not (gouging: refused by both).
 
 Usage: cutter_comp_property.py POSTPROC [--count N] [--seed S] [--keep DIR]
@@ -49,6 +50,9 @@ def tool_table():
     for t in range(1, 21):
         rows.append(f"T{t} P{t} D{rnd.uniform(0.02, 0.4):.4f} Z0")
     rows.append("T21 P21 D-0.1 Z0")
+    # lathe tools (orientation Q), used in G18 programs only
+    for t, q in ((22, 1), (23, 2), (24, 3), (25, 4), (26, 5), (27, 6), (28, 7), (29, 8), (30, 9)):
+        rows.append(f"T{t} P{t} D{rnd.uniform(0.02, 0.2):.4f} Z0 Q{q}")
     return "\n".join(rows) + "\n"
 
 
@@ -58,7 +62,7 @@ def make(rnd, index, diameters):
     p.emit(f"; random cutter compensation program {index}")
     p.emit(f"{'G20' if p.inch else 'G21'} {'G18' if p.g18 else 'G17'} G90 G94 F{u(600):.4f}")
     use_dynamic = rnd.random() < 0.25
-    tool = rnd.randint(1, 21)
+    tool = rnd.randint(22, 30) if p.g18 and rnd.random() < 0.4 else rnd.randint(1, 21)
     if not use_dynamic:
         p.emit(f"T{tool} M6")
         radius_mm = abs(diameters[tool]) * 25.4 / 2
@@ -75,6 +79,8 @@ def make(rnd, index, diameters):
     side = rnd.choice(["G41", "G42"])
     if use_dynamic:
         comp = f"{side}.1 D{fmt(u(2 * radius_mm))}"
+        if p.g18 and rnd.random() < 0.5:
+            comp += f" L{rnd.randint(0, 9)}"  # a lathe tool orientation
     else:
         comp = side + (f" D{tool}" if rnd.random() < 0.3 else "")
     # entry: a straight move (sometimes a rapid) or an arc to the first contour point
