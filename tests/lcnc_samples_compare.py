@@ -1,7 +1,12 @@
 #!/usr/bin/env python3
 """LinuxCNC's own sample programs through LinuxCNC's interpreter (`rs274 -g`) and `postproc dump`.
 
-Usage: lcnc_samples_compare.py POSTPROC FILE.ngc...
+Usage: lcnc_samples_compare.py POSTPROC [--tool-table TOOLS.tbl] FILE.ngc...
+
+With --tool-table, rs274 reads TOOLS.tbl (-t, in inches as rs274 reads its table) and postproc the
+same table in mm (--tool-table): the programs under cutter radius compensation are compared for real.
+Every rs274 run gets a HOME of its own (rs274 shares its tool table through ~/.tool.mmap with any
+rs274 running at the same time).
 
 Per program LinuxCNC runs without an error: postproc must either agree move for move (straight
 moves and arcs: end points of X Y Z within 2 µm and A B C within 0.002°, after converting rs274's inch output to mm; G53 rows and
@@ -13,12 +18,17 @@ from both lists before comparing. Drilling rows (one per hole) of G81/G82 in the
 expanded into the moves rs274 prints for them (expand_drilling); other cycles are not compared.
 Prints the counts and every disagreement; exit 1 when a program disagrees silently.
 """
-import csv, io, os, re, subprocess, sys
+import csv, io, os, re, subprocess, sys, tempfile
 
-def rs274(path):
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from rs274_moves import mm_tool_table  # noqa: E402
+
+def rs274(path, table=None):
     try:
-        out = subprocess.run(["rs274", "-g", os.path.basename(path)], cwd=os.path.dirname(path) or ".",
-                             capture_output=True, text=True, timeout=30)
+        with tempfile.TemporaryDirectory() as home:
+            out = subprocess.run(["rs274", "-g", os.path.basename(path)] + (["-t", table] if table else []),
+                                 cwd=os.path.dirname(path) or ".", capture_output=True, text=True, timeout=30,
+                                 env=dict(os.environ, HOME=home))
     except subprocess.TimeoutExpired:
         return None
     txt = out.stdout + out.stderr
@@ -103,21 +113,28 @@ def expand_drilling(rows):
         prev = (r["line"], z)
     return out
 
-def dump(postproc, path):
-    out = subprocess.run([postproc, "dump", os.path.basename(path), "--dialect", "linuxcnc", "--format", "csv"],
+def dump(postproc, path, table=None):
+    out = subprocess.run([postproc, "dump", os.path.basename(path), "--dialect", "linuxcnc", "--format", "csv"] +
+                         (["--tool-table", table] if table else []),
                          cwd=os.path.dirname(path) or ".", capture_output=True, text=True, timeout=120)
     rows = list(csv.DictReader(io.StringIO(out.stdout))) if out.stdout.startswith("line") else []
     return rows, out.returncode, out.stderr
 
 def main():
     postproc, files = os.path.realpath(sys.argv[1]), sys.argv[2:]
+    table = mm_table = None
+    if files[:1] == ["--tool-table"]:
+        table, files = os.path.abspath(files[1]), files[2:]
+        tmp = tempfile.mkdtemp()
+        mm_table = os.path.join(tmp, "tools_mm.tbl")
+        mm_tool_table(table, mm_table)
     counts = {"agree": 0, "refused or unresolved (located)": 0, "LinuxCNC error": 0, "silent disagreement": 0}
     silent = []
     for f in sorted(files):
-        ref = rs274(f)
+        ref = rs274(f, table)
         if ref is None:
             counts["LinuxCNC error"] += 1; continue
-        rows, rc, err = dump(postproc, f)
+        rows, rc, err = dump(postproc, f, mm_table)
         located = rc in (1, 2) and re.search(r":\d+:\d+: (warning|error): PP-[UE]\d+", err)
         if not located and any(r.get("frame") == "machine" for r in rows):
             # G53 rows are machine coordinates in postproc, program coordinates in rs274's output.

@@ -11,7 +11,17 @@ D="$SRC/tests/resolve/linuxcnc"
 command -v rs274 > /dev/null || { echo "FAIL: rs274 missing (scripts/install-deps.sh --test installs linuxcnc-uspace)"; exit 1; }
 T=$(mktemp -d)
 trap 'rm -rf "$T"' EXIT
+# rs274 keeps its tool table in $HOME/.tool.mmap, shared by every rs274 running at once (another
+# worktree's tests): each run here gets a HOME of its own.
+mkdir -p "$T/home"
+export HOME="$T/home"
 fails=0
+# comp_*: cutter radius compensation (G41/G42, G41.1/G42.1, G40; docs/dialects.md), with the tool
+# table comp_tools.tbl (inches for rs274, the same in mm for postproc): straight moves and arcs (end
+# point, centre, direction, turns) move for move (tests/rs274_moves.py).
+for prog in comp_lines comp_arcs comp_entry comp_z_g91 comp_g18 comp_dynamic comp_inch comp_lathe; do
+  python3 "$SRC/tests/rs274_moves.py" "$P" "$D/$prog.ngc" "$D/comp_tools.tbl" || fails=$((fails + 1))
+done
 # lathe_*: LinuxCNC G70/G71/G72 turning cycles and G33 (docs/lathe-cycles.md); their arcs (G18: ARC_FEED
 # first axis Z, second X) are compared too: end point, centre and direction.
 # reader_*: constructs of the LinuxCNC reader (issue 16), each checked against rs274 on traps; drilling

@@ -127,9 +127,16 @@ TEST(ToolOffsets, CutterCompensationNeedsAZeroRadius) {
   EXPECT_FALSE(d0.has("PP-U220")) << d0.all_codes();
   const Program table(with_tools("fanuc", {}, {{3, 0.0}}), "G90 G0 X0 Y0\nG42 D3 G1 X10. F100.\n");
   EXPECT_FALSE(table.has("PP-U220")) << table.all_codes();
+  // LinuxCNC computes the tool-centre path where the radius is known (test_cutter_offset.cpp); a tool
+  // the table does not give stays refused, and a second G41.1 while compensation is on is refused as
+  // rs274 refuses it ("Cannot turn cutter radius comp on when on").
   const Program lcnc(dialect("linuxcnc"), "G21 G90\nG0 X0 Y0\nG41.1 D0 G1 X10 F100\nG41.1 D6 G1 X0\n");
-  ASSERT_NE(lcnc.find("PP-U220"), nullptr) << lcnc.all_codes();
-  EXPECT_EQ(lcnc.find("PP-U220")->where.line, 4u);
+  EXPECT_FALSE(lcnc.has("PP-U220")) << lcnc.all_codes();
+  ASSERT_NE(lcnc.find("PP-E220"), nullptr) << lcnc.all_codes();
+  EXPECT_EQ(lcnc.find("PP-E220")->where.line, 4u);
+  const Program lcnc7(dialect("linuxcnc"), "G21 G90\nG0 X0 Y0\nG41 D7 G1 X10 F100\n");
+  ASSERT_NE(lcnc7.find("PP-U220"), nullptr) << lcnc7.all_codes();
+  EXPECT_EQ(lcnc7.find("PP-U220")->where.line, 3u);
   const Program siemens(dialect("siemens"), "T1 D0\nG0 X0 Y0 Z5\nG41 G1 X10 F100\n");
   EXPECT_FALSE(siemens.has("PP-U220")) << siemens.all_codes();
 }
@@ -137,7 +144,7 @@ TEST(ToolOffsets, CutterCompensationNeedsAZeroRadius) {
 TEST(ToolOffsets, LinuxcncToolTableFile) {
   const fs::path dir = fs::temp_directory_path() / ("pp_tooltable_" + std::to_string(::getpid()));
   fs::create_directories(dir);
-  std::ofstream(dir / "tool.tbl") << "T1 P1 Z50 D10 ;first\n\nT2 P2 Z+100.5 D0 ;second\r\n";
+  std::ofstream(dir / "tool.tbl") << "T1 P1 Z50 D10 ;first\n\nT2 P2 Z+100.5 D0 ;second\r\nT3 P3 D0.8 Q2\n";
   std::ofstream(dir / "bad.tbl") << "T1 P1 Z50\nT2 Zabc\n";
   gc::DialectOptions o;
   gc::DiagnosticSink sink;
@@ -146,6 +153,8 @@ TEST(ToolOffsets, LinuxcncToolTableFile) {
   EXPECT_NEAR(o.tool_lengths.at(2), 100.5, kTol);
   EXPECT_NEAR(o.tool_radii.at(1), 5, kTol);
   EXPECT_NEAR(o.tool_radii.at(2), 0, kTol);
+  EXPECT_EQ(o.tool_orientations.at(3), 2);  // Q: the lathe tool orientation
+  EXPECT_EQ(o.tool_orientations.count(1), 0u);
   gc::DialectOptions bad;
   EXPECT_FALSE(gc::read_linuxcnc_tool_table((dir / "bad.tbl").string(), bad, sink));
   ASSERT_FALSE(sink.stored().empty());

@@ -61,6 +61,13 @@ class ContourWriter final : public gcode::BlockVisitor {
     }
     track_.update(b);
     gcode::BlockEditor ed(b, d_.decimal_point_required);
+    const gcode::Motion* offset = lexed_ok ? cutter_offset_motion(motions) : nullptr;
+    if (offset != nullptr && !offset_refused_) {
+      offset_refused_ = true;
+      const gcode::Span sp{offset->column > 0 ? offset->column - 1 : 0, offset->column > 0 ? offset->column : 1};
+      gcode::report_at(gcode::LexContext{file_, &sink_}, b, sp, gcode::Severity::error, "PP-E601",
+                       cutter_offset_refusal(*offset));
+    }
     if (lexed_ok) {
       for (const gcode::Motion& mo : motions) {
         ++r_.motions;
@@ -71,7 +78,7 @@ class ContourWriter final : public gcode::BlockVisitor {
           const gcode::Span sp{mo.column > 0 ? mo.column - 1 : 0, mo.column > 0 ? mo.column : 1};
           gcode::report_at(gcode::LexContext{file_, &sink_}, b, sp, gcode::Severity::warning, code, why);
         }
-        if (motions.size() == 1 && pi >= 0) {
+        if (motions.size() == 1 && pi >= 0 && offset == nullptr) {
           correct(b, mo, static_cast<std::size_t>(pi), ed);
         } else {
           written_ = mo.end;
@@ -165,6 +172,7 @@ class ContourWriter final : public gcode::BlockVisitor {
   gcode::AxisMask written_known_ = 0;
   bool header_done_ = false;
   bool arc_noted_ = false;  ///< PP-W611 given (once per program)
+  bool offset_refused_ = false;  ///< a block under LinuxCNC cutter radius compensation was refused
   std::string eol_ = "\n";
   std::string line_, buffer_;
 };

@@ -11,6 +11,21 @@
 #include "src/gcode/text.hpp"
 
 namespace postproc::comp {
+
+const gcode::Motion* cutter_offset_motion(std::span<const gcode::Motion> motions) {
+  for (const gcode::Motion& m : motions)
+    if (m.cutter_radius > 0) return &m;
+  return nullptr;
+}
+
+std::string cutter_offset_refusal(const gcode::Motion& m) {
+  return fmt::format(
+      "compensation of a program under cutter radius compensation with radius {:g} mm is not supported: the "
+      "controller (LinuxCNC G41/G42) offsets every point written here by the radius, so it would offset the corrected "
+      "points again; compensate the tool-centre path instead (the program without G41/G42, as the CAM system writes it "
+      "with the tool radius applied)",
+      m.cutter_radius);
+}
 using gcode::AxisVector;
 using gcode::Block;
 using gcode::Motion;

@@ -50,6 +50,12 @@ inline constexpr std::string_view kContourUnverified = "PP-W621";  // the writte
 [[nodiscard]] std::string word_separator(const gcode::Block& b);
 using machine::kToolLengthError;  // PP-E621
 
+/// The first motion of a block that runs under LinuxCNC cutter radius compensation with a radius
+/// above 0 (gcode::Motion::cutter_radius), nullptr when none does.
+[[nodiscard]] const gcode::Motion* cutter_offset_motion(std::span<const gcode::Motion> motions);
+/// Why such a program is refused: the controller would offset corrected points again.
+[[nodiscard]] std::string cutter_offset_refusal(const gcode::Motion& m);
+
 /// The rounding bound of a written motion: half a unit of the last decimal of each written axis
 /// (`need`), carried through the controller's map to the tool tip (sum over the axes of the
 /// largest tip distance, mm) and the tool axis (rad); tool vectors add their 6-decimal components

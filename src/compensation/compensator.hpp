@@ -163,7 +163,12 @@ class Compensator final : public gcode::BlockVisitor {
       written_known_ = 0;
       ++r_.reference_moves;
     } else if (lexed_ok && !block_error_) {
-      if (motions.size() > 1) {
+      if (const Motion* o = cutter_offset_motion(motions)) {
+        // LinuxCNC cutter radius compensation: refused once, and nothing under it is corrected.
+        if (!offset_refused_) refuse(b, o->column, kRefused, cutter_offset_refusal(*o));
+        offset_refused_ = true;
+        written_known_ = 0;
+      } else if (motions.size() > 1) {
         for (const Motion& m : motions) check_unchanged(b, vector_.apply(m));
       } else if (motions.size() == 1) {
         motion(b, vector_.apply(motions.front()), ed);
@@ -693,6 +698,7 @@ class Compensator final : public gcode::BlockVisitor {
   bool map_held_ = false;  ///< the last motion's context is map_key_ (its map built without refusal)
   bool text_only_ = false;
   bool block_error_ = false;
+  bool offset_refused_ = false;  ///< a block under LinuxCNC cutter radius compensation was refused
   bool recompensation_checked_ = false;  ///< PP-E620 reported
   bool header_done_ = false;
   bool rapid_as_written_ = false;

@@ -182,7 +182,13 @@ UnitsPass::Class UnitsPass::classify(const Block& b, const Word& w) const {
   switch (w.letter) {
     case 'G':
       return w.kind == ValueKind::number ? Class::none : Class::unknown;
-    case 'M': case 'T': case 'D': case 'O': case 'N': case 'L': case 'H': case 'A': case 'B': case 'C':
+    case 'D':
+      // LinuxCNC G41.1/G42.1 D is the cutter diameter (program units); elsewhere D names a tool or offset.
+      if (linuxcnc)
+        if (const auto* g = track_.find(GMeaning::cutter_comp); g && (g->def->code10 == 411 || g->def->code10 == 421))
+          return Class::length;
+      return Class::none;
+    case 'M': case 'T': case 'O': case 'N': case 'L': case 'H': case 'A': case 'B': case 'C':
       return Class::none;
     case 'S':
       return track_.css ? Class::unknown : Class::none;  // G96: surface speed in m/min or ft/min

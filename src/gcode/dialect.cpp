@@ -262,6 +262,7 @@ Dialect make_dialect(DialectId id, const DialectOptions& opt) {
   if (opt.diameter_axis != 0) d.diameter_axis = opt.diameter_axis;
   d.tool_lengths = opt.tool_lengths;
   d.tool_radii = opt.tool_radii;
+  d.tool_orientations = opt.tool_orientations;
   d.rollover = opt.rollover;
   return d;
 }

@@ -237,6 +237,10 @@ void Interpreter::round_with_arcs(const Block& current, const Corner& c, Motion&
 
 void Interpreter::execute(const Block& b, MotionSink& out) {
   corner_.reset();
+  if (comp_) {  // LinuxCNC after a G41/G42: interpreter_cutter.cpp
+    execute_linuxcnc(b, out);
+    return;
+  }
   if (!corner_start_) {
     execute_block(b, out);
     return;

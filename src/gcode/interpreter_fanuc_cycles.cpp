@@ -23,26 +23,10 @@
 #include "postproc/gcode/interpreter.hpp"
 #include "src/gcode/block_words.hpp"
 #include "src/gcode/codes.hpp"
+#include "src/gcode/kept_block.hpp"
 #include "src/gcode/turning_cycles.hpp"
 
 namespace postproc::gcode {
-
-/// A block kept for a later cycle: its text is owned, its spans index into it. (Outside the
-/// anonymous namespace: Interpreter::FanucCycles holds it.)
-struct KeptBlock {
-  std::string raw;
-  Block block;
-  void keep(const Block& b) {
-    raw.assign(b.raw);
-    block = b;
-    block.raw = raw;
-    block.eol = {};
-  }
-  [[nodiscard]] const Block& get() {
-    block.raw = raw;  // after a copy or a move of the vector that holds it
-    return block;
-  }
-};
 
 namespace {
 
@@ -108,6 +92,7 @@ struct Interpreter::FanucCycles {
 };
 
 void Interpreter::finish() {
+  if (comp_) linuxcnc_comp_finish();
   if (!fanuc_cycles_ || !fanuc_cycles_->collecting) return;
   FanucCycles& fc = *fanuc_cycles_;
   fc.collecting = false;

@@ -69,9 +69,20 @@ void Interpreter::modal_save_restore(const Block& b, BlockWords& w) {
       s_.feed_known = saved.feed_known;
       s_.return_to_r = saved.return_to_r;
       s_.diameter_mode = saved.diameter_mode;
-      s_.cutter_comp = saved.cutter_comp;
-      s_.cutter_radius = saved.cutter_radius;
-      s_.cutter_radius_known = saved.cutter_radius_known;
+      if (saved.cutter_comp != s_.cutter_comp &&
+          (offset_active() || (saved.cutter_comp != 0 && !(saved.cutter_radius_known && saved.cutter_radius == 0)))) {
+        // restore_settings runs "G40" or "G41"/"G42" (without D: the spindle's tool) here: not followed.
+        report(b, at, Severity::warning, codes::kModalRestore,
+               "M72 switches cutter radius compensation here, which this version does not follow; the tool-centre "
+               "path after it is unknown — switch compensation with G40/G41/G42 instead");
+        if (offset_active()) comp_restore_break();
+        s_.cutter_comp = saved.cutter_comp;
+        s_.cutter_radius_known = false;
+      } else {
+        s_.cutter_comp = saved.cutter_comp;
+        s_.cutter_radius = saved.cutter_radius;
+        s_.cutter_radius_known = saved.cutter_radius_known;
+      }
       if (saved.work_offset.code10 != s_.work_offset.code10 || saved.work_offset.p != s_.work_offset.p) s_.known = 0;
       s_.work_offset = saved.work_offset;
       s_.tool_length_active = saved.tool_length_active;

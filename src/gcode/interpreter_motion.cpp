@@ -48,7 +48,10 @@ void Interpreter::execute_block(const Block& b, MotionSink& out) {
   BlockWords w;
   const bool ok = collect(b, w);
   apply_tokens(b, w);
+  const CompBefore before{s_.cutter_comp, s_.plane, s_.inch};
   apply_modes(b, w);
+  if (d_.id == DialectId::linuxcnc && (comp_ || before.comp != 0 || s_.cutter_comp != 0))
+    linuxcnc_comp_modes(b, w, before, out);
   if (!ok) {
     // A refused block still moves the machine; what it does is unknown.
     s_.known &= static_cast<AxisMask>(~w.axis_present);
@@ -65,6 +68,7 @@ void Interpreter::execute_block(const Block& b, MotionSink& out) {
       !corner_word(b, w, w.motion.def ? w.motion.def->meaning : s_.motion))
     corner_words(b, w);
   if (!w.axes_consumed) do_motion(b, w, out);
+  if (comp_ && w.m_count != 0) linuxcnc_comp_stop(b, w, out);
 }
 
 void Interpreter::non_modal(const Block& b, BlockWords& w, MotionSink& out) {
@@ -131,6 +135,7 @@ void Interpreter::non_modal(const Block& b, BlockWords& w, MotionSink& out) {
           if (!l_known || (l >= 10 && l <= 13) || l == 1) tool_table_write(b, w, l_known ? l : 10, p_known ? p : -1);
           break;
         }
+        if (l == 1 || l == 10 || l == 11) linuxcnc_tool_setup(b, w);
         // LinuxCNC: L2/L20 P0 is the active system, P1–P9 = G54–G59.3; L20 makes the current point take
         // the given values (exact), L2 writes the table (the active frame's position becomes unknown).
         if (l == 1 || l == 10 || l == 11) {
@@ -345,6 +350,20 @@ void Interpreter::do_motion(const Block& b, BlockWords& w, MotionSink& out_all) 
                                                                         : s_.motion;
   const GMeaning prev_motion = s_.motion;  // Fanuc G70–G75 are one-shot (group 00)
   const std::uint16_t prev_code10 = s_.motion_code10;
+  if (d_.id == DialectId::linuxcnc && (comp_ || s_.cutter_comp != 0)) {
+    Span at{};
+    if (w.motion.word >= 0) at = b.words[static_cast<std::size_t>(w.motion.word)].span;
+    else
+      for (int a = 0; a < kAxisCount; ++a)
+        if (w.axis_word[static_cast<std::size_t>(a)] >= 0) {
+          at = b.words[static_cast<std::size_t>(w.axis_word[static_cast<std::size_t>(a)])].span;
+          break;
+        }
+    if (!linuxcnc_comp_motion(b, w, mode, at)) {
+      s_.known &= static_cast<AxisMask>(~w.axis_present);
+      return;
+    }
+  }
   NullSink refused;
   // (The usual block has no corner word, no pending corner and is not a lathe block: no call.)
   const bool corner = (w.corner_word >= 0 || corner_pending_line_ != 0 || d_.lathe) &&
@@ -446,7 +465,7 @@ void Interpreter::do_motion(const Block& b, BlockWords& w, MotionSink& out_all) 
   m.column = b.words[static_cast<std::size_t>(first_word)].span.begin + 1;
   fill_state(m);
   const Span motion_at = b.words[static_cast<std::size_t>(first_word)].span;
-  if (s_.cutter_comp != 0 && mode != GMeaning::rapid) cutter_comp_motion(b, motion_at);
+  if (s_.cutter_comp != 0 && (mode != GMeaning::rapid || d_.id == DialectId::linuxcnc)) cutter_comp_motion(b, motion_at);
   if (mode != GMeaning::rapid && (d_.id == DialectId::linuxcnc || d_.id == DialectId::fanuc) && !w.has('F') &&
       (s_.feed_undefined || s_.feed_mode == FeedMode::inverse_time)) {
     report(b, motion_at, Severity::error, codes::kControllerRefuses,
@@ -724,7 +743,11 @@ bool Interpreter::arc(const Block& b, const BlockWords& w, Motion& m, AxisMask s
       return false;
     }
     const double rad = std::abs(r);
-    if (d > 2 * rad * (1 + 1e-6) + 1e-6) {
+    // LinuxCNC (arc_data_r): half the chord may exceed R by RADIUS_TOLERANCE (0.00005 in, 0.00127 mm)
+    // and is then a half circle.
+    const bool too_small = d_.id == DialectId::linuxcnc ? d / 2 - rad > (s_.inch ? 0.00005 * 25.4 : 0.00127)
+                                                       : d > 2 * rad * (1 + 1e-6) + 1e-6;
+    if (too_small) {
       report(b, at, Severity::error, codes::kArcGeometry,
              fmt::format("radius {:.6g} mm is smaller than half the chord {:.6g} mm; fix R or the end point", rad, d / 2));
       return false;

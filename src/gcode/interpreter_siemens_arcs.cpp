@@ -13,6 +13,10 @@
 namespace postproc::gcode {
 
 void Interpreter::emit(Motion& m, const Block& b, MotionSink& out) {
+  if (comp_ && offset_active()) {  // LinuxCNC cutter radius compensation: interpreter_cutter.cpp
+    compensated_emit(m, b, out);
+    return;
+  }
   if (d_.id != DialectId::siemens) {  // only a Sinumerik CT reads the direction: keep the hot path short
     out.motion(m, b);
     return;

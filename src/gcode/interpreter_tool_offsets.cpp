@@ -57,17 +57,13 @@ void Interpreter::tool_table_write(const Block& b, const BlockWords& w, long l, 
   }
   const auto n = static_cast<std::uint32_t>(p);
   if (d_.id == DialectId::linuxcnc) {
-    // LinuxCNC G-code reference "G10 L1 Set Tool Table": Z is the length offset and R the radius,
-    // absolute in the program's units (G91 does not apply), kept until the next write; the offset
-    // in force changes only at the next G43. L10/L11 compute the entry from the machine position
-    // (not known here): the entry becomes unknown.
+    // LinuxCNC G-code reference "G10 L1 Set Tool Table": Z is the length offset, absolute in the
+    // program's units (G91 does not apply), kept until the next write; the offset in force changes
+    // only at the next G43. L10/L11 compute it from the machine position (not known here): the
+    // entry becomes unknown. (R and Q, the radius and orientation: linuxcnc_tool_setup.)
     if (w.axis_present & bit(Axis::z)) {
       if (l == 1 && !(w.axis_unresolved & bit(Axis::z))) lengths_written_[n] = to_mm(2, w.axis[2]);
       else lengths_written_[n] = std::nullopt;
-    }
-    if (w.has('R')) {
-      if (l == 1 && !w.unresolved('R')) radii_written_[n] = w.get('R') * (s_.inch ? 25.4 : 1.0);
-      else radii_written_[n] = std::nullopt;
     }
     return;
   }
@@ -117,8 +113,14 @@ void Interpreter::tool_offsets(const Block& b, BlockWords& w) {
   if (w.has('T') && !w.unresolved('T') && d_.id != DialectId::siemens) s_.selected_tool = static_cast<int>(w.whole_or('T', 0, 99999, -1));
   for (int i = 0; i < w.m_count; ++i) {
     const double m = w.m[static_cast<std::size_t>(i)];
-    if (m == 6 && s_.selected_tool >= 0) s_.current_tool = s_.selected_tool;
-    if (m == 61 && d_.id == DialectId::linuxcnc) s_.current_tool = static_cast<int>(w.whole_or('Q', 0, 99999, -1));
+    if (m == 6 && s_.selected_tool >= 0) {
+      s_.current_tool = s_.selected_tool;
+      s_.current_tool_by_m61 = false;
+    }
+    if (m == 61 && d_.id == DialectId::linuxcnc) {
+      s_.current_tool = static_cast<int>(w.whole_or('Q', 0, 99999, -1));
+      s_.current_tool_by_m61 = true;
+    }
   }
   if (d_.id == DialectId::siemens && (w.has('D') || w.has('T'))) {
     // Sinumerik (840D sl Fundamentals, "Tool offset call (D)"): D selects the cutting edge whose
@@ -150,6 +152,11 @@ void Interpreter::tool_offsets(const Block& b, BlockWords& w) {
     const Span at = b.words[static_cast<std::size_t>(g.word)].span;
     if (g.def->group == GGroup::cutter_comp) {
       const std::uint16_t c = g.def->code10;
+      if (d_.id == DialectId::linuxcnc) {  // interpreter_cutter.cpp
+        if (c == 400) linuxcnc_comp_off();
+        else linuxcnc_comp_on(b, w, c, at);
+        continue;
+      }
       if (c == 400) {
         s_.cutter_comp = 0;
         continue;
@@ -255,6 +262,7 @@ void Interpreter::tool_offsets(const Block& b, BlockWords& w) {
 
 void Interpreter::cutter_comp_motion(const Block& b, Span at) {
   if (s_.cutter_comp == 0 || s_.cutter_comp_reported) return;
+  if (offset_active()) return;  // LinuxCNC: the tool-centre path is computed (interpreter_cutter.cpp)
   if (s_.cutter_radius_known && s_.cutter_radius == 0) return;  // D0 / a zero radius: the path is the program
   s_.cutter_comp_reported = true;
   report(b, at, Severity::warning, codes::kCutterComp,

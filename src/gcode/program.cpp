@@ -111,6 +111,17 @@ ProgramStats run_program(LineReader& reader, const Dialect& given, std::string_v
     bool leader = false;
     int buffer = -1;  ///< index into `copies` when the line lives there
   };
+  struct Pending {
+    std::string text;  ///< the line and its end, owned
+    Block block;       ///< spans into `text`
+    std::vector<Motion> motions;
+    bool ok = true;
+  };
+  std::deque<Pending> pending;
+  const auto release_pending = [&] {
+    for (Pending& p : pending) visitor.block(p.block, p.motions, p.ok);
+    pending.clear();
+  };
   Lookahead la;
   std::size_t la_next = 0, la_count = 0;
   std::uint64_t number = 0;
@@ -172,7 +183,24 @@ ProgramStats run_program(LineReader& reader, const Dialect& given, std::string_v
       }
     }
     b.leader = src.leader;
-    visitor.block(b, collect.motions, ok);
+    if (pending.empty() && !interp.offset_holding()) {
+      visitor.block(b, collect.motions, ok);
+    } else {
+      // LinuxCNC cutter radius compensation holds a block's move until a later block fixes its end:
+      // the blocks wait (in order, with their text) and each gets its own motions by line.
+      Pending& p = pending.emplace_back();  // (a deque: the elements, and so their text, stay put)
+      p.text.assign(b.raw).append(b.eol);
+      p.block = b;
+      p.block.raw = std::string_view(p.text).substr(0, b.raw.size());
+      p.block.eol = std::string_view(p.text).substr(b.raw.size());
+      p.ok = ok;
+      for (Motion& m : collect.motions) {
+        auto it = pending.rbegin();
+        while (it != pending.rend() && it->block.line != m.line) ++it;
+        (it != pending.rend() ? *it : pending.back()).motions.push_back(std::move(m));
+      }
+      if (!interp.offset_holding()) release_pending();
+    }
     b.leader = false;
     ++st.blocks;
   };
@@ -193,6 +221,7 @@ ProgramStats run_program(LineReader& reader, const Dialect& given, std::string_v
   Source src;
   while (fetch(src)) process(src);
   interp.finish();
+  release_pending();
   st.bytes = reader.bytes_read();
   return st;
 }

@@ -36,8 +36,8 @@ bool read_linuxcnc_tool_table(const std::string& path, DialectOptions& opt, Diag
     if (!text.empty() && text.back() == '\r') text.pop_back();
     const std::string_view s(text.data(), std::min(text.find(';'), text.size()));
     long tool = -1;
-    double length = 0, diameter = 0;
-    bool has_length = false, has_diameter = false;
+    double length = 0, diameter = 0, orientation = 0;
+    bool has_length = false, has_diameter = false, has_orientation = false;
     std::size_t i = 0;
     while (i < s.size()) {
       if (text::is_space(s[i])) {
@@ -57,6 +57,7 @@ bool read_linuxcnc_tool_table(const std::string& path, DialectOptions& opt, Diag
       if (L == 'T') tool = (v >= 0 && v == std::floor(v) && v < 1e6) ? static_cast<long>(v) : -2;
       if (L == 'Z') length = v, has_length = true;
       if (L == 'D') diameter = v, has_diameter = true;
+      if (L == 'Q') orientation = v, has_orientation = true;
       i = e;
     }
     if (!ok) break;
@@ -68,6 +69,15 @@ bool read_linuxcnc_tool_table(const std::string& path, DialectOptions& opt, Diag
     }
     if (has_length) opt.tool_lengths[static_cast<std::uint32_t>(tool)] = length;
     if (has_diameter) opt.tool_radii[static_cast<std::uint32_t>(tool)] = diameter / 2;
+    if (has_orientation) {
+      // LinuxCNC "Tool Table Format": Q is the lathe tool orientation, a whole number 0–9.
+      if (!(orientation >= 0 && orientation <= 9 && orientation == std::floor(orientation))) {
+        ok = fail(line_no, 1, static_cast<std::uint32_t>(s.size()), text,
+                  "Q (tool orientation) is a whole number from 0 to 9; correct the line");
+        break;
+      }
+      opt.tool_orientations[static_cast<std::uint32_t>(tool)] = static_cast<int>(orientation);
+    }
   }
   return ok;
 }

@@ -122,6 +122,8 @@ struct Dialect {
   std::array<RotaryRollover, 9> rollover{};
   std::map<std::uint32_t, double> tool_lengths;
   std::map<std::uint32_t, double> tool_radii;
+  /// LinuxCNC lathe tool orientation by tool number (tool table Q, 0–9; missing = 0).
+  std::map<std::uint32_t, int> tool_orientations;
   /// Motion mode at power-on: Fanuc G00 (or G01 with parameter 3402#0 G01=1); cancel_motion where
   /// axis words need a motion G first (LinuxCNC powers on in G80).
   GMeaning power_on_motion = GMeaning::cancel_motion;
@@ -157,6 +159,7 @@ struct DialectOptions {
   std::map<std::uint32_t, double> tool_lengths;  ///< mm, see Dialect::tool_lengths
   std::array<RotaryRollover, 9> rollover{};       ///< see Dialect::rollover ([axes.C] rollover)
   std::map<std::uint32_t, double> tool_radii;    ///< mm, see Dialect::tool_radii
+  std::map<std::uint32_t, int> tool_orientations;  ///< see Dialect::tool_orientations
   /// Fanuc only: power-on motion mode, 0 = G00 (factory setting) or 1 = G01 (parameter 3402#0 G01).
   int power_on_motion = 0;
   /// Siemens only: basic system inch (MD10240 = 0); default metric.

@@ -81,6 +81,7 @@ struct ModalState {
   std::uint8_t tool_z_pending = 0;
   int selected_tool = -1;           ///< T word (LinuxCNC: selected, loaded by M6), -1 = none
   int current_tool = -1;            ///< tool in the spindle (LinuxCNC M6 / M61 Q), -1 = unknown
+  bool current_tool_by_m61 = false; ///< LinuxCNC: that tool came by M61 (rs274 keeps the old tool's data)
   int siemens_d = -1;               ///< Sinumerik active D (cutting edge), -1 = none programmed
   int cutter_comp = 0;              ///< 0 = G40, 1 = left (G41), 2 = right (G42)
   double cutter_radius = 0;         ///< mm, when cutter_radius_known
@@ -136,6 +137,9 @@ class Interpreter {
   void resolve_corner(const Block& current, const Block& next, std::vector<Motion>& motions);
   /// Reports what the program left unfinished at its end (a Fanuc cycle whose profile never ended).
   void finish();
+  /// LinuxCNC cutter radius compensation holds a compensated move until the next move says where it
+  /// ends (src/gcode/interpreter_cutter.cpp): it is passed to a later block's sink, with its own line.
+  [[nodiscard]] bool offset_holding() const;
   [[nodiscard]] const ModalState& state() const { return s_; }
   [[nodiscard]] const Dialect& dialect() const { return d_; }
 
@@ -180,6 +184,28 @@ class Interpreter {
   /// G10 L1/L10/L11 (LinuxCNC tool table; Fanuc L10–L13 tool offset memory): the entries written.
   void tool_table_write(const Block& b, const BlockWords& w, long l, long p);
   void cutter_comp_motion(const Block& b, Span at);
+  // LinuxCNC cutter radius compensation (src/gcode/interpreter_cutter.cpp; geometry: cutter_offset.cpp).
+  struct CutterComp;
+  struct CompBefore {
+    int comp = 0;
+    Plane plane = Plane::xy;
+    bool inch = false;
+  };
+  CutterComp& cutter_comp();
+  [[nodiscard]] bool offset_active() const;
+  void execute_linuxcnc(const Block& b, MotionSink& out);
+  void comp_refuse(const Block& b, Span at, std::string_view why, std::string_view what);
+  void linuxcnc_comp_on(const Block& b, const BlockWords& w, std::uint16_t code10, Span at);
+  void linuxcnc_comp_off();
+  void linuxcnc_comp_modes(const Block& b, BlockWords& w, const CompBefore& before, MotionSink& out);
+  bool linuxcnc_comp_motion(const Block& b, BlockWords& w, GMeaning mode, Span at);
+  void compensated_emit(Motion& m, const Block& b, MotionSink& out);
+  void linuxcnc_comp_stop(const Block& b, const BlockWords& w, MotionSink& out);
+  void linuxcnc_comp_finish();
+  void comp_break(const Block& b, MotionSink& out);
+  void comp_restore_break();
+  static void pass_on(const Block& b, std::vector<Motion>& moves, MotionSink& out);
+  void linuxcnc_tool_setup(const Block& b, const BlockWords& w);
   void modal_save_restore(const Block& b, BlockWords& w);
   /// G92.1 (`clear`: the stored shift too) / G92.2: the G92 shift leaves the coordinates.
   void remove_position_offset(bool clear);
@@ -277,6 +303,7 @@ class Interpreter {
   std::shared_ptr<FanucCycles> fanuc_cycles_;  ///< Fanuc lathe: cycle values, profiles, collection
   bool fanuc_replay_ = false;  ///< executing the profile blocks of a G70
   std::shared_ptr<ThreadingState> threading_;  ///< threading cycles' data, made on first use
+  std::shared_ptr<CutterComp> comp_;  ///< LinuxCNC cutter radius compensation, made on first use
 };
 
 }  // namespace postproc::gcode

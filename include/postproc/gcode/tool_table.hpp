@@ -10,7 +10,8 @@
 
 namespace postproc::gcode {
 
-/// Reads `path` into `opt.tool_lengths` (Z, mm) and `opt.tool_radii` (D / 2, mm) by tool number.
+/// Reads `path` into `opt.tool_lengths` (Z, mm), `opt.tool_radii` (D / 2, mm) and
+/// `opt.tool_orientations` (Q, lathe tool orientation 0–9) by tool number.
 /// Values are taken in mm (the machine's linear units must be mm). Bad lines are reported located
 /// (PP-E208) and make the result false; nothing is guessed.
 bool read_linuxcnc_tool_table(const std::string& path, DialectOptions& opt, DiagnosticSink& sink);
