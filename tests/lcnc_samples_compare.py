@@ -21,33 +21,20 @@ Prints the counts and every disagreement; exit 1 when a program disagrees silent
 import csv, io, os, re, subprocess, sys, tempfile
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import rs274_moves  # noqa: E402
 from rs274_moves import mm_tool_table  # noqa: E402
 
 def rs274(path, table=None):
-    try:
-        with tempfile.TemporaryDirectory() as home:
-            out = subprocess.run(["rs274", "-g", os.path.basename(path)] + (["-t", table] if table else []),
-                                 cwd=os.path.dirname(path) or ".", capture_output=True, text=True, timeout=30,
-                                 env=dict(os.environ, HOME=home))
-    except subprocess.TimeoutExpired:
+    text = rs274_moves.run(path, table, cwd=os.path.dirname(path) or ".", timeout=30)
+    if text is None:
         return None
-    txt = out.stdout + out.stderr
-    for line in txt.splitlines():
-        if line.strip() and not re.match(r"\s*\d+ N", line) and line.strip() != "executing":
+    moves = []
+    for name, v, units, plane in rs274_moves.canon(text):
+        if name == "error":
             return None  # LinuxCNC stops with an error: not a program it accepts
-    moves, units, plane = [], 1.0, "XY"
-    for line in txt.splitlines():
-        m = re.search(r"USE_LENGTH_UNITS\(CANON_UNITS_(\w+)\)", line)
-        if m: units = 25.4 if m.group(1) == "INCHES" else 1.0
-        m = re.search(r"SELECT_PLANE\(CANON_PLANE_(\w+)\)", line)
-        if m: plane = m.group(1)
-        m = re.search(r"(STRAIGHT_TRAVERSE|STRAIGHT_FEED|STRAIGHT_PROBE)\(([^)]*)\)", line)
-        if m:
-            v = [float(x) for x in m.group(2).split(",")[:6]]
+        if name in ("STRAIGHT_TRAVERSE", "STRAIGHT_FEED", "STRAIGHT_PROBE"):
             moves.append(("L", [x * units for x in v[:3]] + v[3:6]))
-        m = re.search(r"ARC_FEED\(([^)]*)\)", line)
-        if m:
-            v = [float(x) for x in m.group(1).split(",")]
+        elif name == "ARC_FEED":
             e = (v[0], v[1], v[5]) if plane == "XY" else (v[1], v[5], v[0]) if plane == "XZ" else (v[5], v[0], v[1])
             moves.append(("A", [x * units for x in e] + v[6:9]))
     return without_zero_length(moves, [0.0] * 6)

@@ -36,34 +36,55 @@ def mm_tool_table(inch_table, out_path):
             o.write(" ".join(words) + (" ;" + rem.rstrip("\n") if rem else "") + "\n")
 
 
+def run(program, table=None, cwd=None, timeout=60):
+    """rs274's printed output (stdout and stderr) for `program`, with its own HOME; None on a timeout."""
+    args = ["rs274", "-g", os.path.basename(program)] + (["-t", os.path.abspath(table)] if table else [])
+    try:
+        with tempfile.TemporaryDirectory() as home:
+            out = subprocess.run(args, cwd=cwd or os.path.dirname(os.path.abspath(program)), capture_output=True,
+                                 text=True, timeout=timeout, env=dict(os.environ, HOME=home))
+    except subprocess.TimeoutExpired:
+        return None
+    return out.stdout + out.stderr
+
+
+def canon(text):
+    """The canonical calls rs274 printed, one (name, numbers, units, plane) per call: `units` is the
+    factor to mm of its lengths (25.4 after CANON_UNITS_INCHES), `plane` the plane selected then. A
+    line that is neither a call nor 'executing' is rs274's error: ("error", text, units, plane)."""
+    units, plane = 1.0, "XY"
+    for line in text.splitlines():
+        m = re.match(r"\s*\d+ N\S*\s+(\w+)\((.*)\)\s*$", line)
+        if not m:
+            if line.strip() and not re.match(r"\s*\d+ N", line) and line.strip() != "executing":
+                yield "error", line.strip(), units, plane
+            continue
+        name, args = m.group(1), m.group(2)
+        if name == "USE_LENGTH_UNITS":
+            units = 25.4 if "INCHES" in args else 1.0
+        elif name == "SELECT_PLANE":
+            plane = args.replace("CANON_PLANE_", "").strip()
+        nums = []
+        for x in args.split(","):
+            try:
+                nums.append(float(x))
+            except ValueError:
+                pass
+        yield name, nums, units, plane
+
+
 def rs274(program, table=None, cwd=None):
     """(moves, error, block): LinuxCNC's moves, its error text (None when it ran to the end) and the
     text of the block it stopped at."""
-    args = ["rs274", "-g", os.path.basename(program)] + (["-t", os.path.abspath(table)] if table else [])
-    with tempfile.TemporaryDirectory() as home:
-        out = subprocess.run(args, cwd=cwd or os.path.dirname(os.path.abspath(program)), capture_output=True,
-                             text=True, timeout=60, env=dict(os.environ, HOME=home))
-    text = out.stdout + out.stderr
-    # rs274 prints its error, then the block it stopped at
-    rest = [l for l in text.splitlines() if l.strip() and not re.match(r"\s*\d+ N", l) and l.strip() != "executing"]
-    error = rest[0].strip() if rest else None
-    stopped_at = rest[1].strip() if len(rest) > 1 else None
-    moves, units, plane = [], 1.0, "XY"
-    for line in text.splitlines():
-        m = re.search(r"USE_LENGTH_UNITS\(CANON_UNITS_(\w+)\)", line)
-        if m:
-            units = 25.4 if m.group(1) == "INCHES" else 1.0
-        m = re.search(r"SELECT_PLANE\(CANON_PLANE_(\w+)\)", line)
-        if m:
-            plane = m.group(1)
-        m = re.search(r"(STRAIGHT_TRAVERSE|STRAIGHT_FEED)\(([^)]*)\)", line)
-        if m:
-            v = [float(x) for x in m.group(2).split(",")[:6]]
+    text = run(program, table, cwd) or "timeout"
+    errors = [a for n, a, _, _ in canon(text) if n == "error"]
+    error = errors[0] if errors else None  # rs274 prints its error, then the block it stopped at
+    stopped_at = errors[1] if len(errors) > 1 else None
+    moves = []
+    for name, v, units, plane in canon(text):
+        if name in ("STRAIGHT_TRAVERSE", "STRAIGHT_FEED"):
             moves.append({"kind": "L", "end": [x * units for x in v[:3]] + v[3:6], "tol": 6e-5 * units})
-            continue
-        m = re.search(r"ARC_FEED\(([^)]*)\)", line)
-        if m:
-            v = [float(x) for x in m.group(1).split(",")]
+        elif name == "ARC_FEED":
             u, w, n = PLANES[plane]
             end = [0.0] * 3
             end[u], end[w], end[n] = v[0] * units, v[1] * units, v[5] * units

@@ -3,8 +3,7 @@
 
 Usage: threading_compare.py POSTPROC FILE.ngc...
 
-Each program is run through `rs274 -g` (no tool table: rs274 shares its tool data between the
-processes running at the same time, through ~/.tool.mmap) and through
+Each program is run through `rs274 -g` (no tool table; a HOME of its own, rs274_moves.run) and through
 `postproc dump --dialect linuxcnc`. The straight moves must agree one to one: STRAIGHT_TRAVERSE is a
 rapid, STRAIGHT_FEED a linear move; X Y Z end points within 6e-5 program units (rs274 prints 4
 decimals; inch output is converted to mm); a feed move made while rs274 has speed-feed
@@ -12,30 +11,24 @@ synchronisation on (START_SPEED_FEED_SYNC(pitch, 0) ... STOP_SPEED_FEED_SYNCH) m
 revolution at that pitch (6 printed decimals). Arcs are not part of these programs' threading and
 are skipped on both sides. Exit 1 on the first difference of each program.
 """
-import csv, io, os, re, subprocess, sys
+import csv, io, os, subprocess, sys
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import rs274_moves  # noqa: E402
 
 
 def rs274(path):
-    d, name = os.path.dirname(path) or ".", os.path.basename(path)
-    cmd = ["rs274", "-g", name]
-    run = subprocess.run(cmd, cwd=d, capture_output=True, text=True, timeout=60)
-    out = run.stdout + run.stderr
-    moves, units, sync = [], 1.0, None
-    for line in out.splitlines():
-        m = re.search(r"USE_LENGTH_UNITS\(CANON_UNITS_(\w+)\)", line)
-        if m:
-            units = 25.4 if m.group(1) == "INCHES" else 1.0
-        m = re.search(r"START_SPEED_FEED_SYNC\(([-0-9.]+),", line)
-        if m:
-            sync = float(m.group(1)) * units
-        if "STOP_SPEED_FEED_SYNCH" in line:
+    moves, sync = [], None
+    for name, v, units, _ in rs274_moves.canon(rs274_moves.run(path, cwd=os.path.dirname(path) or ".") or "timeout"):
+        if name == "error":
+            return moves, v  # rs274 stopped with an error
+        if name == "START_SPEED_FEED_SYNC":
+            sync = v[0] * units
+        elif name == "STOP_SPEED_FEED_SYNCH":
             sync = None
-        m = re.search(r"STRAIGHT_(FEED|TRAVERSE)\(([^)]*)\)", line)
-        if m:
-            xyz = [float(v) * units for v in m.group(2).split(",")[:3]]
-            moves.append(("linear" if m.group(1) == "FEED" else "rapid", xyz, sync if m.group(1) == "FEED" else None, units))
-        elif not re.match(r"\s*\d+ N", line) and line.strip() not in ("", "executing"):
-            return moves, line.strip()  # rs274 stopped with an error
+        elif name in ("STRAIGHT_FEED", "STRAIGHT_TRAVERSE"):
+            feed = name == "STRAIGHT_FEED"
+            moves.append(("linear" if feed else "rapid", [x * units for x in v[:3]], sync if feed else None, units))
     return moves, None
 
 
