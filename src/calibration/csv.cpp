@@ -10,23 +10,14 @@
 #include <fmt/format.h>
 
 #include "postproc/io/input_file.hpp"
+#include "src/gcode/text.hpp"
 #include "src/machine/toml_fields.hpp"
 
 namespace postproc::cal {
 namespace {
 
-std::string_view trim(std::string_view s) {
-  while (!s.empty() && (s.front() == ' ' || s.front() == '\t')) s.remove_prefix(1);
-  while (!s.empty() && (s.back() == ' ' || s.back() == '\t' || s.back() == '\r')) s.remove_suffix(1);
-  return s;
-}
-
-bool iequal(std::string_view a, std::string_view b) {
-  if (a.size() != b.size()) return false;
-  for (std::size_t i = 0; i < a.size(); ++i)
-    if (std::tolower(static_cast<unsigned char>(a[i])) != std::tolower(static_cast<unsigned char>(b[i]))) return false;
-  return true;
-}
+using gcode::text::iequals;
+using gcode::text::trim;
 
 /// Splits one line into trimmed cells with their 1-based columns. False on an unterminated quote.
 bool split(std::string_view line, std::vector<std::string>& cells, std::vector<std::uint32_t>& at) {
@@ -202,7 +193,7 @@ std::optional<std::string> CsvTable::meta(std::string_view key) const {
   for (const std::string& c : comments_) {
     const auto colon = c.find(':');
     if (colon == std::string::npos) continue;
-    if (iequal(trim(std::string_view(c).substr(0, colon)), key)) return std::string(trim(std::string_view(c).substr(colon + 1)));
+    if (iequals(trim(std::string_view(c).substr(0, colon)), key)) return std::string(trim(std::string_view(c).substr(colon + 1)));
   }
   return std::nullopt;
 }
@@ -225,13 +216,13 @@ std::string_view header_key(std::string_view text) {
 
 std::uint64_t CsvTable::meta_line(std::string_view key) const {
   for (const CommentLine& c : comment_lines_)
-    if (!c.after_header && iequal(header_key(c.text), key)) return c.line;
+    if (!c.after_header && iequals(header_key(c.text), key)) return c.line;
   return 0;
 }
 
 void CsvTable::meta_error(std::string_view key, std::string_view code, std::string message) {
   for (const CommentLine& c : comment_lines_) {
-    if (!iequal(header_key(c.text), key)) continue;
+    if (!iequals(header_key(c.text), key)) continue;
     gcode::Diagnostic d;
     d.code = std::string(code);
     d.file = file_;
@@ -255,8 +246,8 @@ bool CsvTable::check_header_keys(std::span<const std::string_view> settings,
   std::vector<std::string> seen;
   auto matches = [](std::string_view key, std::span<const std::string_view> keys) {
     return std::any_of(keys.begin(), keys.end(), [&](std::string_view k) {
-      return k.ends_with('*') ? key.size() >= k.size() - 1 && iequal(key.substr(0, k.size() - 1), k.substr(0, k.size() - 1))
-                              : iequal(key, k);
+      return k.ends_with('*') ? key.size() >= k.size() - 1 && iequals(key.substr(0, k.size() - 1), k.substr(0, k.size() - 1))
+                              : iequals(key, k);
     });
   };
   for (const CommentLine& c : comment_lines_) {

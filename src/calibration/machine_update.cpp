@@ -4,12 +4,12 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
-
 #include <limits>
 
 #include <fmt/format.h>
 
 #include "postproc/error.hpp"
+#include "src/gcode/text.hpp"
 
 namespace postproc::cal {
 namespace {
@@ -34,24 +34,18 @@ std::vector<std::string_view> lines_of(std::string_view text) {
   return out;
 }
 
-std::string_view trimmed(std::string_view s) {
-  while (!s.empty() && (s.front() == ' ' || s.front() == '\t')) s.remove_prefix(1);
-  while (!s.empty() && (s.back() == '\n' || s.back() == '\r' || s.back() == ' ' || s.back() == '\t')) s.remove_suffix(1);
-  return s;
-}
-
 /// The table a header line opens ("errors" of "[errors]  # …", "axes.X" of "[axes.X]",
 /// "serial.tool_side" of "[[serial.tool_side]]"), empty if the line is no table header. A line of
 /// an array value ("  [-0.40, 2.03, 7.10],") is not: a header's name starts with a letter or a
 /// quote and holds only key characters, and only a comment may follow it.
 std::string_view header_name(std::string_view line) {
-  line = trimmed(line);
+  line = gcode::text::trim(line);
   if (line.size() < 3 || line.front() != '[') return {};
   const bool array = line[1] == '[';
   const std::size_t open = array ? 2 : 1;
   const auto close = line.find(']', open);
   if (close == std::string_view::npos) return {};
-  const std::string_view name = trimmed(line.substr(open, close - open));
+  const std::string_view name = gcode::text::trim(line.substr(open, close - open));
   if (name.empty() || !(std::isalpha(static_cast<unsigned char>(name.front())) || name.front() == '"')) return {};
   for (char c : name)
     if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-' || c == '.' || c == '"' || c == ' ')) return {};
@@ -60,7 +54,7 @@ std::string_view header_name(std::string_view line) {
     if (rest.empty() || rest.front() != ']') return {};
     rest.remove_prefix(1);
   }
-  rest = trimmed(rest);
+  rest = gcode::text::trim(rest);
   if (!rest.empty() && rest.front() != '#') return {};
   return name;
 }
@@ -154,7 +148,7 @@ std::string replace_toml_table(std::string_view text, std::string_view name, std
       std::size_t end = i;
       while (end < lines.size() && !is_header(lines[end])) ++end;
       std::size_t keep = end;
-      while (keep > i && (trimmed(lines[keep - 1]).empty() || trimmed(lines[keep - 1]).front() == '#')) --keep;
+      while (keep > i && (gcode::text::trim(lines[keep - 1]).empty() || gcode::text::trim(lines[keep - 1]).front() == '#')) --keep;
       for (std::size_t k = keep; k < end; ++k) out += lines[k];
       i = end;
       replaced = true;
@@ -187,8 +181,8 @@ std::string add_header_comment(std::string_view text, std::span<const std::strin
   std::size_t i = 0;
   // Keep the file's own leading comment block, minus an earlier calibration block.
   bool skipping = false;
-  while (i < in.size() && !trimmed(in[i]).empty() && trimmed(in[i]).front() == '#') {
-    const std::string_view t = trimmed(in[i]);
+  while (i < in.size() && !gcode::text::trim(in[i]).empty() && gcode::text::trim(in[i]).front() == '#') {
+    const std::string_view t = gcode::text::trim(in[i]);
     if (t.rfind("# calibrated by postproc", 0) == 0) skipping = true;
     else if (skipping && t.rfind("#   ", 0) != 0 && t != "#") skipping = false;
     if (!skipping) out += in[i];

@@ -17,6 +17,7 @@
 
 #include "postproc/error.hpp"
 #include "postproc/io/input_file.hpp"
+#include "src/gcode/text.hpp"
 #include "src/calibration/step_gauge_tilt.hpp"
 
 namespace postproc::cal {
@@ -24,17 +25,8 @@ namespace {
 
 using Eigen::Vector3d;
 
-std::string_view trim(std::string_view s) {
-  while (!s.empty() && (s.front() == ' ' || s.front() == '\t')) s.remove_prefix(1);
-  while (!s.empty() && (s.back() == ' ' || s.back() == '\t' || s.back() == '\r')) s.remove_suffix(1);
-  return s;
-}
-
-bool iequal(std::string_view a, std::string_view b) {
-  return a.size() == b.size() && std::equal(a.begin(), a.end(), b.begin(), [](char x, char y) {
-           return std::tolower(static_cast<unsigned char>(x)) == std::tolower(static_cast<unsigned char>(y));
-         });
-}
+using gcode::text::iequals;
+using gcode::text::trim;
 
 void report(gcode::DiagnosticSink& sink, const SourceRef& at, std::string_view code, std::string message) {
   gcode::Diagnostic d;
@@ -67,7 +59,7 @@ SourceRef meta_ref(const std::string& file, std::string_view text, std::string_v
     const auto colon = body.find(':');
     if (colon == std::string_view::npos) continue;
     const std::string_view k = trim(body.substr(0, colon));
-    if (!(prefix ? k.size() >= key.size() && iequal(k.substr(0, key.size()), key) : iequal(k, key))) continue;
+    if (!(prefix ? k.size() >= key.size() && iequals(k.substr(0, key.size()), key) : iequals(k, key))) continue;
     const std::string_view value = trim(body.substr(colon + 1));
     r.line = std::string(line);
     const auto col = value.empty() ? line.size() : static_cast<std::size_t>(value.data() - line.data());
@@ -183,7 +175,7 @@ bool read_edges(CsvTable& t, StepGaugeData& data, EdgeScan e) {
   if (sink.count(gcode::Severity::error) > errors) return false;
   for (std::size_t r = 0; r < t.rows().size(); ++r) {
     const std::string& name = t.rows()[r].cells[static_cast<std::size_t>(edge_col)];
-    const int k = iequal(name, "x") ? 0 : iequal(name, "y") ? 1 : -1;
+    const int k = iequals(name, "x") ? 0 : iequals(name, "y") ? 1 : -1;
     if (k < 0) t.error(r, edge_col, codes::kCsvRange, fmt::format("edge '{}' is neither x nor y", name));
     const auto s = t.number(r, s_col, s_scale);
     const auto v = t.number(r, r_col, r_scale);
@@ -223,8 +215,8 @@ std::optional<ChainLink> parse_chain(std::string_view v) {
 bool add_step_gauge_file(CsvTable& t, StepGaugeData& data, std::string_view text) {
   auto& sink = t.sink();
   const auto kind = t.meta("kind");
-  const bool edge = kind && iequal(*kind, "step-gauge-edge");
-  if (!kind || (!edge && !iequal(*kind, "step-gauge"))) {
+  const bool edge = kind && iequals(*kind, "step-gauge-edge");
+  if (!kind || (!edge && !iequals(*kind, "step-gauge"))) {
     const SourceRef at = kind ? meta_ref(t.file(), text, "kind") : SourceRef{};
     const std::string msg = fmt::format("{}; a step-gauge file starts with '# kind: step-gauge' (pyramid readings) or "
                                         "'# kind: step-gauge-edge' (edge scans)",
@@ -263,7 +255,7 @@ bool add_step_gauge_file(CsvTable& t, StepGaugeData& data, std::string_view text
   for (const std::string& c : t.comments()) {
     const auto colon = c.find(':');
     const std::string_view key = trim(std::string_view(c).substr(0, colon == std::string::npos ? c.size() : colon));
-    if (key.size() < 16 || !iequal(key.substr(0, 16), "reference_error_")) continue;
+    if (key.size() < 16 || !iequals(key.substr(0, 16), "reference_error_")) continue;
     const SourceRef at = meta_ref(t.file(), text, key);
     const auto factor = unit_factor(key.substr(16), Quantity::length);
     std::vector<double> v;

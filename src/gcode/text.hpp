@@ -16,6 +16,13 @@ inline bool iequals(std::string_view a, std::string_view b) {
   return true;
 }
 
+/// Without the spaces and tabs around it, and a line end ('\r', '\n') after it.
+inline std::string_view trim(std::string_view s) {
+  while (!s.empty() && is_space(s.front())) s.remove_prefix(1);
+  while (!s.empty() && (is_space(s.back()) || s.back() == '\r' || s.back() == '\n')) s.remove_suffix(1);
+  return s;
+}
+
 inline bool starts_with_i(std::string_view s, std::string_view prefix) {
   return s.size() >= prefix.size() && iequals(s.substr(0, prefix.size()), prefix);
 }

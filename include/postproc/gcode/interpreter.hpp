@@ -208,6 +208,9 @@ class Interpreter {
   void linuxcnc_tool_setup(const Block& b, const BlockWords& w);
   void modal_save_restore(const Block& b, BlockWords& w);
   /// G92.1 (`clear`: the stored shift too) / G92.2: the G92 shift leaves the coordinates.
+  void siemens_frame(const Block& b, const BlockWords& w);
+  void set_offsets(const Block& b, BlockWords& w);
+  void shift_origin(BlockWords& w, GMeaning meaning);
   void remove_position_offset(bool clear);
   /// G92.3: the stored shift (#5211…) replaces the one in force.
   void apply_stored_position_offset();
