@@ -19,7 +19,7 @@ fi
 corpus=$(realpath "$corpus")
 # Programs written back byte for byte, flat or resolved (issue 3: programs with parameters are
 # resolved, written back in place and flattened, or refused with a located reason).
-readonly min_accepted=18
+readonly min_accepted=17
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 

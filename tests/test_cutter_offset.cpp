@@ -7,6 +7,7 @@
 
 #include <cmath>
 #include <numbers>
+#include <optional>
 #include <sstream>
 
 #include "postproc/compensation/compensate.hpp"
@@ -165,6 +166,29 @@ TEST(CutterOffset, RadiusFromTheToolTable) {
   expect_diag_at(unknown, "PP-U220", 3, 5);
 }
 
+// With a radius the tool table does not give, LinuxCNC still offsets the path, by a radius this run
+// does not know: the moves under G41/G42 are not known in the plane (Z still is); after G40 the
+// programmed point is known again, but a tool change right after it reads back where the offset
+// path ended (rs274 toolchange_flag), which is not known either.
+TEST(CutterOffset, UnknownRadiusLeavesThePlaneUnknown) {
+  const auto d = lcnc({{1, 5.0}});
+  const Program r(d, "G21 G17 G90\nT3 M6\nG0 X-10 Y0 Z5\nG41 G1 X0 Y0 F100\nY20 Z2\nG40 G1 X-10\nY-10\n"
+                     "G41 G1 X0 Y0\nG40\nT1 M6\nG91 G1 Z1\nG90 G1 X0 Y0 Z0\nM2\n");
+  ASSERT_EQ(r.motions.size(), 8u) << r.all_codes();
+  const gc::AxisMask xy = gc::bit(Axis::x) | gc::bit(Axis::y);
+  for (const std::size_t i : {std::size_t{1}, std::size_t{2}, std::size_t{5}})
+    EXPECT_EQ(r.motions[i].known & xy, 0) << "line " << r.motions[i].line;
+  EXPECT_TRUE(r.motions[2].known & gc::bit(Axis::z));
+  EXPECT_NEAR(r.motions[2].end[2], 2, kTol);
+  for (const std::size_t i : {std::size_t{3}, std::size_t{4}}) EXPECT_EQ(r.motions[i].known & xy, xy);
+  expect_at(r.motions[4], -10, -10, 2);
+  // Line 11: after G40 without a move, T1 M6 reads X Y back from where the offset path ended.
+  EXPECT_EQ(r.motions[6].line, 11u);
+  EXPECT_EQ(r.motions[6].known & xy, 0);
+  expect_at(r.motions[7], 0, 0, 0);
+  EXPECT_EQ(r.motions[7].known & xy, xy);
+}
+
 // What LinuxCNC refuses under compensation is refused at the block it names (PP-E220, exit 2).
 TEST(CutterOffset, LinuxcncRefusalsAreLocated) {
   const auto d = lcnc({{1, 5.0}, {2, 25.0}});
@@ -244,38 +268,75 @@ TEST(CutterOffset, TurnAngleAndCornersBetweenArcs) {
   expect_arc(out[4], 30, 0, -kPi);
 }
 
-// compensate refuses a program under a non-zero cutter radius, located at the first such move: the
-// controller would offset corrected points again.
-TEST(CutterOffset, CompensateRefusesAProgramUnderCompensation) {
-  postproc::machine::Machine m = sample_machine("trunnion_bc_fanuc.toml");
-  m.dialect_name = "linuxcnc";
-  m.dialect_options.tool_radii = {{1, 3.0}};
-  const gc::Dialect d = *gc::make_dialect(m.dialect_name, m.dialect_options);
-  const std::string program =
-      "G21 G90 G54\nG0 X0 Y0 Z100 B0 C0\nT1 M6\nG41 G1 X20 F100\nY20\nG40 G1 X0\nM2\n";
+// compensate on `program` through machine `m`; the first error, if any.
+std::optional<gc::Diagnostic> first_compensate_error(const postproc::machine::Machine& m, const std::string& program) {
   TempDir dir;
+  const gc::Dialect d = *gc::make_dialect(m.dialect_name, m.dialect_options);
   gc::DiagnosticSink sink;
   gc::LineReader reader{std::string_view(program)};
   postproc::io::OutputFile out(dir.file("out.nc"));
   postproc::comp::CompensateOptions opt;
   opt.tool_version = "test";
   (void)postproc::comp::compensate(reader, "in.nc", d, m, opt, out, sink);
-  ASSERT_TRUE(sink.has_errors());
-  const gc::Diagnostic* e = nullptr;
   for (const auto& x : sink.stored())
-    if (x.severity == gc::Severity::error) e = e ? e : &x;
-  ASSERT_NE(e, nullptr);
+    if (x.severity == gc::Severity::error) return x;
+  return std::nullopt;
+}
+
+// compensate refuses a program under a non-zero cutter radius, located at the first such move: the
+// controller would offset corrected points again.
+TEST(CutterOffset, CompensateRefusesAProgramUnderCompensation) {
+  postproc::machine::Machine m = sample_machine("trunnion_bc_fanuc.toml");
+  m.dialect_name = "linuxcnc";
+  const std::string program =
+      "G21 G90 G54\nG0 X0 Y0 Z100 B0 C0\nT1 M6\nG41 G1 X20 F100\nY20\nG40 G1 X0\nM2\n";
+  m.dialect_options.tool_radii = {{1, 3.0}};
+  const auto e = first_compensate_error(m, program);
+  ASSERT_TRUE(e.has_value());
   EXPECT_EQ(e->code, "PP-E601");
   EXPECT_EQ(e->where.line, 4u);
   EXPECT_NE(e->message.find("cutter radius compensation with radius 3 mm"), std::string::npos) << e->message;
   // The same program with a zero radius is compensated as before.
   m.dialect_options.tool_radii = {{1, 0.0}};
-  const gc::Dialect d0 = *gc::make_dialect(m.dialect_name, m.dialect_options);
-  gc::DiagnosticSink sink0;
-  gc::LineReader reader0{std::string_view(program)};
-  postproc::io::OutputFile out0(dir.file("out0.nc"));
-  (void)postproc::comp::compensate(reader0, "in.nc", d0, m, opt, out0, sink0);
-  EXPECT_FALSE(sink0.has_errors()) << (sink0.stored().empty() ? "" : gc::format(sink0.stored().front()));
+  const auto e0 = first_compensate_error(m, program);
+  EXPECT_FALSE(e0.has_value()) << gc::format(*e0);
+  // A radius the tool table does not give: refused at the first move under G41 (its point in the
+  // plane is not known), never written as if the radius were 0.
+  m.dialect_options.tool_radii = {};
+  const auto eu = first_compensate_error(m, program);
+  ASSERT_TRUE(eu.has_value());
+  EXPECT_EQ(eu->where.line, 4u) << gc::format(*eu);
+}
+
+// Fanuc and Sinumerik G41/G42 are not computed: compensate refuses the first move under a radius
+// that is not 0 or not known (PP-E601; rapids too, which the controllers offset as well), and
+// passes D0 / a radius of 0 in the machine file's table (the CAM path is the tool centre).
+TEST(CutterOffset, CompensateRefusesFanucAndSinumerikRadius) {
+  postproc::machine::Machine m = sample_machine("trunnion_bc_fanuc.toml");
+  const std::string fanuc = "G21 G90 G54\nG0 X0 Y0 Z100 B0 C0\nG41 D1 G0 X20\nG1 Y20 F100\nG40 G1 X0\nM30\n";
+  m.dialect_options.tool_radii = {};
+  const auto e = first_compensate_error(m, fanuc);
+  ASSERT_TRUE(e.has_value());
+  EXPECT_EQ(e->code, "PP-E601");
+  EXPECT_EQ(e->where.line, 3u);
+  EXPECT_NE(e->message.find("a radius the tool table does not give"), std::string::npos) << e->message;
+  m.dialect_options.tool_radii = {{1, 4.0}};
+  const auto e4 = first_compensate_error(m, fanuc);
+  ASSERT_TRUE(e4.has_value());
+  EXPECT_NE(e4->message.find("radius 4 mm"), std::string::npos) << e4->message;
+  m.dialect_options.tool_radii = {{1, 0.0}};
+  const auto e0 = first_compensate_error(m, fanuc);
+  EXPECT_FALSE(e0.has_value()) << gc::format(*e0);
+  m.dialect_options.tool_radii = {};
+  const auto d0 = first_compensate_error(m, "G21 G90 G54\nG0 X0 Y0 Z100 B0 C0\nG41 D0 G1 X20 F100\nG40 G1 X0\nM30\n");
+  EXPECT_FALSE(d0.has_value()) << gc::format(*d0);
+  m.dialect_name = "siemens";
+  m.tool_lengths[1] = m.tool_lengths.count(0) ? m.tool_lengths[0] : 0.0;  // D1's length: known
+  m.dialect_options.tool_lengths = m.tool_lengths;
+  const auto s = first_compensate_error(m, "G71 G90 G54\nT1 D1\nG0 X0 Y0 Z100 B0 C0\nG41 G1 X20 F100\nG40 G1 X0\nM30\n");
+  ASSERT_TRUE(s.has_value());
+  EXPECT_EQ(s->code, "PP-E601");
+  EXPECT_EQ(s->where.line, 4u);
 }
 
 }  // namespace

@@ -14,18 +14,21 @@ namespace postproc::comp {
 
 const gcode::Motion* cutter_offset_motion(std::span<const gcode::Motion> motions) {
   for (const gcode::Motion& m : motions)
-    if (m.cutter_radius > 0) return &m;
+    if (m.cutter_radius > 0 || std::isnan(m.cutter_radius)) return &m;
   return nullptr;
 }
 
 std::string cutter_offset_refusal(const gcode::Motion& m) {
   return fmt::format(
-      "compensation of a program under cutter radius compensation with radius {:g} mm is not supported: the "
-      "controller (LinuxCNC G41/G42) offsets every point written here by the radius, so it would offset the corrected "
-      "points again; compensate the tool-centre path instead (the program without G41/G42, as the CAM system writes it "
-      "with the tool radius applied)",
-      m.cutter_radius);
+      "compensation of a program under cutter radius compensation with {} is not supported: the controller "
+      "(G41/G42, RL/RR) offsets every point written here by the radius, so it would offset the corrected points "
+      "again; compensate the tool-centre path instead (the program without G41/G42, as the CAM system writes it "
+      "with the tool radius applied), or give the radius 0 when the path already is the tool centre (D0, or "
+      "the machine file's [tool.radii])",
+      std::isnan(m.cutter_radius) ? std::string("a radius the tool table does not give")
+                                  : fmt::format("radius {:g} mm", m.cutter_radius));
 }
+
 using gcode::AxisVector;
 using gcode::Block;
 using gcode::Motion;

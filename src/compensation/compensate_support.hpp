@@ -50,8 +50,8 @@ inline constexpr std::string_view kContourUnverified = "PP-W621";  // the writte
 [[nodiscard]] std::string word_separator(const gcode::Block& b);
 using machine::kToolLengthError;  // PP-E621
 
-/// The first motion of a block that runs under LinuxCNC cutter radius compensation with a radius
-/// above 0 (gcode::Motion::cutter_radius), nullptr when none does.
+/// The first motion of a block that runs under cutter radius compensation with a radius above 0 or
+/// not known (gcode::Motion::cutter_radius), nullptr when none does.
 [[nodiscard]] const gcode::Motion* cutter_offset_motion(std::span<const gcode::Motion> motions);
 /// Why such a program is refused: the controller would offset corrected points again.
 [[nodiscard]] std::string cutter_offset_refusal(const gcode::Motion& m);

@@ -22,6 +22,8 @@ struct Interpreter::CutterComp {
   bool off_pending = false;      ///< G40 in this block: the held moves are released after the modes
   bool restore_break = false;    ///< an M72 switched compensation in a way not followed (PP-U222)
   std::optional<AxisVector> exit_start;  ///< where the machine is after G40: the next move starts there
+  bool unknown_radius_moved = false;     ///< a move under G41/G42 with a radius the tool table does not give
+  bool exit_unknown = false;             ///< G40 ended such moves: where the tool is is not known until it moves
   Plane exit_plane = Plane::xy;
   KeptBlock last;                ///< the block whose move is held last
   bool last_kept = false;
@@ -33,8 +35,10 @@ constexpr const char* kOnlyXyXz = "Cutter radius compensation allowed only in XY
 
 /// Passes motions on; the first one after G40 starts where compensation left the machine.
 struct ExitStart final : MotionSink {
-  ExitStart(MotionSink& o, std::optional<AxisVector>& s, const Plane& p) : out(o), start(s), plane(p) {}
+  ExitStart(MotionSink& o, std::optional<AxisVector>& s, const Plane& p, bool& u)
+      : out(o), start(s), plane(p), unknown(u) {}
   void motion(const Motion& m, const Block& b) override {
+    unknown = false;  // the move after G40 ends at its programmed point
     if (!start || m.cutter_radius > 0) {
       out.motion(m, b);
       return;
@@ -49,6 +53,7 @@ struct ExitStart final : MotionSink {
   MotionSink& out;
   std::optional<AxisVector>& start;
   const Plane& plane;
+  bool& unknown;
 };
 
 AxisMask plane_bits(Plane p) {
@@ -69,7 +74,7 @@ bool Interpreter::offset_holding() const { return comp_ && comp_->offset.on() &&
 
 void Interpreter::execute_linuxcnc(const Block& b, MotionSink& out) {
   CutterComp& cc = cutter_comp();
-  ExitStart from(out, cc.exit_start, cc.exit_plane);
+  ExitStart from(out, cc.exit_start, cc.exit_plane, cc.exit_unknown);
   execute_block(b, from);
 }
 
@@ -199,6 +204,11 @@ void Interpreter::linuxcnc_comp_off() {
   // its motion: the held moves are released right after this block's modes (linuxcnc_comp_modes).
   s_.cutter_comp = 0;
   if (comp_ && comp_->offset.on()) comp_->off_pending = true;
+  if (comp_ && comp_->unknown_radius_moved) {  // where the tool centre stopped is not known
+    comp_->unknown_radius_moved = false;
+    comp_->exit_unknown = true;
+    comp_->exit_plane = s_.plane;
+  }
 }
 
 void Interpreter::pass_on(const Block& b, std::vector<Motion>& moves, MotionSink& out) {
@@ -248,6 +258,10 @@ void Interpreter::linuxcnc_comp_modes(const Block& b, BlockWords& w, const CompB
     s_.position[p.v] = (*comp_->exit_start)[p.v];
     comp_->exit_start.reset();
   }
+  if (comp_ && comp_->exit_unknown && before.comp == 0 && (w.has_m(6) || w.has_m(61))) {
+    s_.known &= static_cast<AxisMask>(~plane_bits(comp_->exit_plane));
+    comp_->exit_unknown = false;
+  }
   // convert_set_plane and convert_length_units run before convert_cutter_compensation.
   if (before.comp != 0)
     for (int k = 0; k < w.ng; ++k) {
@@ -277,6 +291,10 @@ void Interpreter::linuxcnc_comp_modes(const Block& b, BlockWords& w, const CompB
   if (comp_ && comp_->off_pending) {
     CutterComp& cc = *comp_;
     cc.off_pending = false;
+    if (!cc.offset.first_move() && cc.broken) {  // refused under this activation: the tool centre is not known
+      cc.exit_unknown = true;
+      cc.exit_plane = s_.plane;
+    }
     if (!cc.offset.first_move() && !cc.broken) {
       std::vector<Motion> moves;
       const auto e = cc.offset.flush(moves);
@@ -405,6 +423,13 @@ bool Interpreter::linuxcnc_comp_motion(const Block& b, BlockWords& w, GMeaning m
     return false;
   }
   return true;
+}
+
+void Interpreter::unknown_radius_emit(Motion& m) {
+  // G41/G42 with a tool whose radius the tool table does not give: LinuxCNC offsets the path by a
+  // radius this run does not know, so where the tool centre runs in the plane is not known.
+  m.known &= static_cast<AxisMask>(~plane_bits(s_.plane));
+  cutter_comp().unknown_radius_moved = true;
 }
 
 void Interpreter::compensated_emit(Motion& m, const Block& b, MotionSink& out) {

@@ -2,6 +2,7 @@
 // words: interpreter_target.cpp; drilling cycles: interpreter_drill.cpp; polar words: interpreter_polar.cpp; Sinumerik arc forms: interpreter_siemens_arcs.cpp;
 // G10, G92/G52 and frames (the origin, not the tool): interpreter_offsets.cpp.
 #include <cmath>
+#include <limits>
 #include <numbers>
 
 #include <Eigen/Geometry>
@@ -40,6 +41,9 @@ void Interpreter::fill_state(Motion& m) const {
   m.orientation_machine_frame = s_.ori_mks;
   m.diameter_mode = s_.diameter_mode;
   m.inch_source = s_.inch;
+  // Fanuc and Sinumerik G41/G42 (rapids too): the controller offsets the path; not computed here.
+  if (s_.cutter_comp != 0 && d_.id != DialectId::linuxcnc)
+    m.cutter_radius = s_.cutter_radius_known ? s_.cutter_radius : std::numeric_limits<double>::quiet_NaN();
 }
 
 void Interpreter::execute_block(const Block& b, MotionSink& out) {

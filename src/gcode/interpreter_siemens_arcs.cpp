@@ -17,6 +17,7 @@ void Interpreter::emit(Motion& m, const Block& b, MotionSink& out) {
     compensated_emit(m, b, out);
     return;
   }
+  if (s_.cutter_comp != 0 && !s_.cutter_radius_known && d_.id == DialectId::linuxcnc) unknown_radius_emit(m);
   if (d_.id != DialectId::siemens) {  // only a Sinumerik CT reads the direction: keep the hot path short
     out.motion(m, b);
     return;

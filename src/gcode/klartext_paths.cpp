@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <deque>
+#include <limits>
 #include <optional>
 
 #include <Eigen/Geometry>
@@ -198,6 +199,7 @@ void Interp::motion(const Block& b, Verb v, MotionSink& out) {
     }
   }
   // Radius compensation: the controller offsets the tool centre by the tool radius (tool table).
+  if (comp_ != 0 && !cutter_radius_known_) m.cutter_radius = std::numeric_limits<double>::quiet_NaN();
   if (comp_ != 0 && m.type != MotionType::rapid && !cutter_radius_known_ && !comp_reported_) {
     warn(b, w.comp_at.size() > 0 ? w.comp_at : b.tokens.front().span, codes::kCutterComp,
          fmt::format("radius compensation {} with a tool radius the machine file does not give ([tool.radii]): the "

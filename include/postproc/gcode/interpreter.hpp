@@ -200,6 +200,7 @@ class Interpreter {
   void linuxcnc_comp_modes(const Block& b, BlockWords& w, const CompBefore& before, MotionSink& out);
   bool linuxcnc_comp_motion(const Block& b, BlockWords& w, GMeaning mode, Span at);
   void compensated_emit(Motion& m, const Block& b, MotionSink& out);
+  void unknown_radius_emit(Motion& m);
   void linuxcnc_comp_stop(const Block& b, const BlockWords& w, MotionSink& out);
   void linuxcnc_comp_finish();
   void comp_break(const Block& b, MotionSink& out);

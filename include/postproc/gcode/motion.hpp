@@ -118,9 +118,11 @@ struct Motion {
   /// The block's axis words are not the end point in the work frame (Fanuc G16 radius/angle, G51.1
   /// mirrored, G29 through the intermediate point): a writer must not put corrected coordinates in them.
   bool words_transformed = false;
-  /// LinuxCNC cutter radius compensation (G41/G42, G41.1/G42.1): the radius (mm) by which the
-  /// controller offsets this motion's tool-centre path from the programmed contour, 0 = none. The
-  /// motion is the tool-centre path (words_transformed is set); a corrected program would be offset
+  /// Cutter radius compensation: the radius (mm) by which the controller offsets this motion's
+  /// tool-centre path from the programmed contour, 0 = none, NaN = a radius not known (the tool table
+  /// does not give it). LinuxCNC (G41/G42, G41.1/G42.1): the motion is the tool-centre path
+  /// (words_transformed is set). Fanuc, Sinumerik (G41/G42) and Heidenhain (RL/RR): the offset is not
+  /// computed, the motion is the programmed contour. Either way a corrected program would be offset
   /// again by the controller.
   double cutter_radius = 0;
 };
