@@ -34,6 +34,10 @@ def rs274(path, table=None):
             return None  # LinuxCNC stops with an error: not a program it accepts
         if name in ("STRAIGHT_TRAVERSE", "STRAIGHT_FEED", "STRAIGHT_PROBE"):
             moves.append(("L", [x * units for x in v[:3]] + v[3:6]))
+        elif name == "RIGID_TAP":  # G33.1: to the point and back to where it started
+            last = moves[-1][1] if moves else [0.0] * 6
+            moves.append(("L", [x * units for x in v[:3]] + last[3:6]))
+            moves.append(("L", list(last)))
         elif name == "ARC_FEED":
             e = (v[0], v[1], v[5]) if plane == "XY" else (v[1], v[5], v[0]) if plane == "XZ" else (v[5], v[0], v[1])
             moves.append(("A", [x * units for x in e] + v[6:9]))

@@ -84,6 +84,10 @@ def rs274(program, table=None, cwd=None):
     for name, v, units, plane in canon(text):
         if name in ("STRAIGHT_TRAVERSE", "STRAIGHT_FEED"):
             moves.append({"kind": "L", "end": [x * units for x in v[:3]] + v[3:6], "tol": 6e-5 * units})
+        elif name == "RIGID_TAP":  # G33.1: to the point and back to where it started
+            last = moves[-1]["end"] if moves else [0.0] * 6
+            moves.append({"kind": "L", "end": [x * units for x in v[:3]] + last[3:6], "tol": 6e-5 * units})
+            moves.append({"kind": "L", "end": list(last), "tol": 6e-5 * units})
         elif name == "ARC_FEED":
             u, w, n = PLANES[plane]
             end = [0.0] * 3

@@ -315,7 +315,8 @@ TEST(Interpreter, UnresolvedConstructsHaveStableCodes) {
     std::uint32_t column;
   } cases[] = {
       {"fanuc", true, "G0 X50 Z2\nN10 G90\n", "PP-U201", 2, 5},
-      {"linuxcnc", false, "G0 X0 Z0\nG33.1 Z-1 K0.05\n", "PP-U202", 2, 1},  // G76: tests/test_threading.cpp
+      // LinuxCNC G76 and G33.1 are read: tests/test_threading.cpp, test_lathe_cycles.cpp.
+      {"siemens", false, "G0 X0 Z0\nG331 Z-10 K1\n", "PP-U202", 2, 1},
       {"fanuc", true, "G0 X10 Z0\nG76 X8.2 Z-20. P900 Q300 F1.5\n", "PP-U202", 2, 1},
       {"linuxcnc", false, "G0 X0 Y0\nG5.1 X1 Y1 I0.5 J0.5\n", "PP-U203", 2, 1},
       {"fanuc", false, "G0 X0 Y0 C0\nG12.1\nG1 X10 C5 F100\nG13.1\n", "PP-U204", 3, 1},

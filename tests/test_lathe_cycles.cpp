@@ -294,6 +294,38 @@ TEST(LatheCyclesLinuxcnc, G33IsAStraightMoveWithKPerRevolution) {
   EXPECT_TRUE(stopped.of_line(3).empty());
 }
 
+TEST(LatheCyclesLinuxcnc, G33_1RigidTapGoesToThePointAndBack) {
+  // LinuxCNC G-code reference, "G33.1 Rigid Tapping": to the point at K per revolution, then back
+  // (spindle reversed) to where the tap started, which is the current point after the block (rs274
+  // RIGID_TAP; tests/threading/linuxcnc/rigid_tap_g33_1.ngc compares it with rs274). Without K or
+  // with the spindle stopped rs274 stops: refused at the block, naming G33.1.
+  LatheRun r("G17 G21 G90\nG0 X10 Y20 Z5\nM3 S300\nG33.1 Z-12 K1.25\nG0 X30\nM2\n");
+  const auto tap = r.of_line(4);
+  ASSERT_EQ(tap.size(), 2u) << r.all_codes();
+  for (const gc::Motion* m : tap) {
+    EXPECT_EQ(m->type, gc::MotionType::linear);
+    EXPECT_EQ(m->feed_mode, gc::FeedMode::per_rev);
+    EXPECT_DOUBLE_EQ(m->feed, 1.25);
+  }
+  EXPECT_NEAR(tap[0]->end[2], -12, kEps);
+  EXPECT_NEAR(tap[1]->start[2], -12, kEps);
+  EXPECT_NEAR(tap[1]->end[0], 10, kEps);
+  EXPECT_NEAR(tap[1]->end[1], 20, kEps);
+  EXPECT_NEAR(tap[1]->end[2], 5, kEps);
+  const auto after = r.of_line(5);
+  ASSERT_EQ(after.size(), 1u);
+  EXPECT_NEAR(after[0]->start[2], 5, kEps);
+  LatheRun no_k("G17 G21 G90\nG0 Z5\nM3 S300\nG33.1 Z-12\nM2\n");
+  const gc::Diagnostic* k = no_k.find("PP-E250");
+  ASSERT_NE(k, nullptr);
+  EXPECT_EQ(k->where.line, 4u);
+  EXPECT_NE(k->message.find("G33.1 needs K"), std::string::npos) << k->message;
+  LatheRun stopped("G17 G21 G90\nG0 Z5\nG33.1 Z-12 K1\nM2\n");
+  const gc::Diagnostic* s = stopped.find("PP-E250");
+  ASSERT_NE(s, nullptr);
+  EXPECT_NE(s->message.find("Spindle not turning in G33.1"), std::string::npos) << s->message;
+}
+
 TEST(LatheCyclesLinuxcnc, SubroutineSkippedWithoutResolvingIsReported) {
   // Read without the resolver (library use of run_program), a definition that no cycle reads is
   // skipped — not silently: PP-U212 at the block after it names the subroutine.

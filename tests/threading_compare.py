@@ -26,6 +26,10 @@ def rs274(path):
             sync = v[0] * units
         elif name == "STOP_SPEED_FEED_SYNCH":
             sync = None
+        elif name == "RIGID_TAP":  # G33.1: to the point and back, both synchronised
+            last = moves[-1][1] if moves else [0.0, 0.0, 0.0]
+            moves.append(("linear", [x * units for x in v[:3]], sync, units))
+            moves.append(("linear", list(last), sync, units))
         elif name in ("STRAIGHT_FEED", "STRAIGHT_TRAVERSE"):
             feed = name == "STRAIGHT_FEED"
             moves.append(("linear" if feed else "rapid", [x * units for x in v[:3]], sync if feed else None, units))

@@ -328,33 +328,49 @@ void Interpreter::lathe_cycle(const Block& b, const BlockWords& w, MotionSink& o
 
 void Interpreter::spindle_synced_move(const Block& b, const BlockWords& w, Motion& m, MotionSink& out) {
   // LinuxCNC docs, G33 "Spindle Synchronized Motion": a straight move from the current point to
-  // the axis words, K = distance per revolution; rs274 refuses it without K ("K word missing with
-  // g33/g33.1", also on a modal repeat) and when the spindle is not turning.
+  // the axis words, K = distance per revolution (G33.1: and back, below); rs274 refuses it without
+  // K ("K word missing with g33/g33.1", also on a modal repeat) and when the spindle is not turning.
   const Span at = b.words[static_cast<std::size_t>(w.motion.word >= 0 ? w.motion.word : w.axis_word[0] >= 0 ? w.axis_word[0] : 0)].span;
   const AxisMask named = w.axis_present;
+  const char* g = s_.motion_code10 == 331 ? "G33.1" : "G33";
   if (!w.has('K')) {
-    report(b, at, Severity::error, codes::kLatheCycleRejected, "G33 needs K (distance per revolution) on every G33 block");
+    report(b, at, Severity::error, codes::kLatheCycleRejected,
+           fmt::format("{} needs K (distance per revolution) on every {} block (rs274: \"K word missing with "
+                       "g33/g33.1\")", g, g));
     s_.known &= static_cast<AxisMask>(~named);
     return;
   }
   if (w.unresolved('K')) {
     report(b, b.words[static_cast<std::size_t>(w.letter_word['K' - 'A'])].span, Severity::warning,
-           codes::kLatheCycleUnresolved, "G33 with a K that is not known; not followed");
+           codes::kLatheCycleUnresolved, fmt::format("{} with a K that is not known; not followed", g));
     s_.known &= static_cast<AxisMask>(~named);
     return;
   }
   if (!spindle_turning_) {
     report(b, at, Severity::error, codes::kLatheCycleRejected,
-           "G33 while the spindle is not turning (rs274: \"Spindle not turning in G33\"); program M3 or M4 before it");
+           fmt::format("{} while the spindle is not turning (rs274: \"Spindle not turning in {}\"); program M3 or M4 "
+                       "before it", g, g));
     s_.known &= static_cast<AxisMask>(~named);
     return;
   }
   m.type = MotionType::linear;
+  const AxisMask known_before = s_.known;
   if (!target(b, w, m)) return;
   m.feed = w.get('K') * (s_.inch ? 25.4 : 1.0);  // Motion::feed is mm per revolution
   m.feed_mode = FeedMode::per_rev;
   m.feed_known = true;
   out.motion(m, b);
+  if (s_.motion_code10 != 331) return;
+  // G33.1 "Rigid Tapping" (rs274 RIGID_TAP): the spindle reverses at the end point and the tool
+  // comes back along the same line to where it started, which is the current point afterwards.
+  Motion back = m;
+  back.start = m.end;
+  back.end = m.start;
+  back.known = known_before;
+  back.programmed = 0;
+  s_.position = m.start;
+  s_.known = known_before;
+  out.motion(back, b);
 }
 
 void Interpreter::emit_turning_moves(const Block& b, Span at, const std::vector<turning::Move>& moves, double scale,

@@ -478,7 +478,7 @@ void Interpreter::do_motion(const Block& b, BlockWords& w, MotionSink& out_all) 
       }
       break;
     case GMeaning::threading:
-      if (d_.id == DialectId::linuxcnc && s_.motion_code10 == 330) {
+      if (d_.id == DialectId::linuxcnc && (s_.motion_code10 == 330 || s_.motion_code10 == 331)) {
         spindle_synced_move(b, w, m, out);
         break;
       }
