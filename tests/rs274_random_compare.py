@@ -117,8 +117,13 @@ def program(r):
                         f'o{100 + k} endwhile'])
         elif x < 0.90:
             out.append(r.choice(['M70', 'M72' if 'M70' in out else 'M70', 'G61', 'G64 P0.01', 'G61.1', 'G64']))
-        elif x < 0.95:
+        elif x < 0.93:
             out.extend([f'G93 G1 X{f(r.uniform(-40, 40) * s)} F{f(r.uniform(1, 20))}', 'G94 F100'])
+        elif x < 0.95:  # G33.1 rigid tapping: to the point and back (a slanted one too)
+            tap = f'G33.1 Z{f(r.uniform(-8, 0) * s)} K{f(r.uniform(0.5, 2) * s)}'
+            if r.random() < .3:
+                tap = f'G33.1 X{f(r.uniform(-40, 40) * s)} Z{f(r.uniform(-8, 0) * s)} K{f(r.uniform(0.5, 2) * s)}'
+            out.extend(['M3 S500', r.choice(['', 'G93 ', 'G91 ']) + tap, 'G94 G90 F100', 'M5'])
         else:
             out.append(r.choice(['G7', 'G8']))
             settle()

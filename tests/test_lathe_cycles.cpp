@@ -320,6 +320,15 @@ TEST(LatheCyclesLinuxcnc, G33_1RigidTapGoesToThePointAndBack) {
   ASSERT_NE(k, nullptr);
   EXPECT_EQ(k->where.line, 4u);
   EXPECT_NE(k->message.find("G33.1 needs K"), std::string::npos) << k->message;
+  LatheRun with_f("G17 G21 G90\nG0 Z5\nM3 S300\nG33.1 Z-12 K1 F100\nM2\n");
+  const gc::Diagnostic* f = with_f.find("PP-E250");
+  ASSERT_NE(f, nullptr);
+  EXPECT_EQ(f->where.column, 15u);
+  // rs274 asks no F of G33/G33.1 in G93 (and after G93 → G94 without F): read, not refused.
+  LatheRun g93("G17 G21 G90\nG0 Z5\nM3 S300\nG93\nG33.1 Z-12 K1\nG94\nG33 Z-3 K1\nM2\n");
+  EXPECT_FALSE(g93.sink.has_errors()) << g93.all_codes();
+  EXPECT_EQ(g93.of_line(5).size(), 2u);
+  EXPECT_EQ(g93.of_line(7).size(), 1u);
   LatheRun stopped("G17 G21 G90\nG0 Z5\nG33.1 Z-12 K1\nM2\n");
   const gc::Diagnostic* s = stopped.find("PP-E250");
   ASSERT_NE(s, nullptr);

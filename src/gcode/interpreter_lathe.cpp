@@ -329,7 +329,8 @@ void Interpreter::lathe_cycle(const Block& b, const BlockWords& w, MotionSink& o
 void Interpreter::spindle_synced_move(const Block& b, const BlockWords& w, Motion& m, MotionSink& out) {
   // LinuxCNC docs, G33 "Spindle Synchronized Motion": a straight move from the current point to
   // the axis words, K = distance per revolution (G33.1: and back, below); rs274 refuses it without
-  // K ("K word missing with g33/g33.1", also on a modal repeat) and when the spindle is not turning.
+  // K ("K word missing with g33/g33.1", also on a modal repeat), with F, and when the spindle is not
+  // turning; it asks no F of them, in G93 or after it.
   const Span at = b.words[static_cast<std::size_t>(w.motion.word >= 0 ? w.motion.word : w.axis_word[0] >= 0 ? w.axis_word[0] : 0)].span;
   const AxisMask named = w.axis_present;
   const char* g = s_.motion_code10 == 331 ? "G33.1" : "G33";
@@ -337,6 +338,14 @@ void Interpreter::spindle_synced_move(const Block& b, const BlockWords& w, Motio
     report(b, at, Severity::error, codes::kLatheCycleRejected,
            fmt::format("{} needs K (distance per revolution) on every {} block (rs274: \"K word missing with "
                        "g33/g33.1\")", g, g));
+    s_.known &= static_cast<AxisMask>(~named);
+    return;
+  }
+  if (w.has('F')) {  // rs274 convert_straight: the feed is K per revolution
+    report(b, b.words[static_cast<std::size_t>(w.letter_word['F' - 'A'])].span, Severity::error,
+           codes::kLatheCycleRejected,
+           fmt::format("F with {} (rs274: \"F word used with a g33/g33.1\"): the feed is K per revolution; "
+                       "give F in a block of its own", g));
     s_.known &= static_cast<AxisMask>(~named);
     return;
   }

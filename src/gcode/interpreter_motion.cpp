@@ -367,8 +367,11 @@ void Interpreter::do_motion(const Block& b, BlockWords& w, MotionSink& out_all) 
   fill_state(m);
   const Span motion_at = b.words[static_cast<std::size_t>(first_word)].span;
   if (s_.cutter_comp != 0 && (mode != GMeaning::rapid || d_.id == DialectId::linuxcnc)) cutter_comp_motion(b, motion_at);
+  // LinuxCNC G33/G33.1 run at K per revolution whatever the feed mode (rs274 asks no F of them).
+  const bool per_rev_k = d_.id == DialectId::linuxcnc && mode == GMeaning::threading &&
+                         (s_.motion_code10 == 330 || s_.motion_code10 == 331);
   if (mode != GMeaning::rapid && (d_.id == DialectId::linuxcnc || d_.id == DialectId::fanuc) && !w.has('F') &&
-      (s_.feed_undefined || s_.feed_mode == FeedMode::inverse_time)) {
+      !per_rev_k && (s_.feed_undefined || s_.feed_mode == FeedMode::inverse_time)) {
     report(b, motion_at, Severity::error, codes::kControllerRefuses,
            s_.feed_mode == FeedMode::inverse_time
                ? "a feed move in inverse time (G93) without F: LinuxCNC and Fanuc need F in every such block "
