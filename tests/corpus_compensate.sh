@@ -18,8 +18,10 @@ if [[ ! -d "$corpus" ]]; then
 fi
 corpus=$(realpath "$corpus")
 # Programs written back byte for byte, flat or resolved (issue 3: programs with parameters are
-# resolved, written back in place and flattened, or refused with a located reason).
-readonly min_accepted=17
+# resolved, written back in place and flattened, or refused with a located reason). 14 since three
+# LinuxCNC programs that write their own work offsets (G10 L2/L20) are refused: the machine file's
+# [work_offsets] is not where the controller puts them (taking the written value is still to do).
+readonly min_accepted=14
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 

@@ -61,9 +61,12 @@ def program(r):
         x = r.random()
         motions = [m for line in out for m in re.findall(r'\bG([0-3])(?![.0-9])', line)]
         modal_arc = bool(motions) and motions[-1] in '23'
-        if x < 0.06:
+        if x < 0.04:
             plane = r.choice(['G17', 'G18', 'G19'])
             out.append(plane)
+        elif x < 0.06:  # another work system: known when G10 L2 wrote it (P1-P3 below), else blank
+            out.append(r.choice(['G54', 'G55', 'G56', 'G57', 'G59.3']))
+            settle()
         elif x < 0.10:
             out.append(f'G92 X{f(r.uniform(-20, 20) * s)} Y{f(r.uniform(-20, 20) * s)}' +
                        (f' Z{f(r.uniform(-5, 5) * s)}' if r.random() < .5 else ''))

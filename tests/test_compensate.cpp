@@ -255,6 +255,39 @@ TEST(Compensate, ToolLengthRewrittenByG10IsRefused) {
   Comp r;
   compensate(m, "G90 G54\nG0 X0 Y0 Z100 B0 C0\nG10 L10 P1 R5.\nG43 H1 Z100.\nG1 X10. F100.\n", r);
   EXPECT_TRUE(refused_at(r, 4, "rewrote the length of tool H1"));
+  // The same G10 while G43 H1 is already in force: the length in force changes at the next G43 H
+  // (as the reader holds it), so the move after it keeps the machine file's length; the next G43 H1
+  // is refused.
+  mc::Machine with_h1 = m;
+  with_h1.tool_lengths[1] = 100.0;
+  with_h1.dialect_options.tool_lengths = with_h1.tool_lengths;
+  Comp after;
+  compensate(with_h1, "G90 G54\nG0 X0 Y0 Z100 B0 C0\nG43 H1 Z100.\nG1 X5. F100.\nG10 L10 P1 R5.\nG1 X10.\nG43 H1 Z90.\n",
+             after);
+  EXPECT_TRUE(refused_at(after, 7, "rewrote the length of tool H1"));
+}
+
+/// G10 L2 / L20 write a work offset at run time: the machine file's value for that system is no
+/// longer where the controller puts the program, so the moves under it are refused, naming the G10,
+/// absolute ones too (Fanuc B-64484EN "Changing workpiece coordinate system by programmed command
+/// (G10)"; LinuxCNC G-code reference "G10 L2", "G10 L20"). A write of another system does not touch
+/// the active one until the program selects it.
+TEST(Compensate, WorkOffsetWrittenByG10IsRefused) {
+  const mc::Machine m = load("trunnion_bc_fanuc.toml");
+  Comp fanuc;
+  compensate(m, "G90 G54\nG0 X0 Y0 Z100 B0 C0\nG10 L2 P1 X5.\nG0 X10. Y10. Z50.\nG1 X20. F100.\n", fanuc);
+  EXPECT_TRUE(refused_at(fanuc, 4, "wrote work offset G54"));
+  Comp other;
+  compensate(m, "G90 G54\nG0 X0 Y0 Z100 B0 C0\nG10 L2 P2 X5.\nG0 X10. Y10. Z50.\nG1 X20. F100.\n", other);
+  EXPECT_TRUE(other.committed) << (other.sink.stored().empty() ? std::string() : other.sink.stored().front().message);
+  mc::Machine l = m;
+  l.dialect_name = "linuxcnc";
+  Comp rot;
+  compensate(l, "G21 G90 G54\nG0 X0 Y0 Z100 B0 C0\nG10 L2 P0 R30\nG0 X10 Y10 Z50\nG1 X20 F100\nM2\n", rot);
+  EXPECT_TRUE(refused_at(rot, 4, "wrote work offset G54"));
+  Comp l20;
+  compensate(l, "G21 G90 G54\nG0 X0 Y0 Z100 B0 C0\nG10 L20 P1 Z90\nG0 X10 Y10 Z50\nM2\n", l20);
+  EXPECT_TRUE(refused_at(l20, 4, "wrote work offset G54"));
 }
 
 TEST(Compensate, FeedMoveWithUnknownAxisIsRefusedRapidIsKept) {

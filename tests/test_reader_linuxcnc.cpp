@@ -412,4 +412,22 @@ TEST(ReaderLinuxcnc, ByteOrderMarkIsSkipped) {
   EXPECT_EQ(f.motions.size(), 1u) << f.all_codes();
 }
 
+// G10 L2 of the active system with R, or with X or Y: the current point's X and Y both change in
+// program coordinates (rotation; rs274 after "G10 L2 P1 R30 … G10 L2 P1 R0" reports X3.8301
+// Y3.3660 for the point that was X5 Y1): both are unknown until programmed again; Z stays known.
+TEST(ReaderLinuxcnc, G10L2RotationLeavesXAndYUnknown) {
+  const Program r(dialect("linuxcnc"),
+                  "G21 G17 G90\nG10 L2 P1 R30\nG0 X1 Y1 Z10\nG10 L20 P1 X5\nG0 Z5\nG10 L2 P1 R0\nG0 Z4\n"
+                  "G10 L2 P1 X2\nG0 X0 Y0\nG10 L2 P1 Y3\nG0 Z3\nM2\n");
+  ASSERT_EQ(r.motions.size(), 5u) << r.all_codes();
+  const gc::AxisMask xy = gc::bit(gc::Axis::x) | gc::bit(gc::Axis::y);
+  EXPECT_EQ(r.motions[1].known & xy, xy);  // L20 X5 under the rotation: X5 Y1, as rs274
+  EXPECT_NEAR(r.motions[1].end[0], 5, 1e-9);
+  EXPECT_EQ(r.motions[2].line, 7u);
+  EXPECT_EQ(r.motions[2].known & xy, 0);
+  EXPECT_TRUE(r.motions[2].known & gc::bit(gc::Axis::z));
+  EXPECT_EQ(r.motions[3].known & xy, xy);
+  EXPECT_EQ(r.motions[4].known & xy, 0);
+}
+
 }  // namespace

@@ -70,9 +70,11 @@ class Compensator final : public gcode::BlockVisitor {
     std::uint16_t h = 0;
     AxisVector shift = AxisVector::Zero();
     gcode::AxisMask shift_unknown = 0;
+    bool work_rewritten = false, length_rewritten = false;  ///< a G10 wrote the offset / the length
     bool operator==(const MapKey& o) const {
       return form == o.form && frame == o.frame && code10 == o.code10 && p == o.p && length_active == o.length_active &&
-             h == o.h && shift == o.shift && shift_unknown == o.shift_unknown;
+             h == o.h && shift == o.shift && shift_unknown == o.shift_unknown && work_rewritten == o.work_rewritten &&
+             length_rewritten == o.length_rewritten;
     }
   };
 
@@ -331,7 +333,8 @@ class Compensator final : public gcode::BlockVisitor {
     const Form form = form_of(m);
     // The controller map depends on the modal context only: reuse it while that stays the same.
     const MapKey key{form, m.frame, m.work_offset.code10, m.work_offset.p, m.tool_length_active, m.tool_length_h,
-                     m.local_offset + m.position_offset, m.position_offset_unknown};
+                     m.local_offset + m.position_offset, m.position_offset_unknown, m.work_offset_rewritten,
+                     m.tool_length_rewritten};
     if (!map_ || !(key == map_key_)) {  // map_ is empty whenever !map_held_
       // The held corrected position is in the old context's coordinates unless only the tool
       // length changed (the program still names the same points).

@@ -55,6 +55,11 @@ void Interpreter::set_offsets(const Block& b, BlockWords& w) {
     else if (l == 20) active = !p_known || (wc == 541 && s_.work_offset.p == p);
     if (active) s_.known &= static_cast<AxisMask>(~w.axis_present);
     if (!l_known || (l >= 10 && l <= 13) || l == 1) tool_table_write(b, w, l_known ? l : 10, p_known ? p : -1);
+    // The table entry written: L2 P0 is the external offset (every system moves), P1-P6 G54-G59,
+    // L20 Pn G54.1 Pn; with L or P not known, any of them.
+    if (!l_known || ((l == 2 || l == 20) && !p_known) || (l == 2 && p == 0)) work_table_unknown_ = true;
+    else if (l == 2 && p >= 1 && p <= 6) work_written_.insert(static_cast<std::uint32_t>(530 + 10 * p) * 1000);
+    else if (l == 20) work_written_.insert(541u * 1000 + static_cast<std::uint32_t>(p));
     return;
   }
   if (l == 1 || l == 10 || l == 11) linuxcnc_tool_setup(b, w);
@@ -66,6 +71,13 @@ void Interpreter::set_offsets(const Block& b, BlockWords& w) {
   }
   const long index = wc == 541 ? -1 : wc <= 590 ? (wc - 530) / 10 : 6 + (wc - 590);
   const bool active = p == 0 || p == index;
+  if (l == 2 || l == 20) {
+    // The table entry written (P0 the active system, P1-P9 G54-G59.3; P not known: any of them).
+    // Where it lies on the machine is the program's value now, not the machine file's.
+    const long sys = p == 0 ? index : p;
+    if (!w.has('P') || w.unresolved('P') || sys < 1 || sys > 9) work_table_unknown_ = true;
+    else work_written_.insert(static_cast<std::uint32_t>(sys <= 6 ? 530 + 10 * sys : 590 + (sys - 6)) * 1000);
+  }
   if ((l == 2 || l == 20) && active) {
     for (int a = 0; a < kAxisCount; ++a) {
       if (!(w.axis_present & (1u << a))) continue;
@@ -77,6 +89,10 @@ void Interpreter::set_offsets(const Block& b, BlockWords& w) {
         s_.known &= static_cast<AxisMask>(~(1u << a));
       }
     }
+    // G10 L2 of the active system with R (a new rotation), or with X or Y under a rotation this run
+    // does not know (the var file's): the current point's X and Y both change (checked with rs274).
+    const AxisMask xy = bit(Axis::x) | bit(Axis::y);
+    if (l == 2 && (w.has('R') || (w.axis_present & xy))) s_.known &= static_cast<AxisMask>(~xy);
   }
 }
 

@@ -43,6 +43,7 @@ Form form_of(const machine::Machine& m, const gcode::Motion& mo) {
 std::optional<gcode::AxisVector> program_offset(const machine::Machine& m, const gcode::Motion& mo) {
   if (mo.frame != gcode::Frame::work) return gcode::AxisVector::Zero();
   if (mo.position_offset_unknown != 0) return std::nullopt;  // the G92 shift is not known
+  if (mo.work_offset_rewritten) return std::nullopt;          // the program wrote the offset (G10)
   const auto it = m.work_offsets.find(machine::work_offset_name(mo.work_offset));
   if (it == m.work_offsets.end()) return std::nullopt;
   return gcode::AxisVector(it->second + mo.local_offset + mo.position_offset);
@@ -60,6 +61,12 @@ std::string program_offset_refusal(const machine::Machine& m, const gcode::Motio
                        axes, axes);
   }
   const std::string name = machine::work_offset_name(mo.work_offset);
+  if (mo.frame == gcode::Frame::work && mo.work_offset_rewritten)
+    return fmt::format("the program wrote work offset {} (G10 L2/L20) before this move: the machine file's {} is not "
+                       "where the controller puts it now (and a G10 offset written from the current position, or with a "
+                       "rotation, is not known here); give the offset in the machine file's [work_offsets] and take "
+                       "the G10 out of the program",
+                       name, name);
   return fmt::format("work offset {} is not in machine file {}; add [work_offsets] {} = {{ X = …, Y = …, Z = … }} with "
                      "the controller's values",
                      name, m.file, name);

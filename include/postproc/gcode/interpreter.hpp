@@ -5,6 +5,7 @@
 
 #include <memory>
 #include <map>
+#include <set>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -296,6 +297,11 @@ class Interpreter {
   /// an entry whose number is not known, so no entry is.
   std::map<std::uint32_t, std::optional<double>> lengths_written_, radii_written_;
   bool tool_table_unknown_ = false;
+  /// Work systems whose table entry the program wrote (G10 L2/L20): code10 * 1000 + P (G54.1 Pn);
+  /// `work_table_unknown_`: an entry whose system is not known (or Fanuc's external offset) was written.
+  std::set<std::uint32_t> work_written_;
+  bool work_table_unknown_ = false;
+  void work_table_write(long p_index);
   bool corner_angle_ = false;  ///< this block's refused corner word is a direct-drawing angle  ///< Fanuc: line of a ,C/,R whose next motion is moved by it
   bool corner_refused(const Block& b, const BlockWords& w, GMeaning mode);
   bool mcall_active_ = false;  ///< Siemens modal cycle call

@@ -106,6 +106,9 @@ struct Motion {
   /// The program rewrote the length of tool_length_h (G10 L1/L10/L11…) to a value not known here:
   /// the machine file's length for that number is not the controller's.
   bool tool_length_rewritten = false;
+  /// The program wrote the table entry of work_offset (G10 L2/L20, or an entry it could not name):
+  /// the machine file's offset for that system is not the controller's.
+  bool work_offset_rewritten = false;
   TcpMode tcp = TcpMode::off;
   bool tilted_plane = false;     ///< G68.2 / CYCLE800 / PLANE active
   /// Tool-axis direction programmed as a vector in this block (Siemens A3/B3/C3 under TRAORI,
