@@ -37,7 +37,8 @@ void Interpreter::fill_state(Motion& m) const {
   m.tool_length_rewritten = s_.tool_length_active && !s_.tool_length_known &&
                             (tool_table_unknown_ || lengths_written_.count(s_.tool_length_h) > 0);
   m.work_offset_rewritten =
-      work_table_unknown_ || work_written_.count(std::uint32_t{s_.work_offset.code10} * 1000 + s_.work_offset.p) > 0;
+      work_table_unknown_ ||
+      (!work_written_.empty() && work_written_.count(std::uint32_t{s_.work_offset.code10} * 1000 + s_.work_offset.p) > 0);
   m.tcp = s_.tcp;
   m.tilted_plane = s_.tilted_plane;
   m.orientation_machine_frame = s_.ori_mks;

@@ -57,9 +57,9 @@ void Interpreter::set_offsets(const Block& b, BlockWords& w) {
     if (!l_known || (l >= 10 && l <= 13) || l == 1) tool_table_write(b, w, l_known ? l : 10, p_known ? p : -1);
     // The table entry written: L2 P0 is the external offset (every system moves), P1-P6 G54-G59,
     // L20 Pn G54.1 Pn; with L or P not known, any of them.
-    if (!l_known || ((l == 2 || l == 20) && !p_known) || (l == 2 && p == 0)) work_table_unknown_ = true;
-    else if (l == 2 && p >= 1 && p <= 6) work_written_.insert(static_cast<std::uint32_t>(530 + 10 * p) * 1000);
-    else if (l == 20) work_written_.insert(541u * 1000 + static_cast<std::uint32_t>(p));
+    if (!l_known || ((l == 2 || l == 20) && !p_known) || (l == 2 && p == 0)) work_table_write(-1);
+    else if (l == 2 && p >= 1 && p <= 6) work_table_write((530 + 10 * p) * 1000);
+    else if (l == 20) work_table_write(541 * 1000 + p);
     return;
   }
   if (l == 1 || l == 10 || l == 11) linuxcnc_tool_setup(b, w);
@@ -75,8 +75,8 @@ void Interpreter::set_offsets(const Block& b, BlockWords& w) {
     // The table entry written (P0 the active system, P1-P9 G54-G59.3; P not known: any of them).
     // Where it lies on the machine is the program's value now, not the machine file's.
     const long sys = p == 0 ? index : p;
-    if (!w.has('P') || w.unresolved('P') || sys < 1 || sys > 9) work_table_unknown_ = true;
-    else work_written_.insert(static_cast<std::uint32_t>(sys <= 6 ? 530 + 10 * sys : 590 + (sys - 6)) * 1000);
+    const bool named = w.has('P') && !w.unresolved('P') && sys >= 1 && sys <= 9;
+    work_table_write(named ? (sys <= 6 ? 530 + 10 * sys : 590 + (sys - 6)) * 1000 : -1);
   }
   if ((l == 2 || l == 20) && active) {
     for (int a = 0; a < kAxisCount; ++a) {
@@ -94,6 +94,12 @@ void Interpreter::set_offsets(const Block& b, BlockWords& w) {
     const AxisMask xy = bit(Axis::x) | bit(Axis::y);
     if (l == 2 && (w.has('R') || (w.axis_present & xy))) s_.known &= static_cast<AxisMask>(~xy);
   }
+}
+
+void Interpreter::work_table_write(long p_index) {
+  // p_index: the entry written, as work_written_ keys it (code10 * 1000 + P); -1: not known which.
+  if (p_index < 0) work_table_unknown_ = true;
+  else work_written_.insert(static_cast<std::uint32_t>(p_index));
 }
 
 void Interpreter::shift_origin(BlockWords& w, GMeaning meaning) {
