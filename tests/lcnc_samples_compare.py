@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """LinuxCNC's own sample programs through LinuxCNC's interpreter (`rs274 -g`) and `postproc dump`.
 
-Usage: lcnc_samples_compare.py POSTPROC [--tool-table TOOLS.tbl] FILE.ngc...
+Usage: lcnc_samples_compare.py POSTPROC [--min-agree N] [--tool-table TOOLS.tbl] FILE.ngc...
 
 With --tool-table, rs274 reads TOOLS.tbl (-t, in inches as rs274 reads its table) and postproc the
 same table in mm (--tool-table): the programs under cutter radius compensation are compared for real.
@@ -9,13 +9,15 @@ Every rs274 run gets a HOME of its own (rs274 shares its tool table through ~/.t
 rs274 running at the same time).
 
 Per program LinuxCNC runs without an error: postproc must either agree move for move (straight
-moves and arcs: end points of X Y Z within 2 µm and A B C within 0.002°, after converting rs274's inch output to mm; G53 rows and
-axes postproc reports as unknown are not compared; a program with G53 moves is not compared) or say that it did not resolve something (exit
-code 1 or 2 with a located PP-U/PP-E code). A program read differently without a word fails the
-test. rs274 also prints a zero-length move for a block holding only G0 or G1 (no axis words),
-where postproc has no motion: straight moves that end where the previous move ended are dropped
-from both lists before comparing. Drilling rows (one per hole) of G81/G82 in the G17 plane are
-expanded into the moves rs274 prints for them (expand_drilling); other cycles are not compared.
+moves and arcs: end points of X Y Z within 2 µm and A B C within 0.002°, after converting rs274's
+inch output to mm; axes postproc reports as unknown are not compared) or say that it did not
+resolve something (exit code 1 or 2 with a located PP-U/PP-E code). A program read differently
+without a word fails the test. The two lists are paired by agree(): zero-length straight moves may
+be left out on either side (rs274 prints one for a block holding only G0 or G1, where postproc has
+no motion); a G53 row (machine coordinates in postproc, program coordinates in rs274) stands for
+one move of rs274 or none. Drilling rows (one per hole) of G81/G82 in the G17 plane are expanded
+into the moves rs274 prints for them (expand_drilling); for G73/G83/G85/G89 the moves at the hole
+are checked to reach the bottom and end at the return level; other cycles are not compared.
 Prints the counts and every disagreement; exit 1 when a program disagrees silently.
 """
 import csv, io, os, re, subprocess, sys, tempfile
@@ -41,19 +43,65 @@ def rs274(path, table=None):
         elif name == "ARC_FEED":
             e = (v[0], v[1], v[5]) if plane == "XY" else (v[1], v[5], v[0]) if plane == "XZ" else (v[5], v[0], v[1])
             moves.append(("A", [x * units for x in e] + v[6:9]))
-    return without_zero_length(moves, [0.0] * 6)
+    return moves
 
-def without_zero_length(moves, start):
-    """Drops straight moves that end where the previous one ended (None = not known: not compared)."""
+def zero_length(moves, start):
+    """Per move: True for a straight move that ends where the previous one ended, on every axis the
+    move knows (None = not known to postproc: a move from an unknown value is not zero-length)."""
     out, last = [], list(start)
     for t, p in moves:
-        if t == "L" and any(a is not None for a in p) and all(
-                a is None or b is None or abs(a - b) < 1e-6 for a, b in zip(p, last)):
-            last = [b if a is None else a for a, b in zip(p, last)]
-            continue
-        out.append((t, p))
-        last = [b if a is None else a for a, b in zip(p, last)]
+        out.append(t == "L" and any(a is not None for a in p) and all(
+            a is None or (b is not None and abs(a - b) < 1e-6) for a, b in zip(p, last)))
+        if t in ("L", "A", "G53"):
+            last = list(p)
+        elif t == "HOLE":
+            last = [p[0], p[1], p[2], None, None, None]
     return out
+
+def agree(ref, got):
+    """Move for move: the same kind, every axis postproc knows within 2 µm (0.002°). Zero-length
+    straight moves may be left out on either side (rs274 prints one for a block holding only G0 or
+    G1, where postproc has no motion). A "G53" row of postproc (machine coordinates; rs274 prints
+    program coordinates) stands for one move of rs274 or none; a "HOLE" (G73/G83 pecks, G85/G89)
+    for rs274's moves at its X Y, the deepest at the bottom, the last at the level the cycle returns
+    to. A search over the ways to pair the two lists (depth first, pairing tried first)."""
+    def same(a, b):
+        return a[0] == b[0] and all(y is None or abs(x - y) <= 2e-3 for x, y in zip(a[1], b[1]))
+    n, m = len(ref), len(got)
+    ref_zero, got_zero = zero_length(ref, [0.0] * 6), zero_length(got, [0.0] * 6)
+    stack, seen = [(0, 0)], set()
+    while stack:
+        i, j = stack.pop()
+        if (i, j) in seen:
+            continue
+        seen.add((i, j))
+        if i == n and j == m:
+            return True
+        if j < m and got_zero[j]:
+            stack.append((i, j + 1))
+        if i < n and ref_zero[i]:
+            stack.append((i + 1, j))
+        if j >= m:
+            continue
+        kind, p = got[j]
+        if kind == "G53":
+            stack.append((i, j + 1))
+            if i < n:
+                stack.append((i + 1, j + 1))
+        elif kind == "HOLE":
+            x, y, z, bottom = p
+            k = i
+            while k < n and ref[k][0] == "L" and abs(ref[k][1][0] - x) <= 2e-3 and abs(ref[k][1][1] - y) <= 2e-3:
+                k += 1
+            # the hole may end before the last of these (a G53 move after it stays at X Y)
+            low = float("inf")
+            for e in range(i, k):
+                low = min(low, ref[e][1][2])
+                if e > i and abs(low - bottom) <= 2e-3 and abs(ref[e][1][2] - z) <= 2e-3:
+                    stack.append((e + 1, j + 1))
+        elif i < n and same(ref[i], got[j]):
+            stack.append((i + 1, j + 1))
+    return False
 
 def expand_drilling(rows):
     """postproc's rows with G81/G82 holes (one row each) replaced by the moves rs274's
@@ -79,7 +127,7 @@ def expand_drilling(rows):
             if offsets(r)[0] != frame[0]: return None
             for k, a in enumerate("xyz"): last[a] += frame[1][k] - offsets(r)[1][k]
         frame = offsets(r)
-        if r.get("cycle") not in ("G81", "G82") or r.get("plane") != "xy" or r.get("frame") == "machine" or \
+        if r.get("cycle") not in ("G81", "G82", "G73", "G83", "G85", "G89") or r.get("plane") != "xy" or r.get("frame") == "machine" or \
                 any(r.get(k) in (None, "") for k in ("x", "y", "z", "cycle_r", "cycle_bottom")):
             return None
         x, y, z = float(r["x"]), float(r["y"]), float(r["z"])
@@ -97,12 +145,33 @@ def expand_drilling(rows):
             old = prev[1]
         moves.append((x, y, old))
         if old != rr: moves.append((x, y, rr))
-        moves += [(x, y, bottom), (x, y, z)]
+        pecks = r["cycle"] not in ("G81", "G82")
+        if not pecks:
+            moves += [(x, y, bottom), (x, y, z)]
         for mx, my, mz in moves:
             out.append({**r, "motion": "linear", "x": repr(mx), "y": repr(my), "z": repr(mz)})
+        if pecks:  # the moves at the hole are checked by agree(): down to the bottom, ending at z
+            out.append({**r, "motion": "hole", "x": repr(x), "y": repr(y), "z": repr(z), "bottom": bottom})
         last = {"x": x, "y": y, "z": z}
         prev = (r["line"], z)
     return out
+
+def moves_of(rows):
+    """postproc's dump rows as the moves agree() pairs with rs274's: ("L" | "A" | "G53" | "HOLE",
+    values); None where a row cannot be compared (a cycle expand_drilling does not expand)."""
+    expanded = expand_drilling(rows)
+    if expanded is None:
+        return None
+    got = []
+    for r in expanded:
+        if r["motion"] == "hole":
+            got.append(("HOLE", [float(r["x"]), float(r["y"]), float(r["z"]), r["bottom"]]))
+            continue
+        if r["motion"] not in ("rapid", "linear", "cw", "ccw"):
+            return None
+        p = [float(r[a]) if r.get(a) not in (None, "") and r.get("frame") != "machine" else None for a in "xyzabc"]
+        got.append(("G53" if r.get("frame") == "machine" else "A" if r["motion"] in ("cw", "ccw") else "L", p))
+    return got
 
 def dump(postproc, path, table=None):
     out = subprocess.run([postproc, "dump", os.path.basename(path), "--dialect", "linuxcnc", "--format", "csv"] +
@@ -114,37 +183,30 @@ def dump(postproc, path, table=None):
 def main():
     postproc, files = os.path.realpath(sys.argv[1]), sys.argv[2:]
     table = mm_table = None
+    min_agree = 0
+    if files[:1] == ["--min-agree"]:
+        min_agree, files = int(files[1]), files[2:]
     if files[:1] == ["--tool-table"]:
         table, files = os.path.abspath(files[1]), files[2:]
         tmp = tempfile.mkdtemp()
         mm_table = os.path.join(tmp, "tools_mm.tbl")
         mm_tool_table(table, mm_table)
     counts = {"agree": 0, "refused or unresolved (located)": 0, "LinuxCNC error": 0, "silent disagreement": 0}
-    silent = []
+    silent, located_list, not_compared = [], [], []
     for f in sorted(files):
         ref = rs274(f, table)
         if ref is None:
             counts["LinuxCNC error"] += 1; continue
         rows, rc, err = dump(postproc, f, mm_table)
         located = rc in (1, 2) and re.search(r":\d+:\d+: (warning|error): PP-[UE]\d+", err)
-        if not located and any(r.get("frame") == "machine" for r in rows):
-            # G53 rows are machine coordinates in postproc, program coordinates in rs274's output.
-            counts["not compared (G53)"] = counts.get("not compared (G53)", 0) + 1
-            continue
-        expanded = expand_drilling(rows)
-        got = [] if expanded is not None else None  # other cycles: rs274 prints each move
-        for r in expanded or []:
-            if r["motion"] not in ("rapid", "linear", "cw", "ccw"):
-                got = None; break
-            p = [float(r[a]) if r.get(a) not in (None, "") and r.get("frame") != "machine" else None for a in "xyzabc"]
-            got.append(("A" if r["motion"] in ("cw", "ccw") else "L", p))
-        if got is not None: got = without_zero_length(got, [0.0] * 6)
-        same = got is not None and len(got) == len(ref) and all(
-            ta == tb and all(y is None or abs(x - y) <= 2e-3 for x, y in zip(a, b)) for (ta, a), (tb, b) in zip(ref, got))
+        got = moves_of(rows)
+        same = got is not None and agree(ref, got)
         if same and rc == 0:
             counts["agree"] += 1
         elif located:
             counts["refused or unresolved (located)"] += 1
+            first = re.search(r"\S+:\d+:\d+: (warning|error): PP-[UE]\d+[^\n]*", err)
+            located_list.append(f"{os.path.basename(f)} (moves {'agree' if same else 'differ'}): {first.group(0)[:160]}")
         elif got is None and rc == 0:
             counts["not compared (drilling rows)"] = counts.get("not compared (drilling rows)", 0) + 1
         elif same:
@@ -153,7 +215,12 @@ def main():
             counts["silent disagreement"] += 1
             silent.append(f"{f}: rs274 {len(ref)} moves, postproc {len(got) if got else 0} (exit {rc})")
     print(", ".join(f"{k}: {v}" for k, v in counts.items()))
+    for s in located_list: print("located:", s)
+    for s in not_compared: print("not compared (G53):", s)
     for s in silent: print("SILENT:", s)
+    if counts["agree"] < min_agree:
+        print(f"FAIL: {counts['agree']} programs agree, fewer than the {min_agree} this version reached")
+        return 1
     return 1 if silent else 0
 
 if __name__ == "__main__":

@@ -141,20 +141,12 @@ def judge(postproc, path):
     if ref is None:
         # Refused, or a located warning that a position was not known (the error lay beyond it).
         return ('refused', '') if located else ('WRONG', f'rs274 stops with an error, postproc exit {rc}')
-    expanded = L.expand_drilling(rows)
-    if expanded is None:
-        return 'WRONG', 'a cycle row the comparison cannot expand'
-    got = []
-    for row in expanded:
-        if row['motion'] not in ('rapid', 'linear', 'cw', 'ccw'):
-            return 'WRONG', f"unexpected row {row['motion']}"
-        p = [float(row[a]) if row.get(a) not in (None, '') and row.get('frame') != 'machine' else None for a in 'xyzabc']
-        got.append(('A' if row['motion'] in ('cw', 'ccw') else 'L', p))
-    if any(c is None for _, p in got for c in p[:3]):
+    got = L.moves_of(rows)
+    if got is None:
+        return 'WRONG', 'a row the comparison cannot pair (a cycle it does not expand)'
+    if any(c is None for kind, p in got if kind in ('L', 'A') for c in p[:3]):
         return 'unknown', ''
-    got = L.without_zero_length(got, [0.0] * 6)
-    same = len(got) == len(ref) and all(
-        ta == tb and all(y is None or abs(x - y) <= 2e-3 for x, y in zip(a, b)) for (ta, a), (tb, b) in zip(ref, got))
+    same = L.agree(ref, got)
     if same:
         return 'agree', ''
     if located:

@@ -144,13 +144,22 @@ TEST(LatheCyclesLinuxcnc, CycleUnderG91IsNotFollowed) {
   EXPECT_EQ(r.sink.count(gc::Severity::error), 0u);
 }
 
-TEST(LatheCyclesLinuxcnc, G71PocketOnlyVariantIsRefusedAtItsWord) {
+TEST(LatheCyclesLinuxcnc, G71PocketOnlyVariantSkipsTheFirstRoughingPass) {
+  // LinuxCNC docs, G71-G72: G71.2 cuts only what G71.1 left (the pockets). kProfile has none: after
+  // the rapids to the cycle's start and to the offset profile's start, G71.2 only follows the
+  // profile offset by D and rises to the start's level (rs274 2.9, radii: X5.2 Z0, Z-9.9528,
+  // X10.1789 Z-19.9106, X15.1789 Z-29.9106, X20; Motion::end holds the radius).
   LatheRun r(std::string(kProfile) + "G0 X40 Z5\nG71.2 Q100 D0.2\nM2\n");
-  const gc::Diagnostic* d = r.find("PP-U250");
-  ASSERT_NE(d, nullptr);
-  EXPECT_EQ(d->where.line, 11u);
-  EXPECT_EQ(d->where.column, 1u);
-  EXPECT_TRUE(r.of_line(11).empty());
+  EXPECT_EQ(r.sink.count(gc::Severity::warning), 0u);
+  const auto ms = r.of_line(11);
+  ASSERT_EQ(ms.size(), 7u);
+  const double want[7][2] = {{20, 5}, {20, 5}, {5.2, 0}, {5.2, -9.9528}, {10.1789, -19.9106}, {15.1789, -29.9106},
+                             {20, -29.9106}};
+  for (std::size_t i = 0; i < ms.size(); ++i) {
+    EXPECT_EQ(ms[i]->type, i < 3 ? gc::MotionType::rapid : gc::MotionType::linear) << i;
+    EXPECT_NEAR(ms[i]->end[0], want[i][0], 1e-4) << i;
+    EXPECT_NEAR(ms[i]->end[2], want[i][1], 1e-4) << i;
+  }
 }
 
 TEST(LatheCyclesLinuxcnc, RefusedWhereRs274RefusesIt) {
@@ -227,19 +236,45 @@ TEST(LatheCyclesLinuxcnc, ProfilePositionParameters) {
   expect_diag_at(unknown, "PP-E701", 5, 5);
 }
 
-TEST(LatheCyclesLinuxcnc, ProfileFormsNotReproducedAreRefusedAtTheCycle) {
+TEST(LatheCyclesLinuxcnc, CornerFinishesOfTheProfile) {
   // LinuxCNC docs, G71-G72: "Each motion command may also include an optional A- or C- number"
-  // (corner fillet / chamfer) — not reproduced; an R arc under G90.1 neither.
+  // rounding (fillet of radius A) or chamfering the corner at the block's end. The fillet of radius
+  // 1 between Z-10 (X5, radius mode) and the line to X10 Z-12 touches the first line at Z-9.3230
+  // and turns clockwise about X6 Z-9.3230 (rs274 2.9: ARC_FEED(-10.2514, 5.6286, -9.3230, 6, -1)).
   {
     LatheRun r("G18 G21 G90 G8\nG0 X20 Z5\nF100\nO100 sub\nG1 X5 Z0\nG1 Z-10 A1\nG1 X10 Z-12\nO100 endsub\n"
                "G70 Q100\nM2\n");
-    // at the profile's line, then at the cycle
-    std::vector<std::uint64_t> lines;
-    for (const auto& d : r.sink.stored())
-      if (d.code == "PP-U250") lines.push_back(d.where.line);
-    EXPECT_EQ(lines, (std::vector<std::uint64_t>{6, 9}));
+    EXPECT_EQ(r.sink.count(gc::Severity::warning), 0u);
+    const auto ms = r.of_line(9);
+    ASSERT_EQ(ms.size(), 6u);
+    EXPECT_NEAR(ms[3]->end[2], -9.3230, 1e-4);
+    EXPECT_EQ(ms[4]->type, gc::MotionType::arc_cw);
+    EXPECT_NEAR(ms[4]->end[2], -10.2514, 1e-4);
+    EXPECT_NEAR(ms[4]->end[0], 5.6286, 1e-4);
+    EXPECT_NEAR(ms[4]->arc.centre[0], 6, 1e-9);
+    EXPECT_NEAR(ms[4]->arc.radius, 1, 1e-9);
+    EXPECT_NEAR(ms[5]->end[0], 10, 1e-9);
+  }
+  {
+    // C: a straight between the two points where that fillet would touch.
+    LatheRun r("G18 G21 G90 G8\nG0 X20 Z5\nF100\nO100 sub\nG1 X5 Z0\nG1 Z-10 C1\nG1 X10 Z-12\nO100 endsub\n"
+               "G70 Q100\nM2\n");
+    const auto ms = r.of_line(9);
+    ASSERT_EQ(ms.size(), 6u);
+    EXPECT_EQ(ms[4]->type, gc::MotionType::linear);
+    EXPECT_NEAR(ms[4]->end[2], -10.2514, 1e-4);
+  }
+  {
+    // rs274: "Both A and C parameters on a corner".
+    LatheRun r("G18 G21 G90 G8\nG0 X20 Z5\nF100\nO100 sub\nG1 X5 Z0\nG1 Z-10 A1 C1\nG1 X10 Z-12\nO100 endsub\n"
+               "G70 Q100\nM2\n");
+    expect_diag_at(r, "PP-E250", 9, 1);
     EXPECT_TRUE(r.of_line(9).empty());
   }
+}
+
+TEST(LatheCyclesLinuxcnc, ProfileFormsNotReproducedAreRefusedAtTheCycle) {
+  // An R arc under G90.1 is not reproduced.
   {
     LatheRun r("G18 G21 G90 G8 G90.1\nG0 X20 Z5\nF100\nO100 sub\nG1 X5 Z0\nG3 X10 Z-5 R5\nO100 endsub\n"
                "G70 Q100\nM2\n");

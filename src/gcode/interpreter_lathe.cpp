@@ -27,6 +27,8 @@ struct ProfileStep {
   double x = 0, z = 0, u = 0, w = 0;
   bool has_i = false, has_k = false, has_r = false;
   double i = 0, k = 0, r = 0;
+  bool has_a = false, has_c = false;  ///< corner at the block's end: fillet radius A, chamfer C
+  double a = 0, c = 0;
 };
 
 struct Interpreter::LatheProfile {
@@ -122,10 +124,16 @@ bool Interpreter::lathe_profile_line(const Block& b) {
   take(2, st.has_z, st.z);
   take(6, st.has_u, st.u);
   take(8, st.has_w, st.w);
-  const AxisMask others = static_cast<AxisMask>(w.axis_present & ~(bit(Axis::x) | bit(Axis::z) | bit(Axis::u) | bit(Axis::w)));
+  // A and C on a profile block round or chamfer the corner at its end (rs274 2.9 reads them as
+  // numbers there, not as axes; LinuxCNC docs, G71-G72).
+  take(3, st.has_a, st.a);
+  take(5, st.has_c, st.c);
+  const AxisMask others = static_cast<AxisMask>(
+      w.axis_present & ~(bit(Axis::x) | bit(Axis::z) | bit(Axis::u) | bit(Axis::w) | bit(Axis::a) | bit(Axis::c)));
   if ((w.axis_unresolved | w.letter_unresolved) != 0 || others != 0) {
     report(b, Span{0, static_cast<std::uint32_t>(b.raw.size())}, Severity::warning, codes::kLatheCycleUnresolved,
-           others != 0 ? "axis other than X Z U W in the profile of a lathe cycle; the cycle is not followed"
+           others != 0 ? "axis other than X Z U W (or A, C: corner finishes) in the profile of a lathe cycle; the "
+                         "cycle is not followed"
                        : "value not known in the profile of a lathe cycle; the cycle is not followed");
     p.usable = false;
   }
@@ -187,15 +195,6 @@ void Interpreter::lathe_cycle(const Block& b, const BlockWords& w, MotionSink& o
       refuse(codes::kLatheCycleUnresolved, fmt::format("{}: value of {} not known; not followed", name, L));
       return;
     }
-  if (code10 % 10 == 2) {
-    // Compared with rs274 (LinuxCNC 2.9), the pocket-only pass does not follow the documented
-    // algorithm closely enough to be reproduced move for move: refused rather than guessed.
-    refuse(codes::kLatheCycleUnresolved,
-           fmt::format("{} (cut the pockets left by G7x.1) is not expanded by this version; run it on the "
-                       "controller's preview or replace it by {} (whole profile)",
-                       name, code10 / 10 == 71 ? "G71" : "G72"));
-    return;
-  }
   const double scale = s_.inch ? 25.4 : 1.0;
   const double xdiv = s_.diameter_mode ? 2.0 : 1.0;
   turning::CycleWords cw;
@@ -277,6 +276,15 @@ void Interpreter::lathe_cycle(const Block& b, const BlockWords& w, MotionSink& o
     }
     profile.push_back(s);
     prev = p;
+    if (st.has_a && st.has_c) {
+      refuse(codes::kLatheCycleRejected,
+             fmt::format("{}: profile o{} line {}: both A (rounding) and C (chamfer) on one corner (rs274: \"Both A "
+                         "and C parameters on a corner\")",
+                         name, q, st.line));
+      return;
+    }
+    if ((st.has_a && st.a != 0) || (st.has_c && st.c != 0))
+      profile.push_back(turning::Segment{st.has_a, false, p, p, p, st.has_a ? st.a : st.c});
   }
   std::vector<turning::Move> moves;
   const std::string failure = turning::expand_linuxcnc(cw, profile, moves);

@@ -32,6 +32,7 @@ double size_of(const Segment& s) {
 /// Runs towards -Z and never turns back (arcs: stay on the side of their centre they start on).
 bool monotonic(const Segment& s) {
   if (!s.arc) return (s.b - s.a).real() <= 1e-3;
+  if (s.corner != 0) return true;  // a fillet not yet made
   const double entry = (s.a - s.c).imag(), exit = (s.b - s.c).imag(), dz = (s.b - s.a).real();
   if (s.ccw) return entry >= -1e-3 && exit >= -1e-3 && dz <= -1e-3;
   return entry <= 1e-3 && exit <= 1e-3 && dz <= -1e-3;
@@ -248,13 +249,16 @@ class Rougher {
     segs_.assign(prof.segs.begin(), prof.segs.end());
   }
 
+  /// Cuts from `loc` along element `p` on. Variant 0: layers and every pocket; 1 (G7x.1): one
+  /// pass of layers, then along the profile; 2 (G7x.2): no first pass, then as 3; 3: the pockets
+  /// only, each cut in layers from the level where the pocket before it began (`starts_`).
   void pocket(int variant, Point& loc, std::size_t p) {
-    const double initial_x = segs_.front().a.imag();
-    double x = initial_x;
+    if (starts_.empty()) starts_.push_back(loc);
+    double x = starts_.back().imag();
     if (variant == 2) {
       for (; p < segs_.size(); ++p)
         if (dive(p, loc, -1e9, p == 0)) break;
-      variant = 0;
+      variant = 3;
     }
     while (p < segs_.size()) {
       if (++guard_ > 10000000) throw Failure{"roughing does not end"};
@@ -265,7 +269,11 @@ class Rougher {
         } else {
           for (; p < segs_.size(); ++p)
             if (climb(p, loc)) {
-              pocket(0, loc, p);
+              if (variant == 3) {
+                if (loc.imag() > starts_.back().imag() && starts_.size() > 1) starts_.pop_back();
+                if (starts_.size() == 1) starts_.push_back(loc);
+              }
+              pocket(variant, loc, p);
               return;
             }
         }
@@ -426,7 +434,50 @@ class Rougher {
   double delta_;
   Point escape_;
   long guard_ = 0;
+  std::vector<Point> starts_;  ///< where the pockets being cut began (the first: the cycle's start)
 };
+
+/// The corner finishes of the profile (LinuxCNC docs, G71-G72: "A" rounds, "C" chamfers the
+/// corner at the end of the block): the neighbours of a placeholder are offset by its size towards
+/// the side where they overlap (tried on one side, then the other: on the wrong side a gap opens
+/// along Z), the offset elements are joined, and their meeting point taken back onto each
+/// neighbour gives the two points where the finish touches them: a fillet is the arc of that size
+/// about the meeting point, a chamfer the straight between the two points. Done in the normalised
+/// frame, before the monotonic check (rs274 2.9 order). Then every element shorter than 0.001
+/// (program units; arcs: chord or radius) is dropped, corners or not, as rs274 drops them.
+void finish_corners(Profile& prof) {
+  auto& segs = prof.segs;
+  for (auto h = std::next(segs.begin()); segs.size() >= 3 && h != std::prev(segs.end()); ++h) {
+    if (h->corner == 0) continue;
+    Segment& prev = *std::prev(h);
+    Segment& next = *std::next(h);
+    double size = h->corner;
+    Segment p = prev, n = next;
+    shift_normal(p, size);
+    shift_normal(n, size);
+    if ((p.b - n.a).real() > 1e-2) {
+      size = -size;
+      p = prev;
+      n = next;
+      shift_normal(p, size);
+      shift_normal(n, size);
+    }
+    if ((p.b - n.a).real() > 1e-2) throw Failure{"Corner finish failed"};
+    join(p, n);
+    const Point centre = (p.b + n.a) / 2.0;
+    shift_normal(p, -size);
+    shift_normal(n, -size);
+    h->a = prev.b = p.b;
+    h->b = next.a = n.a;
+    if (h->arc) {
+      h->c = centre;
+      h->ccw = (h->a - centre).imag() > 0 || (h->b - centre).imag() > 0;
+    }
+    h->corner = 0;
+  }
+  std::erase_if(segs, [](const Segment& s) { return s.corner != 0 || size_of(s) < 1e-3; });
+  if (segs.empty()) throw Failure{"the profile has no move longer than 0.001"};
+}
 
 /// An approach that would run towards +Z (in the normalised frame) starts level with its end
 /// instead; then every element must be monotonic ("Not monotonic" from rs274 otherwise).
@@ -459,6 +510,7 @@ void finish(const CycleWords& w, Profile& prof, std::vector<Move>& out) {
   straighten_entry(body);
   if (turned) prof.turn();
   prof.normalise();
+  finish_corners(prof);
   straighten_entry(prof);
   const int passes = static_cast<int>(w.passes);
   for (int pass = passes; pass > 0; --pass) {
@@ -474,6 +526,7 @@ void finish(const CycleWords& w, Profile& prof, std::vector<Move>& out) {
 void rough(const CycleWords& w, Profile& prof, std::vector<Move>& out) {
   if (w.cycle == 72) prof.turn();
   prof.normalise();
+  finish_corners(prof);
   straighten_entry(prof);
   // Not normalised again after the offset (rs274 2.9): an offset approach whose end passes the
   // profile's end in X keeps the frame it was cut in.

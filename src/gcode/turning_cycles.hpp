@@ -20,6 +20,10 @@ struct Segment {
   bool ccw = false;   ///< arcs: G3
   Point a, b;         ///< start, end
   Point c;            ///< arcs: centre
+  /// LinuxCNC profile corner (A or C word on a profile block): a zero-length placeholder at the
+  /// corner, made into a fillet (`arc`) or a chamfer (straight) of this size before the cycle is
+  /// cut; 0 for every other element.
+  double corner = 0;
 };
 
 /// One move of the expanded cycle.
