@@ -178,6 +178,37 @@ TEST(ResolveLinuxcnc, OWordAfterOtherWordsIsRefusedLocated) {
   EXPECT_EQ(codes(r.sink), "PP-E708@3:6 ");
 }
 
+// rs274 (LinuxCNC 2.9), checked with rs274 -g: a number names one O-word block within the main
+// program or one subroutine ("duplicate O-word label", also after the first block closed), and
+// nothing but comments may follow a keyword that takes no argument ("Unexpected character after
+// O-word"). tests/resolve/linuxcnc/reader_oword_spacing.ngc has the forms it accepts.
+TEST(ResolveLinuxcnc, OWordLabelsAndTrailingTextAsRs274) {
+  EXPECT_EQ(codes(resolve_text("o100 if [1]\nG0 X1\no100 endif\no100 if [1]\nG0 X2\no100 endif\nM2\n").sink),
+            "PP-E708@4:1 ");
+  EXPECT_EQ(codes(resolve_text("o100 while [#1 LT 3]\n#1=[#1+1]\no100 if [#1 GT 1]\no100 break\no100 endif\n"
+                               "o100 endwhile\nM2\n").sink),
+            "PP-E708@3:1 ");
+  EXPECT_EQ(codes(resolve_text("o100 repeat [2]\nG0 X1\no100 endrepeat\no100 repeat [2]\no100 endrepeat\nM2\n").sink),
+            "PP-E708@4:1 ");
+  // only blocks that run count: the same number in the two branches of an if (LinuxCNC's own
+  // qt_auto_probe_tool.ngc), or in a branch not taken, passes
+  EXPECT_FALSE(resolve_text("o150 if [1]\no175 if [0]\nG0 X1\no175 endif\no150 else\no175 if [1]\nG0 X2\n"
+                            "o175 endif\no150 endif\nM2\n").sink.has_errors());
+  EXPECT_FALSE(resolve_text("o1 if [0]\no100 if [1]\no100 endif\no1 endif\no100 if [1]\nG0 X1\no100 endif\nM2\n")
+                   .sink.has_errors());
+  // a subroutine's numbers are its own; a do closed by its while is one block
+  EXPECT_FALSE(resolve_text("o<a> sub\no100 if [1]\nG0 X1\no100 endif\no<a> endsub\no100 if [1]\nG0 X2\n"
+                            "o100 endif\no<a> call\no<a> call\nM2\n").sink.has_errors());
+  EXPECT_FALSE(resolve_text("o1 do\n#1=[#1+1]\no1 while [#1 LT 3]\nM2\n").sink.has_errors());
+  EXPECT_EQ(codes(resolve_text("o100 if [1]\nG0 Z1\no100 endif G0 Z9\nM2\n").sink).substr(0, 10), "PP-E702@3:");
+  EXPECT_EQ(codes(resolve_text("o100 if [0]\nG0 Z1\no100 else [3]\nG0 Z2\no100 endif\nM2\n").sink), "PP-E702@3:1 ");
+  EXPECT_EQ(codes(resolve_text("o100 sub [1]\nG0 Z1\no100 endsub\no100 call\nM2\n").sink).substr(0, 12), "PP-E702@1:1 ");
+  // "else if" is elseif, not else followed by text
+  const auto r = resolve_text("o100 if [0]\nG0 X1\no100 else if [0]\nG0 X2\no100 e lse\nG0 X3\no100 end if\nM2\n");
+  EXPECT_FALSE(r.sink.has_errors()) << codes(r.sink);
+  EXPECT_EQ(r.r.text, "G0 X3\nM2\n");
+}
+
 TEST(ResolveLinuxcnc, ErrorsAreLocated) {
   EXPECT_EQ(codes(resolve_text("G1 X#<undefined>\n").sink), "PP-E703@1:5 ");
   EXPECT_EQ(codes(resolve_text("G1 X[1/0]\n").sink), "PP-E707@1:5 ");

@@ -168,14 +168,30 @@ void Machine::compile_control(SourceFile& f, std::size_t i, const Block& b, cons
   on.erase(std::remove_if(on.begin(), on.end(), [](char c) { return c == ' ' || c == '\t'; }), on.end());
   l.oname = on;
   while (p < text.size() && (text[p] == ' ' || text[p] == '\t')) ++p;
-  std::size_t k = p;
-  while (k < text.size() && std::isalpha(static_cast<unsigned char>(text[k]))) ++k;
-  const std::string kw = lower(text.substr(p, k - p));
+  // rs274 drops blanks before it reads a line and takes the keyword as the longest one the letters
+  // begin with: "else if [c]" is "elseif [c]", "end if" is "endif", and "else G0 Z5" is "else"
+  // followed by text it ignores (below).
   static const std::map<std::string, Kw> kws = {
       {"sub", Kw::sub},       {"endsub", Kw::endsub}, {"call", Kw::call},         {"return", Kw::ret},
       {"if", Kw::if_},        {"elseif", Kw::elseif}, {"else", Kw::else_},        {"endif", Kw::endif},
       {"while", Kw::while_},  {"endwhile", Kw::endwhile}, {"do", Kw::do_},        {"repeat", Kw::repeat},
       {"endrepeat", Kw::endrepeat}, {"break", Kw::break_}, {"continue", Kw::continue_}};
+  std::string letters;                 // the letters after the o-word, blanks left out
+  std::vector<std::size_t> after;      // after[n]: where the text goes on after letters[0..n]
+  for (std::size_t q = p; q < text.size() && letters.size() < 16; ++q) {
+    if (text[q] == ' ' || text[q] == '\t') continue;
+    if (!std::isalpha(static_cast<unsigned char>(text[q]))) break;
+    letters += static_cast<char>(std::tolower(static_cast<unsigned char>(text[q])));
+    after.push_back(q + 1);
+  }
+  std::string kw;
+  std::size_t k = p;
+  for (const auto& [name, code] : kws)
+    if (name.size() > kw.size() && letters.starts_with(name)) {
+      kw = name;
+      k = after[name.size() - 1];
+    }
+  if (kw.empty()) kw = letters;
   const auto it = kws.find(kw);
   if (it == kws.end()) {
     f.report(i, t.span, Severity::error, "PP-E702",
@@ -186,7 +202,12 @@ void Machine::compile_control(SourceFile& f, std::size_t i, const Block& b, cons
     return;
   }
   l.kw = it->second;
-  // Arguments: [expr] [expr] … (call: any number; if/while/repeat/elseif/return/endsub: one).
+  // Arguments: [expr] [expr] … (call: any number; if/while/repeat/elseif/return/endsub: one; the
+  // others none). rs274 stops at anything else after the keyword ("Unexpected character after
+  // O-word"; after else and elseif only where the line is run, not where a jump lands on it: refused
+  // in both cases here).
+  const bool no_args = l.kw == Kw::else_ || l.kw == Kw::endif || l.kw == Kw::do_ || l.kw == Kw::endwhile ||
+                       l.kw == Kw::endrepeat || l.kw == Kw::break_ || l.kw == Kw::continue_ || l.kw == Kw::sub;
   const Span rest{static_cast<std::uint32_t>(t.span.begin + k), t.span.end};
   Parser ps(text.substr(k), names_);
   try {
@@ -202,9 +223,12 @@ void Machine::compile_control(SourceFile& f, std::size_t i, const Block& b, cons
     return;
   }
   const bool needs_one = l.kw == Kw::if_ || l.kw == Kw::elseif || l.kw == Kw::while_ || l.kw == Kw::repeat;
-  if ((needs_one && l.args.size() != 1) || ((l.kw == Kw::ret || l.kw == Kw::endsub) && l.args.size() > 1)) {
+  if ((needs_one && l.args.size() != 1) || ((l.kw == Kw::ret || l.kw == Kw::endsub) && l.args.size() > 1) ||
+      (no_args && !l.args.empty())) {
     f.report(i, t.span, Severity::error, "PP-E702",
-             fmt::format("'{} {}' takes {} [expression]{}", l.oname, kw, needs_one ? "one" : "at most one", context()));
+             fmt::format("'{} {}' takes {} (rs274: \"Unexpected character after O-word\"){}", l.oname, kw,
+                         no_args ? "nothing after it" : needs_one ? "one [expression]" : "at most one [expression]",
+                         context()));
     l.ok = false;
   }
 }
@@ -213,6 +237,18 @@ void Machine::prepare(SourceFile& f) {
   FileInfo& fi = info(f);
   struct Open { std::string oname; Kw kw; std::size_t line; };
   std::vector<Open> open;
+  // A block inside a block of the same number: rs274 stops at it whether it runs it or skips over
+  // it looking for the outer block's end ("duplicate O-word label"). Blocks of the same number one
+  // after the other are refused only where both run (Machine::control).
+  const auto label = [&](const Line& l, std::size_t i) {
+    const auto o = std::find_if(open.begin(), open.end(), [&](const Open& x) { return x.oname == l.oname && x.kw != Kw::sub; });
+    if (o == open.end()) return;
+    f.report(i, l.control_span, Severity::error, "PP-E708",
+             fmt::format("'{}' inside the block of the same number at line {}: LinuxCNC refuses it (\"duplicate O-word "
+                         "label\"); give each block its own number",
+                         f.raw(i).substr(l.control_span.begin, l.control_span.size()), o->line + 1));
+    throw Stop{};
+  };
   for (std::size_t i = 0; i < f.lines(); ++i) {
     const std::string_view raw = f.raw(i);
     const std::size_t p = raw.find_first_not_of(" \t/");
@@ -259,6 +295,7 @@ void Machine::prepare(SourceFile& f) {
             break;
           }
         }
+        label(l, i);
         open.push_back({l.oname, l.kw, i});
         break;
       case Kw::endsub: close(f, fi, open, l, i, Kw::sub); break;

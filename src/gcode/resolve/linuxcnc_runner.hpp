@@ -116,6 +116,7 @@ struct Frame {
   SavedState state;                // this call level's saved modal state
   std::unordered_map<int, double> locals;  // named locals
   std::map<std::size_t, long> repeats;     // remaining passes by repeat line
+  std::map<std::string, std::size_t> labels;  // O-word number → the block (line) it named first at this level
 };
 
 class Machine {

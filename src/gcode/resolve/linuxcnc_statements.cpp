@@ -227,6 +227,20 @@ void Machine::runaway(SourceFile& f, std::size_t i) {
 }
 
 std::size_t Machine::control(SourceFile& f, FileInfo& fi, std::size_t i, Line& l, bool in_sub) {
+  const bool opens = l.kw == Kw::if_ || l.kw == Kw::do_ || l.kw == Kw::repeat ||
+                     (l.kw == Kw::while_ && !fi.start_of.contains(i));
+  if (opens) {
+    // rs274: at one call level a number names one block ("duplicate O-word label" when a second
+    // block with it runs, also after the first has ended; each call of a subroutine starts afresh).
+    const auto [it, fresh] = frames_.back().labels.emplace(l.oname, i);
+    if (!fresh && it->second != i) {
+      f.report(i, l.control_span, Severity::error, "PP-E708",
+               fmt::format("'{}' uses the number of the block at line {} again: LinuxCNC refuses it (\"duplicate "
+                           "O-word label\"); give each block its own number{}",
+                           f.raw(i).substr(l.control_span.begin, l.control_span.size()), it->second + 1, context()));
+      throw Stop{};
+    }
+  }
   switch (l.kw) {
     case Kw::sub: return fi.end_of.at(i) + 1;  // a definition: skipped
     case Kw::endsub:
