@@ -209,6 +209,14 @@ TEST(ResolveLinuxcnc, OWordLabelsAndTrailingTextAsRs274) {
   EXPECT_EQ(r.r.text, "G0 X3\nM2\n");
 }
 
+// A file of subroutine definitions only: rs274 runs it without a move (checked with rs274 -g on
+// LinuxCNC's twp square.ngc); read so, with a warning that its moves are read where it is called.
+TEST(ResolveLinuxcnc, FileOfSubroutinesOnlyRunsWithoutAMove) {
+  const auto r = resolve_text("o<square> sub\nG1 X#1 F100\no<square> endsub\n");
+  EXPECT_FALSE(r.sink.has_errors()) << codes(r.sink);
+  EXPECT_EQ(codes(r.sink), "PP-U223@1:1 ");
+}
+
 TEST(ResolveLinuxcnc, ErrorsAreLocated) {
   EXPECT_EQ(codes(resolve_text("G1 X#<undefined>\n").sink), "PP-E703@1:5 ");
   EXPECT_EQ(codes(resolve_text("G1 X[1/0]\n").sink), "PP-E707@1:5 ");

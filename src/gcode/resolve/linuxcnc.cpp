@@ -20,15 +20,17 @@ void Machine::run() {
     if (out_.emitted() > 0 || sink_.has_errors()) throw;
   }
   if (out_.emitted() == 0 && !subs_.empty()) {
-    // A file of subroutine definitions only (called from other programs): nothing runs.
+    // A file of subroutine definitions only (called from other programs): rs274 runs it without a
+    // move. Said, because its moves are read (and compensated) only where a program calls them.
     Diagnostic d;
-    d.severity = Severity::error;
-    d.code = "PP-E709";
+    d.severity = Severity::warning;
+    d.code = "PP-U223";
     d.file = main.name();
     d.where = {1, 1};
     set_source_line(d, main.raw(0));
-    d.message = fmt::format("the file only defines subroutines ({}…) and executes nothing; resolve the program that "
-                            "calls them (this file is found next to it)",
+    d.message = fmt::format("the file only defines subroutines ({}…) and executes nothing: LinuxCNC runs it without "
+                            "a move; their moves are read, and compensated, where a program calls them: give that "
+                            "program (this file is found next to it)",
                             subs_.begin()->first);
     sink_.report(std::move(d));
   }
