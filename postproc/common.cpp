@@ -73,6 +73,10 @@ void add_dialect_options(CLI::App& cmd, DialectArgs& a, bool required) {
                  "Fanuc: motion mode at power-on, G0 (factory setting) or G1 (parameter 3402#0 G01=1); axis words "
                  "before any motion G move in it")
       ->check(CLI::IsMember({"G0", "G1", "G00", "G01"}));
+  cmd.add_option("--arc-without-centre", a.arc_without_centre,
+                 "Fanuc: a G02/G03 block with neither I J K nor R: linear (moves straight to its end, parameter "
+                 "3403#5 CIR=0, the factory setting) or alarm (CIR=1: refused)")
+      ->check(CLI::IsMember({"linear", "alarm"}));
   cmd.add_option("--diameter-axis", a.diameter_axis, "axis programmed as a diameter from the start (X), or 'none'")
       ->check(CLI::IsMember({"X", "x", "none"}));
   cmd.add_option("--tool-table", a.tool_table,
@@ -97,6 +101,7 @@ gcode::Dialect make_dialect(const DialectArgs& a) {
   if (a.integer_input == "increment") o.integer_input = gcode::Dialect::IntegerInput::increment;
   if (a.integer_input == "calculator") o.integer_input = gcode::Dialect::IntegerInput::calculator;
   o.power_on_motion = a.power_on_motion == "G1" || a.power_on_motion == "G01" ? 1 : 0;
+  o.arc_without_centre_alarm = a.arc_without_centre == "alarm";
   o.gcode_system = a.gcode_system.empty() || a.gcode_system == "auto" ? '?' : a.gcode_system[0];
   if (a.diameter_axis == "X" || a.diameter_axis == "x") o.diameter_axis = 'X';
   if (!a.tool_table.empty()) {

@@ -28,6 +28,7 @@ struct DialectArgs {
   std::string integer_input; ///< "", "increment" or "calculator" (Fanuc)
   std::string tool_table;    ///< LinuxCNC tool table file (lengths and diameters by tool number), "" = none
   std::string power_on_motion; ///< "", "G0" or "G1" (Fanuc parameter 3402#0)
+  std::string arc_without_centre; ///< "", "linear" or "alarm" (Fanuc parameter 3403#5)
   std::string basic_system = "metric";  ///< Siemens MD10240: "metric" or "inch"
   std::string reset_motion = "G1";      ///< Siemens MD20150[0]: "G0" or "G1"
 };

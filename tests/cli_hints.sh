@@ -102,7 +102,7 @@ if [[ -n "$SRC" ]]; then
     -m "$S/machines/trunnion_bc_heidenhain.toml" -o "$tmp/h3.h" --renumber x
   # Colour: GCC's colours on a terminal or with POSTPROC_COLOR=always, none with NO_COLOR or
   # when stderr is not a terminal.
-  printf '%%\nO1\nG21 G90\nG0 X0. Y0.\nG2 X5. Y5. F100\nM30\n%%\n' > "$tmp/bad.nc"
+  printf '%%\nO1\nG21 G90\nG0 X0. Y0.\nG2 X5. Y5. R1. F100\nM30\n%%\n' > "$tmp/bad.nc"
   out=$(POSTPROC_COLOR=always "$P" check "$tmp/bad.nc" --dialect fanuc 2>&1)
   grep -q $'\033\[1;31merror:\033\[0m' <<<"$out" || { echo "FAIL: POSTPROC_COLOR=always: no red 'error:': $out"; fail=1; }
   grep -q $'\033\[1;32m\^' <<<"$out" || { echo "FAIL: POSTPROC_COLOR=always: no green caret: $out"; fail=1; }

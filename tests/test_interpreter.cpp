@@ -143,11 +143,29 @@ TEST(Interpreter, ArcErrorsAreLocated) {
   expect_diag(same, "PP-E301", 2, 1);
   const Program small(dialect("fanuc"), "G0 X0 Y0\nG1 X1\nG3 X11 Y0 R4\n");
   expect_diag(small, "PP-E301", 3, 1);
-  const Program no_centre(dialect("fanuc"), "G0 X0 Y0\nG2 X10 Y0\n");
+  const Program no_centre(dialect("linuxcnc"), "G0 X0 Y0\nG2 X10 Y0\n");
   expect_diag(no_centre, "PP-E204", 2, 1);
   const Program p0(dialect("linuxcnc"), "G0 X0 Y0\nG2 X10 Y0 I5 J0 P0\n");
   expect_diag(p0, "PP-E301", 2, 17);
   for (const Program* r : {&mismatch, &same, &small, &no_centre, &p0}) EXPECT_EQ(r->motions.size(), r == &small ? 2u : 1u);
+}
+
+TEST(Interpreter, FanucArcWithoutCentreMovesStraightUnlessParameterCir) {
+  // Fanuc parameter 3403#5 CIR = 0 (factory setting): a G02/G03 block with neither I J K nor R
+  // moves to its end point by linear interpolation; G02/G03 stays modal (the next block with R is an
+  // arc). CIR = 1: alarm PS0022 (refused, PP-E204). Seen in production lathe programs (a modal G03
+  // block with Z alone after an R arc).
+  const Program straight(dialect("fanuc"), "G0 X0 Y0\nG2 X10 Y0 F100\nX10 Y10 R5\n");
+  ASSERT_FALSE(straight.sink.has_errors()) << straight.all_codes();
+  ASSERT_EQ(straight.motions.size(), 3u);
+  EXPECT_EQ(straight.motions[1].type, MotionType::linear);
+  EXPECT_NEAR(straight.motions[1].end[0], 10, 1e-12);
+  EXPECT_EQ(straight.motions[2].type, MotionType::arc_cw);
+  gc::DialectOptions cir;
+  cir.arc_without_centre_alarm = true;
+  const Program alarm(gc::make_dialect(gc::DialectId::fanuc, cir), "G0 X0 Y0\nG2 X10 Y0 F100\n");
+  expect_diag(alarm, "PP-E204", 2, 1);
+  EXPECT_EQ(alarm.motions.size(), 1u);
 }
 
 TEST(Interpreter, ZeroRadiusArcIsRefused) {
@@ -366,11 +384,17 @@ TEST(Interpreter, ErrorsOnUnknownAndConflictingCodes) {
   EXPECT_EQ(unknown.motions.size(), 1u);  // the refused block makes no motion
   const Program g43_4(dialect("linuxcnc"), "G43.4 H1\n");
   expect_diag(g43_4, "PP-E201", 1, 1);
-  const Program two(dialect("fanuc"), "G0 G1 X1\n");
+  const Program two(dialect("linuxcnc"), "G0 G1 X1\n");
   expect_diag(two, "PP-E202", 1, 4);
   EXPECT_TRUE(two.motions.empty());
-  const Program planes(dialect("fanuc"), "G17 G18\n");
+  const Program planes(dialect("siemens"), "G17 G18\n");
   expect_diag(planes, "PP-E202", 1, 5);
+  // Fanuc (G code list, notes): of G codes of one group in one block, the last one is valid.
+  const Program last(dialect("fanuc"), "G0 G1 X1 Z0 F100\nG17 G18 G2 X3 Z2 R2\n");
+  ASSERT_FALSE(last.sink.has_errors()) << last.all_codes();
+  ASSERT_EQ(last.motions.size(), 2u);
+  EXPECT_EQ(last.motions[0].type, MotionType::linear);
+  EXPECT_EQ(last.motions[1].plane, gc::Plane::zx);
   const Program twice(dialect("fanuc"), "G0 X1 X2\n");
   expect_diag(twice, "PP-E203", 1, 7);
   // LinuxCNC leaves no motion mode after G80 (Fanuc keeps G00/G01: test_reader_fanuc.cpp).

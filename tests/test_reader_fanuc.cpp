@@ -517,4 +517,17 @@ TEST(ReaderFanuc, CompensateRefusesPolarWords) {
   EXPECT_FALSE(plain.out.empty());
 }
 
+// Custom macro B external output (B-64484EN "External output commands": POPEN, BPRNT, DPRNT,
+// PCLOS) sends data to a reader/punch or file: no motion. The bracket of DPRNT holds text and
+// variables with their format ([53]); parentheses there are text, not a comment.
+TEST(ReaderFanuc, ExternalOutputCommandsHaveNoMotion) {
+  const Program r(dialect("fanuc"), "POPEN\nDPRNT[X#5041[44]*Y#5042[44] (A)]\nBPRNT[C**X#100[3]]\nPCLOS\nG0 X1. Y2.\n");
+  EXPECT_FALSE(r.sink.has_errors()) << r.all_codes();
+  EXPECT_EQ(r.sink.stored().size(), 0u) << r.all_codes();
+  ASSERT_EQ(r.motions.size(), 1u);
+  EXPECT_NEAR(r.motions[0].end[1], 2, 1e-12);
+  const Program open(dialect("fanuc"), "DPRNT[X#1\nG0 X1.\n");
+  expect_diag_at(open, "PP-E107", 1, 1);
+}
+
 }  // namespace

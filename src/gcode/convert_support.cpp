@@ -128,8 +128,10 @@ const ModalTrack::G* ModalTrack::find(GMeaning m) const {
 }
 
 const ModalTrack::G* ModalTrack::block_motion() const {
-  for (const G& g : block_g)
-    if (g.def->group == GGroup::motion) return &g;
+  // The last one: Fanuc takes the last G code of a group given twice in a block (the interpreter
+  // refuses that elsewhere).
+  for (auto g = block_g.rbegin(); g != block_g.rend(); ++g)
+    if (g->def->group == GGroup::motion) return &*g;
   return nullptr;
 }
 

@@ -218,6 +218,7 @@ Dialect make_dialect(DialectId id, const DialectOptions& opt) {
       d.gcode_system = opt.gcode_system;
       d.power_on_motion = opt.power_on_motion == 1 ? GMeaning::linear : GMeaning::rapid;
       d.g80_keeps_motion = true;
+      d.arc_without_centre_linear = !opt.arc_without_centre_alarm;
       if (opt.lathe) d.diameter_axis = 'X';
       break;
     case DialectId::siemens:

@@ -256,12 +256,22 @@ bool Interpreter::collect(const Block& b, BlockWords& w) {
         ok = false;
         continue;
       }
+      bool replaced = false;
       if (def->group != GGroup::none && def->group != GGroup::non_modal) {
         for (int k = 0; k < w.ng; ++k) {
-          const auto& other = w.g[static_cast<std::size_t>(k)];
+          auto& other = w.g[static_cast<std::size_t>(k)];
           if (other.def->group == def->group) {
             const bool g90_a = d_.id == DialectId::fanuc && d_.lathe && d_.gcode_system == 'A' &&
                                (def->code10 == 900 || other.def->code10 == 900);
+            if (d_.id == DialectId::fanuc && !g90_a) {
+              // Fanuc (G code list, notes): G codes of one group in one block: the last one given
+              // is valid. (Lathe system A's G90 is refused instead: there it is the turning cycle,
+              // and a system B program's G90 beside G00 is the likelier reading.)
+              other = {def, wi};
+              if (def->group == GGroup::motion) w.motion = {def, wi};
+              replaced = true;
+              break;
+            }
             report(b, word.span, Severity::error, codes::kModalConflict,
                    fmt::format("'{}' and '{}' belong to the same modal group; keep one of them{}",
                                b.text(b.words[static_cast<std::size_t>(other.word)].span), b.text(word.span),
@@ -272,6 +282,7 @@ bool Interpreter::collect(const Block& b, BlockWords& w) {
           }
         }
       }
+      if (replaced) continue;
       if (w.ng >= static_cast<int>(w.g.size())) {
         report(b, word.span, Severity::error, codes::kRepeatedWord,
                fmt::format("more than {} G codes in one block; split the block", w.g.size()));

@@ -461,6 +461,17 @@ void Interpreter::do_motion(const Block& b, BlockWords& w, MotionSink& out_all) 
     case GMeaning::arc_cw:
     case GMeaning::arc_ccw: {
       m.type = mode == GMeaning::arc_cw ? MotionType::arc_cw : MotionType::arc_ccw;
+      if (d_.arc_without_centre_linear && !w.has('R')) {
+        // Fanuc parameter 3403#5 CIR = 0 (factory setting): a G02/G03 block with neither the centre
+        // (I J K of the plane) nor R moves to its end point in a straight line at the feed; G02/G03
+        // stays the modal motion.
+        const PlaneAxes p = plane_axes(s_.plane);
+        if (!w.has(centre_letter(p.u)) && !w.has(centre_letter(p.v))) {
+          m.type = MotionType::linear;
+          if (target(b, w, m)) emit(m, b, out);
+          break;
+        }
+      }
       const AxisMask known_before = s_.known;  // the arc needs its start point, not just its end
       if (target(b, w, m) && arc(b, w, m, known_before)) emit(m, b, out);
       break;

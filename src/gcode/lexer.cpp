@@ -415,6 +415,19 @@ class Lexer {
           push_token(TokenKind::control_flow, {i, end}, {i, e});
           return end;
         }
+      // Custom macro external output (Fanuc "External output commands": POPEN, BPRNT[…], DPRNT[…],
+      // PCLOS): data sent to a reader/punch or file, no effect on the motion. Kept as written; the
+      // bracket of BPRNT/DPRNT holds text and #variables and ends at its closing ']'.
+      if (iequals(word, "POPEN") || iequals(word, "PCLOS")) {
+        push_token(TokenKind::keyword, {i, e}, {i, e});
+        return e;
+      }
+      if ((iequals(word, "DPRNT") || iequals(word, "BPRNT")) && e < n() && s_[e] == '[') {
+        const std::uint32_t end = match_bracket(e, '[', ']');
+        if (end == 0) return bad(i, "PP-E107", fmt::format("{}[ not closed", word), "close the bracket: DPRNT[text #1[53]]");
+        push_token(TokenKind::keyword, {i, end}, {i, e});
+        return end;
+      }
     }
     if (L == 'O' && d_.o_word_control) return o_word(i);
     if (L == 'O' && d_.id != DialectId::siemens) {

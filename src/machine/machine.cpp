@@ -385,6 +385,9 @@ std::optional<Machine> parse_machine(std::string file, std::string text, gcode::
     // Fanuc parameter 3402#0 (G01): the motion mode at power-on / reset, G0 unless the machine says G1.
     static constexpr std::string_view kPowerOn[] = {"G0", "G1"};
     if (auto pm = f.text("power_on_motion", false, kPowerOn)) m.dialect_options.power_on_motion = *pm == "G1" ? 1 : 0;
+    // Fanuc parameter 3403#5 (CIR): a G02/G03 without I J K or R moves straight (0) or alarms (1).
+    static constexpr std::string_view kNoCentre[] = {"linear", "alarm"};
+    if (auto nc = f.text("arc_without_centre", false, kNoCentre)) m.dialect_options.arc_without_centre_alarm = *nc == "alarm";
     // Sinumerik MD20150[0] (reset value of G group 1) and MD10240 (basic system metric / inch).
     if (auto rm = f.text("reset_motion", false, kPowerOn)) m.dialect_options.reset_motion = *rm == "G0" ? '0' : '1';
     static constexpr std::string_view kBasic[] = {"metric", "inch"};

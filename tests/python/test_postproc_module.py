@@ -52,7 +52,7 @@ def test_read_equals_dump(tmp_path, program, dialect):
 def test_read_guesses_the_dialect_and_refuses_with_the_line(tmp_path):
     assert postproc.read(os.path.join(PROGRAMS, "housing_traori.mpf"))["dialect"] == "siemens"
     bad = tmp_path / "bad.nc"
-    bad.write_text("%\nO1\nG1 X1 Y2 F100\nG2 X5 Y5\nM30\n%\n")
+    bad.write_text("%\nO1\nG1 X1 Y2 F100\nG2 X5 Y5 R1\nM30\n%\n")
     with pytest.raises(postproc.Refused) as e:
         postproc.read(str(bad), dialect="fanuc")
     assert "bad.nc:4:" in str(e.value)

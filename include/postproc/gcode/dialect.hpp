@@ -130,6 +130,9 @@ struct Dialect {
   /// Fanuc: canned cycles are a modal group of their own, so G80 leaves the G00/G01/G02/G03 that was
   /// active before the cycle; LinuxCNC: G80 leaves no motion mode.
   bool g80_keeps_motion = false;
+  /// Fanuc parameter 3403#5 CIR = 0 (factory setting): a G02/G03 block with neither I J K nor R moves
+  /// to its end point in a straight line. false: refused (CIR = 1, alarm PS0022; other controllers).
+  bool arc_without_centre_linear = false;
   /// Sinumerik basic system (MD10240 $MN_SCALING_SYSTEM_IS_METRIC): false = metric (assumed). G70/G71
   /// leave feeds in the basic system; only G700/G710 change them too.
   bool basic_inch = false;
@@ -162,6 +165,9 @@ struct DialectOptions {
   std::map<std::uint32_t, int> tool_orientations;  ///< see Dialect::tool_orientations
   /// Fanuc only: power-on motion mode, 0 = G00 (factory setting) or 1 = G01 (parameter 3402#0 G01).
   int power_on_motion = 0;
+  /// Fanuc only: parameter 3403#5 CIR = 1: a G02/G03 without I J K or R is an alarm (PS0022);
+  /// false (factory setting) = it moves in a straight line.
+  bool arc_without_centre_alarm = false;
   /// Siemens only: basic system inch (MD10240 = 0); default metric.
   bool basic_inch = false;
   /// Siemens only: reset motion mode of G group 1 (MD20150[0]): '0' G0, '1' G1; 0 = factory setting (G1).

@@ -10,8 +10,8 @@
 // system-variable writes `$X=…`, `CALL "NAME"`) are re-lexed with those statements masked by
 // blanks, so the remaining words keep their byte spans.
 //
-// Warnings: PP-W703 R parameter read before it is assigned (taken as 0);
-//           PP-W704 main program runs into a PROC definition (the run ends there).
+// Warnings: PP-W704 main program runs into a PROC definition (the run ends there). An R parameter
+// read before it is assigned is PP-E701 (its value is the machine's).
 #include "siemens_runner.hpp"
 
 namespace postproc::gcode::resolver {
@@ -108,10 +108,14 @@ double Siemens::eval(const Pool& p, std::uint32_t idx) {
         r_.used_settings[fmt::format("R{}", r)] = *s;
         st = 1;
       } else if (st == 0) {
-        st = 1;
-        report(*cur_file_, cur_line_, *cur_L_, n.span, Severity::warning, "PP-W703",
-               fmt::format("R{} is read before the program assigns it; taken as 0 (the controller keeps R parameters "
-                           "between programs: give its value with --set R{}=…)", r, r));
+        // R parameters are kept by the control between programs (and set by the operator): a read
+        // before the program assigns one is a value only the machine knows (as Fanuc's retained
+        // variables), so the block that reads it is refused rather than run with a guess.
+        throw Fail{"PP-E701", n.span,
+                   fmt::format("R{} is read before the program assigns it: the control keeps R parameters between "
+                               "programs, so its value is what an earlier program or the operator left; give it with "
+                               "--set R{}=…",
+                               r, r)};
       }
       return *s;
     }
