@@ -80,8 +80,8 @@ TEST(Convert, StripCommentsSemicolonDialects) {
   convert("siemens", "; header\nN10 G1 X1 ; move\nMSG(\"keep; this\")\n", strip(), s);
   EXPECT_EQ(s.out, "N10 G1 X1\nMSG(\"keep; this\")\n");
   Converted l;
-  convert("linuxcnc", "G0 X1 (a) ; b\n(only)\nG1 X2", strip(), l);
-  EXPECT_EQ(l.out, "G0 X1\nG1 X2");
+  convert("linuxcnc", "G0 X1 (a) ; b\n(only)\nG1 X2 F100", strip(), l);
+  EXPECT_EQ(l.out, "G0 X1\nG1 X2 F100");
   Converted h;
   convert("heidenhain-iso", "G01 X1 * ; end\n", strip(), h);
   EXPECT_EQ(h.out, "G01 X1 *\n");

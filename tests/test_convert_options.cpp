@@ -138,7 +138,7 @@ TEST(ConvertUnits, RefusesWhatItCannotConvertExactly) {
   const Case cases[] = {
       {"fanuc", false, "G21\n#1=5.\nG1 X1.\n", 2},              // parameter assignment
       {"fanuc", false, "G21\nG1 X#1\n", 2},                     // parameter as a length
-      {"linuxcnc", false, "G21\nG1 X[1+2]\n", 2},               // expression
+      {"linuxcnc", false, "G21\nG1 X[1+2] F100\n", 2},          // expression
       {"fanuc", true, "G21\nG71 U2. R1.\n", 2},                 // turning cycle
       {"siemens", false, "G71\nN10 CYCLE83(10,0,1,-20)\n", 2},  // cycle arguments
       {"fanuc", false, "G21\nG1 X10. Q5.\n", 2},                // Q of unknown meaning

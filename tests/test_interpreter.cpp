@@ -143,11 +143,23 @@ TEST(Interpreter, ArcErrorsAreLocated) {
   expect_diag(same, "PP-E301", 2, 1);
   const Program small(dialect("fanuc"), "G0 X0 Y0\nG1 X1\nG3 X11 Y0 R4\n");
   expect_diag(small, "PP-E301", 3, 1);
-  const Program no_centre(dialect("linuxcnc"), "G0 X0 Y0\nG2 X10 Y0\n");
+  const Program no_centre(dialect("linuxcnc"), "G0 X0 Y0 F100\nG2 X10 Y0\n");
   expect_diag(no_centre, "PP-E204", 2, 1);
-  const Program p0(dialect("linuxcnc"), "G0 X0 Y0\nG2 X10 Y0 I5 J0 P0\n");
+  const Program p0(dialect("linuxcnc"), "G0 X0 Y0 F100\nG2 X10 Y0 I5 J0 P0\n");
   expect_diag(p0, "PP-E301", 2, 17);
   for (const Program* r : {&mismatch, &same, &small, &no_centre, &p0}) EXPECT_EQ(r->motions.size(), r == &small ? 2u : 1u);
+}
+
+// rs274 starts at feed rate 0: a feed move before any F is refused ("Cannot do G1 with zero feed
+// rate", "Cannot make arc with zero feed rate", "Cannot feed with zero feed rate"; rs274 -g).
+TEST(Interpreter, LinuxcncFeedMoveBeforeAnyFIsRefused) {
+  for (const char* move : {"G1 X10", "G2 X2 Y0 R1", "G81 X1 Y1 Z-1 R1"}) {
+    const Program r(dialect("linuxcnc"), std::string("G0 X0 Y0 Z5\n") + move + "\nM2\n");
+    expect_diag(r, "PP-E207", 2, 1);
+    EXPECT_EQ(r.motions.size(), 1u) << move;
+    const Program with_f(dialect("linuxcnc"), std::string("G0 X0 Y0 Z5 F100\n") + move + "\nM2\n");
+    EXPECT_FALSE(with_f.sink.has_errors()) << move << ": " << with_f.all_codes();
+  }
 }
 
 TEST(Interpreter, FanucArcWithoutCentreMovesStraightUnlessParameterCir) {

@@ -61,7 +61,7 @@ class Generator {
     const bool start_inch = chance(0.3);
     add(block(std::string(d_ == "fanuc" || d_ == "linuxcnc" ? (start_inch ? "G20" : "G21")
                                                              : (start_inch ? "G70" : "G71")) + sep() + "G90" +
-              sep() + "G17"));
+              sep() + "G17" + (d_ == "linuxcnc" ? sep() + "F100" : std::string())));  // rs274 starts at F0
     inch_ = start_inch;
     motion_line(0, true);  // establishes X Y Z
     const int body = 3 + pick(40);

@@ -321,7 +321,7 @@ TEST(WriteBack, MoveInASubprogramFileIsRefused) {
   const mc::Machine m = load("lathe_xzbc_doc004.toml");
   TempDir dir;
   {
-    std::ofstream(dir.file("side.ngc")) << "o<side> sub\nG1 X50. Z-3. B-2. C10.\no<side> endsub\nM2\n";
+    std::ofstream(dir.file("side.ngc")) << "o<side> sub\nG1 X50. Z-3. B-2. C10. F300.\no<side> endsub\nM2\n";
   }
   const std::string program = "G21 G90 G18 G8\nG54\nG0 X60. Z10. B0. C0.\no<side> call\nM30\n";
   Outcome r;
@@ -497,7 +497,7 @@ TEST(WriteBackProperty, RandomProgramsResolveToTheFlattenedProgramOrAreRefused) 
   };
   int written = 0, refused = 0;
   for (int trial = 0; trial < 60; ++trial) {
-    std::string p = "G21 G90 G94 G18 G8\nG54\n#<_f> = 300\n#<_t> = 1\n";
+    std::string p = "G21 G90 G94 G18 G8 F300\nG54\n#<_f> = 300\n#<_t> = 1\n";
     std::string subs;
     std::vector<std::string> calls;
     const int items = 4 + static_cast<int>(rng() % 8);

@@ -73,6 +73,10 @@ Interpreter::Interpreter(const Dialect& dialect, std::string file, DiagnosticSin
   if (d_.lathe) s_.plane = Plane::zx;  // lathes power up in G18
   // LinuxCNC's interpreter starts in G99 (retract to the R plane; rs274 agrees); Fanuc powers on in G98.
   if (d_.id == DialectId::linuxcnc) s_.return_to_r = true;
+  // LinuxCNC's interpreter starts with a feed rate of 0: a feed move before any F is refused ("Cannot
+  // do G1 with zero feed rate"; rs274 -g). (Fanuc and Sinumerik keep the last program's F after a
+  // reset, depending on parameters: a run-time value the positions do not depend on.)
+  if (d_.id == DialectId::linuxcnc) s_.feed_undefined = true;
   if (d_.id == DialectId::siemens) {
     // Reset state (MD20150 $MC_GCODE_RESET_VALUES, factory setting): G1 in group 1, units of the
     // basic system (MD10240). 840D sl Fundamentals, "List of G functions".

@@ -373,14 +373,20 @@ void Interpreter::do_motion(const Block& b, BlockWords& w, MotionSink& out_all) 
   // LinuxCNC G33/G33.1 run at K per revolution whatever the feed mode (rs274 asks no F of them).
   const bool per_rev_k = d_.id == DialectId::linuxcnc && mode == GMeaning::threading &&
                          (s_.motion_code10 == 330 || s_.motion_code10 == 331);
-  if (mode != GMeaning::rapid && (d_.id == DialectId::linuxcnc || d_.id == DialectId::fanuc) && !w.has('F') &&
+  const bool feeds = mode == GMeaning::linear || mode == GMeaning::arc_cw || mode == GMeaning::arc_ccw ||
+                     mode == GMeaning::drill_cycle || mode == GMeaning::threading || mode == GMeaning::turning_cycle;
+  if (feeds && (d_.id == DialectId::linuxcnc || d_.id == DialectId::fanuc) && !w.has('F') &&
       !per_rev_k && (s_.feed_undefined || s_.feed_mode == FeedMode::inverse_time)) {
     report(b, motion_at, Severity::error, codes::kControllerRefuses,
            s_.feed_mode == FeedMode::inverse_time
                ? "a feed move in inverse time (G93) without F: LinuxCNC and Fanuc need F in every such block "
                  "and stop here; add the F word"
-               : "a feed move without F after leaving inverse time (G93): the feed rate is 0 and the controller "
-                 "stops here; program F in this block or before it");
+               : d_.id == DialectId::linuxcnc
+                   ? "a feed move while the feed rate is 0 (no F since the program start, or since G93 was entered "
+                     "or left): LinuxCNC stops here (\"Cannot do G1 with zero feed rate\"); program F in this block "
+                     "or before it"
+                   : "a feed move without F after leaving inverse time (G93): the feed rate is 0 and the controller "
+                     "stops here; program F in this block or before it");
     s_.known &= static_cast<AxisMask>(~w.axis_present);
     return;
   }
