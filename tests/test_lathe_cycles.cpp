@@ -482,4 +482,21 @@ TEST(LatheCyclesLinuxcnc, RoughingPassesAnArcWhoseEndLiesBehindWithoutAMove) {
   EXPECT_TRUE(r.of_line(13).empty());
 }
 
+// A program read without resolving (convert) defines all its subroutines before the cycle: the
+// cycle finds its profile by Q among them, not only in the last one defined (found on LatheEasyStep
+// output: o100 and o101 defined, then G71 Q100; rs274 agrees with the resolved reading).
+TEST(LatheCyclesLinuxcnc, ProfileFoundAmongSeveralSubroutinesWithoutResolving) {
+  const std::string text =
+      "G18 G7 G21 G95\no100 sub\nG1 X10 Z0\nG1 X10 Z-10\nG1 X20 Z-10\no100 endsub\no101 sub\nG1 X22 Z0\n"
+      "G1 X0 Z0\no101 endsub\nF0.2\nG0 X22 Z1\nG71 Q100 X22 Z1 D1\nM30\n";
+  const pptest::Program plain(dialect("linuxcnc"), text);
+  EXPECT_FALSE(plain.sink.has_errors()) << plain.all_codes();
+  const LatheRun resolved(text);
+  EXPECT_FALSE(resolved.sink.has_errors());
+  std::size_t n_plain = 0;
+  for (const auto& m : plain.motions) n_plain += m.line == 13 ? 1 : 0;
+  EXPECT_GT(n_plain, 5u);
+  EXPECT_EQ(n_plain, resolved.of_line(13).size());
+}
+
 }  // namespace

@@ -6,6 +6,8 @@
 // G1, U/W as increments, other words ignored — and the cycle is expanded by turning_cycles.cpp.
 #include <cctype>
 #include <cmath>
+#include <map>
+#include <memory>
 #include <numbers>
 #include <string>
 #include <vector>
@@ -39,6 +41,9 @@ struct Interpreter::LatheProfile {
   int motion = -1;
   std::uint64_t line = 0;    ///< the sub line
   std::vector<ProfileStep> steps;
+  /// The profiles read before this one, by number (a program read without resolving defines all its
+  /// subroutines first and names one by Q later).
+  std::map<long, std::shared_ptr<LatheProfile>> earlier;
 };
 
 namespace {
@@ -65,7 +70,13 @@ bool Interpreter::lathe_profile_line(const Block& b) {
     if (t.kind != TokenKind::control_flow) continue;
     const auto [n, kind] = sub_marker(b.text(t.span));
     if (kind == 1) {
-      lathe_profile_ = std::make_shared<LatheProfile>();
+      auto next = std::make_shared<LatheProfile>();
+      if (lathe_profile_) {
+        next->earlier = std::move(lathe_profile_->earlier);
+        if (!lathe_profile_->open) next->earlier[lathe_profile_->number] = lathe_profile_;
+        next->earlier.erase(n);
+      }
+      lathe_profile_ = std::move(next);
       lathe_profile_->number = n;
       lathe_profile_->open = true;
       lathe_profile_->line = b.line;
@@ -161,12 +172,20 @@ void Interpreter::lathe_cycle(const Block& b, const BlockWords& w, MotionSink& o
     return;
   }
   const long q = std::lround(w.get('Q'));
-  if (!lathe_profile_ || lathe_profile_->open || lathe_profile_->number != q) {
+  const LatheProfile* profile_of_q = nullptr;
+  if (lathe_profile_ && !lathe_profile_->open && lathe_profile_->number == q) {
+    profile_of_q = lathe_profile_.get();
+  } else if (lathe_profile_) {
+    const auto it = lathe_profile_->earlier.find(q);
+    if (it != lathe_profile_->earlier.end()) profile_of_q = it->second.get();
+  }
+  if (profile_of_q == nullptr) {
     refuse(codes::kLatheCycleRejected,
            fmt::format("{}: no profile 'o{} sub' … 'o{} endsub' in this program (rs274: Q routine not found)", name, q, q));
     return;
   }
-  if (!lathe_profile_->usable) {
+  const LatheProfile& prof_q = *profile_of_q;
+  if (!prof_q.usable) {
     refuse(codes::kLatheCycleUnresolved, fmt::format("{}: its profile o{} was refused above; the cycle is not followed", name, q));
     return;
   }
@@ -226,7 +245,7 @@ void Interpreter::lathe_cycle(const Block& b, const BlockWords& w, MotionSink& o
   // under G91.1, absolute under G90.1, or R).
   std::vector<turning::Segment> profile;
   turning::Point prev = cw.start;
-  for (const ProfileStep& st : lathe_profile_->steps) {
+  for (const ProfileStep& st : prof_q.steps) {
     turning::Point p = prev;
     if (st.has_x) p.imag(st.x / xdiv);
     if (st.has_z) p.real(st.z);
