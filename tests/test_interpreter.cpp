@@ -407,6 +407,14 @@ TEST(Interpreter, ErrorsOnUnknownAndConflictingCodes) {
   ASSERT_EQ(last.motions.size(), 2u);
   EXPECT_EQ(last.motions[0].type, MotionType::linear);
   EXPECT_EQ(last.motions[1].plane, gc::Plane::zx);
+  // G81 then G80 (both group 09): G80 is valid, the cycle is cancelled and the modal G01 moves; G01
+  // with G81 (groups 01 and 09, one group here) stays refused.
+  const Program cancel(dialect("fanuc"), "G0 X0 Y0 Z5.\nG1 X1. F100.\nG81 G80 X11. Z-1. R1.\n");
+  ASSERT_FALSE(cancel.sink.has_errors()) << cancel.all_codes();
+  ASSERT_EQ(cancel.motions.size(), 3u);
+  EXPECT_EQ(cancel.motions[2].type, MotionType::linear);
+  const Program across(dialect("fanuc"), "G0 X0 Y0 Z5.\nG1 G81 X1. Z-1. R1. F100.\n");
+  expect_diag(across, "PP-E202", 2, 4);
   const Program twice(dialect("fanuc"), "G0 X1 X2\n");
   expect_diag(twice, "PP-E203", 1, 7);
   // LinuxCNC leaves no motion mode after G80 (Fanuc keeps G00/G01: test_reader_fanuc.cpp).

@@ -267,7 +267,11 @@ bool Interpreter::collect(const Block& b, BlockWords& w) {
           if (other.def->group == def->group) {
             const bool g90_a = d_.id == DialectId::fanuc && d_.lathe && d_.gcode_system == 'A' &&
                                (def->code10 == 900 || other.def->code10 == 900);
-            if (d_.id == DialectId::fanuc && !g90_a) {
+            // Fanuc's G00–G03 (group 01) and G73–G89 (group 09) share the motion group here: a pair
+            // across them stays refused.
+            const bool same_fanuc_group =
+                (def->meaning == GMeaning::drill_cycle) == (other.def->meaning == GMeaning::drill_cycle);
+            if (d_.id == DialectId::fanuc && !g90_a && same_fanuc_group) {
               // Fanuc (G code list, notes): G codes of one group in one block: the last one given
               // is valid. (Lathe system A's G90 is refused instead: there it is the turning cycle,
               // and a system B program's G90 beside G00 is the likelier reading.)
@@ -287,6 +291,16 @@ bool Interpreter::collect(const Block& b, BlockWords& w) {
         }
       }
       if (replaced) continue;
+      if (d_.id == DialectId::fanuc && def->meaning == GMeaning::cancel_motion) {
+        // G80 after a canned cycle G in the same block (both group 09): G80, the last, is valid.
+        for (int k = 0; k < w.ng; ++k)
+          if (w.g[static_cast<std::size_t>(k)].def->meaning == GMeaning::drill_cycle) {
+            for (int j = k; j + 1 < w.ng; ++j) w.g[static_cast<std::size_t>(j)] = w.g[static_cast<std::size_t>(j + 1)];
+            --w.ng;
+            if (w.motion.def != nullptr && w.motion.def->meaning == GMeaning::drill_cycle) w.motion = {};
+            break;
+          }
+      }
       if (w.ng >= static_cast<int>(w.g.size())) {
         report(b, word.span, Severity::error, codes::kRepeatedWord,
                fmt::format("more than {} G codes in one block; split the block", w.g.size()));
