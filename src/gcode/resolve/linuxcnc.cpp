@@ -172,7 +172,7 @@ void Machine::compile_control(SourceFile& f, std::size_t i, const Block& b, cons
   while (p < text.size() && (text[p] == ' ' || text[p] == '\t')) ++p;
   // rs274 drops blanks before it reads a line and takes the keyword as the longest one the letters
   // begin with: "else if [c]" is "elseif [c]", "end if" is "endif", and "else G0 Z5" is "else"
-  // followed by text it ignores (below).
+  // followed by text (refused below).
   static const std::map<std::string, Kw> kws = {
       {"sub", Kw::sub},       {"endsub", Kw::endsub}, {"call", Kw::call},         {"return", Kw::ret},
       {"if", Kw::if_},        {"elseif", Kw::elseif}, {"else", Kw::else_},        {"endif", Kw::endif},
