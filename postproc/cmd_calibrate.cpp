@@ -37,6 +37,7 @@ struct CalibrateArgs {
   std::vector<std::string> fix;
   std::vector<std::string> bounds;
   std::string loss = "none";
+  std::string solver = "auto";
   double loss_scale_um = 20;
   int max_iterations = 150;
   bool numeric = false;
@@ -95,13 +96,13 @@ void print_summary(const cal::CalibrationRun& run, const cal::Comparison& c) {
     return cal::parameter_status(run, k) == "poorly determined";
   }));
   std::string out = fmt::format("postproc: {} measurements ({} fitted, {} held out); method {}{}; {} of {} parameters "
-                                "identified{}{}, {} Ceres iterations, {:.3f} s\n",
+                                "identified{}{}, {} {} iterations, {:.3f} s\n",
                                 run.data.size(), c.fit.count, c.validation.count, cal::to_string(run.options.method),
                                 r.lambda > 0 ? fmt::format(" (λ = {:.3g})", r.lambda) : "", r.identified.size() - poorly,
                                 r.identified.size() + r.held.size(),
                                 poorly > 0 ? fmt::format(", {} estimated but poorly determined", poorly) : "",
                                 registration > 0 ? fmt::format(" (and {} instrument-frame components)", registration) : "",
-                                r.iterations, r.seconds);
+                                r.iterations, r.solver == cal::Solver::streamed ? "streamed LM" : "Ceres", r.seconds);
   out += fmt::format("postproc: identifiability: rank {} of {}, condition {:.4g}, O1 {:.4g}, O3 {:.4g}, O4 {:.4g}\n",
                      r.start.rank, r.start.parameters, r.start.condition, r.start.o1, r.start.o3, r.start.o4);
   for (const std::string& comb : r.start.combinations)
@@ -272,6 +273,7 @@ void run_calibrate(const CalibrateArgs& a, int& rc) {
   opt.orientation_weight = a.angle_weight;
   opt.loss = a.loss == "huber" ? cal::Loss::huber : a.loss == "cauchy" ? cal::Loss::cauchy : cal::Loss::none;
   opt.loss_scale = a.loss_scale_um / 1000.0;
+  opt.solver = cal::parse_solver(a.solver).value_or(cal::Solver::automatic);
   if (!a.free.empty()) opt.free = match_parameters(start, a.free, "--free");
   if (!a.fix.empty()) opt.fixed = match_parameters(start, a.fix, "--fix");
   for (const std::string& b : a.bounds) parse_bound(b, start, opt);
@@ -305,8 +307,16 @@ void run_calibrate(const CalibrateArgs& a, int& rc) {
     run.start = &start;
     run.solved = solved.get();
     // Instrument-frame values in the workpiece frame (estimated registration), for every figure.
-    const std::vector<cal::Measurement> original = data;
-    data = cal::registered(data, run.result);
+    // Copied only when a frame moves them: a million rows are 336 MB a copy.
+    std::vector<cal::Measurement> as_measured;
+    const bool framed =
+        std::any_of(data.begin(), data.end(), [](const cal::Measurement& m) { return !m.source.frame.empty(); });
+    if (framed) {
+      as_measured = data;
+      data = cal::registered(data, run.result);
+    }
+    const std::span<const cal::Measurement> original =
+        framed ? std::span<const cal::Measurement>(as_measured) : std::span<const cal::Measurement>(data);
     run.data = data;
     const cal::Comparison c = cal::compare(run);
     print_summary(run, c);
@@ -416,7 +426,12 @@ void setup_calibrate(CLI::App& app, int& rc) {
       ->check(CLI::IsMember({"none", "huber", "cauchy"}))
       ->capture_default_str();
   cmd->add_option("--loss-scale", a->loss_scale_um, "robust loss scale, µm (mm-equivalent)")->capture_default_str();
-  cmd->add_option("--max-iterations", a->max_iterations, "Ceres iteration limit")->capture_default_str();
+  cmd->add_option("--max-iterations", a->max_iterations, "solver iteration limit")->capture_default_str();
+  cmd->add_option("--solver", a->solver,
+                  "auto (default: streamed from 60,000 residual components), ceres, or streamed (memory "
+                  "independent of the number of rows; not with --bound or psi-substitution)")
+      ->check(CLI::IsMember({"auto", "ceres", "streamed"}))
+      ->capture_default_str();
   cmd->add_option("--angle-weight", a->angle_weight, "mm-equivalent per rad of orientation residual (default 0.01° ≙ 0.01 mm)")
       ->capture_default_str();
   cmd->add_flag("--numeric-derivatives", a->numeric, "central differences for every parameter (checks the analytic ones)");

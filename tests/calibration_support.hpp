@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "postproc/calibration/measurement.hpp"
 #include "postproc/kinematics/model.hpp"
 
 namespace pptest {
@@ -38,6 +39,35 @@ inline std::vector<postproc::kin::JointVector> random_joints(const postproc::kin
     out.push_back(q);
   }
   return out;
+}
+
+/// Document 003's strut readings: at `count` poses where the nominal NC sets the platform (a
+/// quarter of random joint vectors, well inside the travel), the struts the true machine needs
+/// there plus ±0.5 µm of noise. Fewer when a pose cannot be reached.
+inline std::vector<postproc::cal::Measurement> hexapod_strut_readings(const postproc::kin::Model& truth,
+                                                                      const postproc::kin::Model& nominal,
+                                                                      std::size_t count) {
+  using namespace postproc;
+  std::vector<cal::Measurement> data;
+  std::mt19937 rng(9);
+  std::uniform_real_distribution<double> u(-1, 1);
+  for (const auto& q : random_joints(truth, 60, 31)) {
+    cal::Measurement m;
+    m.kind = cal::MeasurementKind::struts;
+    m.q = q * 0.25;
+    if (!nominal.forward(m.q, m.measured).ok()) continue;  // the set pose: where the nominal NC thinks it is
+    kin::IkOptions o;
+    o.match = kin::PoseMatch::full;
+    o.check_limits = false;
+    kin::JointVector rec;
+    if (!truth.inverse(m.measured, m.q, rec, o).ok()) continue;
+    for (int j = 0; j < 6; ++j) rec[j] += 0.0005 * u(rng);
+    m.q = rec;
+    m.label = "s" + std::to_string(data.size() + 1);
+    data.push_back(m);
+    if (data.size() == count) break;
+  }
+  return data;
 }
 
 }  // namespace pptest

@@ -459,25 +459,7 @@ TEST(Identify, HexapodFromStrutReadingsWithinThreeSigma) {
   const auto mach = load("machines/hexapod_doc003.toml");
   const kin::Model& truth = *mach.actual;
   const auto start = mach.nominal;
-  std::vector<Measurement> data;
-  std::mt19937 rng(9);
-  std::uniform_real_distribution<double> u(-1, 1);
-  for (const auto& q : random_joints(truth, 60, 31)) {
-    Measurement m;
-    m.kind = MeasurementKind::struts;
-    m.q = q * 0.25;  // stay well inside the travel
-    if (!start->forward(m.q, m.measured).ok()) continue;  // the set pose: where the nominal NC thinks it is
-    kin::IkOptions o;
-    o.match = kin::PoseMatch::full;
-    o.check_limits = false;
-    kin::JointVector rec;
-    ASSERT_TRUE(truth.inverse(m.measured, m.q, rec, o).ok());
-    for (int j = 0; j < 6; ++j) rec[j] += 0.0005 * u(rng);
-    m.q = rec;
-    m.label = "s" + std::to_string(data.size() + 1);
-    data.push_back(m);
-    if (data.size() == 40) break;
-  }
+  const std::vector<Measurement> data = pptest::hexapod_strut_readings(truth, *start, 40);
   ASSERT_EQ(data.size(), 40u);
   const auto r = cal::identify(*start, data);
   ASSERT_TRUE(r.usable) << r.message;

@@ -14,9 +14,10 @@ namespace postproc::cal {
 std::string unit_text(const kin::Parameter& p) { return p.unit == "rad" ? "rad" : p.unit == "ratio" ? "(ratio)" : "mm"; }
 
 /// analyse() over labelled columns: dependent and unobserved are local column indices.
-Identifiability analyse_labelled(const Eigen::MatrixXd& j, std::span<const Label> labels, double rank_tolerance) {
+Identifiability analyse_labelled(const Eigen::MatrixXd& j, std::span<const Label> labels, double rank_tolerance,
+                                 long rows) {
   Identifiability a;
-  a.rows = static_cast<int>(j.rows());
+  a.rows = static_cast<int>(rows >= 0 ? rows : j.rows());
   a.parameters = static_cast<int>(labels.size());
   std::vector<int> observed;
   std::vector<double> scale;
@@ -93,7 +94,12 @@ std::vector<Label> labels_of(const kin::Model& model, std::span<const int> colum
 
 Identifiability analyse(const Eigen::MatrixXd& j, std::span<const int> columns, const kin::Model& model,
                         double rank_tolerance) {
-  Identifiability a = analyse_labelled(j, labels_of(model, columns), rank_tolerance);
+  return analyse_rows(j, columns, model, rank_tolerance, -1);
+}
+
+Identifiability analyse_rows(const Eigen::MatrixXd& j, std::span<const int> columns, const kin::Model& model,
+                             double rank_tolerance, long rows) {
+  Identifiability a = analyse_labelled(j, labels_of(model, columns), rank_tolerance, rows);
   for (int& c : a.dependent) c = columns[static_cast<std::size_t>(c)];
   for (int& c : a.unobserved) c = columns[static_cast<std::size_t>(c)];
   std::sort(a.dependent.begin(), a.dependent.end());

@@ -19,9 +19,14 @@ struct Label {
   std::string name, unit;
 };
 
-/// analyse() over labelled columns: dependent and unobserved are local column indices.
+/// analyse() over labelled columns: dependent and unobserved are local column indices. `rows`:
+/// the residual components when j is a compressed Jacobian (R of its QR; −1: j's own rows).
 [[nodiscard]] Identifiability analyse_labelled(const Eigen::MatrixXd& j, std::span<const Label> labels,
-                                               double rank_tolerance);
+                                               double rank_tolerance, long rows = -1);
+
+/// analyse() of a compressed Jacobian (R of the QR of one with `rows` rows).
+[[nodiscard]] Identifiability analyse_rows(const Eigen::MatrixXd& j, std::span<const int> columns,
+                                           const kin::Model& model, double rank_tolerance, long rows);
 
 /// The labels of parameters `columns` of `model`.
 [[nodiscard]] std::vector<Label> labels_of(const kin::Model& model, std::span<const int> columns);

@@ -22,6 +22,9 @@
 #include "postproc/kinematics/serial.hpp"
 #include "src/calibration/frame_registration.hpp"
 #include "src/calibration/identifiability.hpp"
+#include "src/calibration/jacobian_compression.hpp"
+#include "src/calibration/streamed_levenberg_marquardt.hpp"
+#include "src/calibration/measurement_residual.hpp"
 
 namespace postproc::cal {
 namespace {
@@ -29,243 +32,10 @@ namespace {
 using Vec3 = Eigen::Vector3d;
 using Mat3 = Eigen::Matrix3d;
 using RowMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
-
-/// Two unit vectors u, v with (u, v, axis) orthonormal.
-void orthonormal_pair(const Vec3& axis, Vec3& u, Vec3& v) {
-  const Vec3 a = axis.normalized();
-  const Vec3 seed = std::abs(a.x()) < 0.9 ? Vec3::UnitX() : Vec3::UnitY();
-  u = (seed - seed.dot(a) * a).normalized();
-  v = a.cross(u);
-}
-
-/// What the model predicts for a measurement: the tool pose at the commanded joints, or (struts)
-/// the joint values at the measured pose.
-struct Prediction {
-  kin::Pose pose;
-  kin::JointVector q;
-};
-
-bool predict(const kin::Model& model, const Measurement& m, Prediction& out) {
-  if (m.kind == MeasurementKind::struts) {
-    kin::IkOptions o;
-    o.match = kin::PoseMatch::full;
-    o.check_limits = false;
-    return model.inverse(m.measured, m.q, out.q, o).ok() && out.q.allFinite();
-  }
-  return model.forward(m.q, out.pose).ok();
-}
-
-/// The measurement with its torsion replaced by the model's: the model's orientation turned by
-/// the smallest rotation that carries the model's tool axis onto the measured one. The rotation
-/// between the two then has no component about the tool axis (dψ = 0 of document 001); the
-/// measured tilt is kept exactly.
-kin::Pose substitute_torsion(const kin::Pose& measured, const kin::Pose& model) {
-  kin::Pose out = measured;
-  const Eigen::Quaterniond align = Eigen::Quaterniond::FromTwoVectors(model.axis(), measured.axis());
-  out.r = align.toRotationMatrix() * model.r;
-  return out;
-}
-
-bool substituted(const Measurement& m, bool substitute) {
-  return substitute && m.kind == MeasurementKind::pose && !m.has_torsion;
-}
-
-int rows_of(const Measurement& m, int joints, bool substitute) {
-  return substituted(m, substitute) ? 6 : residual_rows(m, joints);
-}
-
-/// Row weights of one measurement: length rows (mm, struts) and angle rows (mm-eq per rad).
-struct Weights {
-  double length = 1;
-  double angle = kOrientationWeight;
-};
-
-/// Residual rows of `m`, whose measured pose (in the workpiece frame) is `measured`, against
-/// prediction `p` (see identify.hpp).
-void residual_from(const Measurement& m, const kin::Pose& measured, const Prediction& p, const Weights& w,
-                   bool substitute, double* res) {
-  if (m.kind == MeasurementKind::struts) {
-    for (int i = 0; i < m.q.size(); ++i) res[i] = w.length * (m.q[i] - p.q[i]);
-    return;
-  }
-  if (m.kind == MeasurementKind::axis_cosine) {
-    res[0] = w.angle * (m.cosine - measured.r.col(0).dot(p.pose.axis()));
-    return;
-  }
-  int at = 0;
-  if (m.kind != MeasurementKind::direction) {
-    const Vec3 dp = measured.p - p.pose.p;
-    for (int k = 0; k < 3; ++k) res[at++] = w.length * dp[k];
-  }
-  if (m.kind == MeasurementKind::position) return;
-  if (m.kind == MeasurementKind::pose && (m.has_torsion || substitute)) {
-    const kin::Pose target = m.has_torsion ? measured : substitute_torsion(measured, p.pose);
-    const Vec3 dth = w.angle * kin::rotation_difference(target.r, p.pose.r);
-    for (int k = 0; k < 3; ++k) res[at++] = dth[k];
-    return;
-  }
-  Vec3 u, v;
-  orthonormal_pair(measured.axis(), u, v);
-  const Vec3 d = measured.axis() - p.pose.axis();
-  res[at++] = w.angle * u.dot(d);
-  res[at++] = w.angle * v.dot(d);
-}
-
-/// d(residual)/d(registration components) by central differences (no model evaluation: the
-/// prediction does not depend on the registration). Rows ≤ 6 (frames never hold strut readings).
-void registration_jacobian(const Measurement& m, const Mat3& r0, std::array<double, 6> reg, const Prediction& p,
-                           const Weights& w, bool substitute, int rows, std::span<const int> components, double* out,
-                           int stride, int first_column) {
-  std::array<double, 6> a{}, b{};
-  for (std::size_t c = 0; c < components.size(); ++c) {
-    const auto k = static_cast<std::size_t>(components[c]);
-    const double h = k < 3 ? 1e-3 : 1e-6;  // exact for t (linear); O(h²) for ω
-    const double keep = reg[k];
-    reg[k] = keep + h;
-    residual_from(m, registered_pose(m.measured, r0, reg.data()), p, w, substitute, a.data());
-    reg[k] = keep - h;
-    residual_from(m, registered_pose(m.measured, r0, reg.data()), p, w, substitute, b.data());
-    reg[k] = keep;
-    for (int r = 0; r < rows; ++r)
-      out[r * stride + first_column + static_cast<int>(c)] =
-          (a[static_cast<std::size_t>(r)] - b[static_cast<std::size_t>(r)]) / (2 * h);
-  }
-}
-
-/// A model at parameter values x, with what derivatives by the parameters `cols` need. Ceres
-/// evaluates every residual block at the same x in turn, so the model (and the perturbed models
-/// of central differences) are built once per x and shared.
-class Evaluator {
- public:
-  Evaluator(const kin::Model& base, std::vector<int> cols, bool numeric)
-      : base_(base), cols_(std::move(cols)), numeric_(numeric) {}
-
-  /// Ceres may evaluate residual blocks on several threads, all at the same x: the first to see a
-  /// new x rebuilds the model under the lock; the others then read it.
-  void set(const double* x) {
-    const std::size_t n = base_.values().size();
-    const std::lock_guard<std::mutex> lock(mutex_);
-    if (model_ && std::memcmp(x_.data(), x, n * sizeof(double)) == 0) return;
-    x_.assign(x, x + n);
-    model_ = base_.with_values(x_);
-    plus_.assign(cols_.size(), nullptr);
-    minus_.assign(cols_.size(), nullptr);
-  }
-  /// True when every column has an analytic derivative for every measurement kind but struts
-  /// (serial chains): no perturbed model is ever built, so evaluations may run in parallel.
-  [[nodiscard]] bool all_analytic() const {
-    return !numeric_ && dynamic_cast<const kin::SerialModel*>(&base_) != nullptr;
-  }
-  void set(const std::vector<double>& x) { set(x.data()); }
-  [[nodiscard]] const kin::Model& model() const { return *model_; }
-  [[nodiscard]] const std::vector<int>& cols() const { return cols_; }
-
-  /// d(prediction)/d(cols): pose kinds 6 × k (dP mm, dθ rad per unit), struts joints × k.
-  bool derivative(const Measurement& m, Eigen::MatrixXd& d) {
-    const bool struts = m.kind == MeasurementKind::struts;
-    const int k = static_cast<int>(cols_.size());
-    d.resize(struts ? model_->joint_count() : 6, k);
-    std::vector<bool> done(cols_.size(), false);
-    if (!numeric_) analytic(m, d, done);
-    for (int c = 0; c < k; ++c) {
-      if (done[static_cast<std::size_t>(c)]) continue;
-      const double h = step(cols_[static_cast<std::size_t>(c)]);
-      Prediction a, b;
-      if (!predict(perturbed(c, +1), m, a) || !predict(perturbed(c, -1), m, b)) return false;
-      if (struts) {
-        d.col(c) = (a.q - b.q) / (2 * h);
-      } else {
-        d.col(c).head<3>() = (a.pose.p - b.pose.p) / (2 * h);
-        d.col(c).tail<3>() = kin::rotation_difference(a.pose.r, b.pose.r) / (2 * h);
-      }
-    }
-    return d.allFinite();
-  }
-
- private:
-  [[nodiscard]] double step(int param) const {
-    return base_.parameters()[static_cast<std::size_t>(param)].unit == "mm" ? 1e-5 : 1e-7;  // mm; rad, ratio
-  }
-  const kin::Model& perturbed(int c, int sign) {
-    auto& slot = sign > 0 ? plus_[static_cast<std::size_t>(c)] : minus_[static_cast<std::size_t>(c)];
-    if (!slot) {
-      std::vector<double> x = x_;
-      const int p = cols_[static_cast<std::size_t>(c)];
-      x[static_cast<std::size_t>(p)] += sign * step(p);
-      slot = base_.with_values(std::move(x));
-    }
-    return *slot;
-  }
-  /// The models' own identification Jacobians: the 3-PRS hybrid's 33 errors (pose at q), the
-  /// hexapod's 42 parameters (strut coordinates at a pose).
-  void analytic(const Measurement& m, Eigen::MatrixXd& d, std::vector<bool>& done) const {
-    if (const auto* prs = dynamic_cast<const kin::PrsHybrid*>(model_.get()); prs && m.kind != MeasurementKind::struts) {
-      kin::Solve s;
-      const kin::PrsHybrid::IdentificationJacobian j = prs->identification_jacobian(m.q, &s);
-      if (!s.ok()) return;
-      for (std::size_t c = 0; c < cols_.size(); ++c)
-        if (cols_[c] < kin::PrsHybrid::kErrorCount) {
-          d.col(static_cast<Eigen::Index>(c)) = j.col(cols_[c]);
-          done[c] = true;
-        }
-    } else if (const auto* serial = dynamic_cast<const kin::SerialModel*>(model_.get());
-               serial && m.kind != MeasurementKind::struts) {
-      const Eigen::Matrix<double, 6, Eigen::Dynamic> j = serial->identification_jacobian(m.q);
-      for (std::size_t c = 0; c < cols_.size(); ++c) {
-        d.col(static_cast<Eigen::Index>(c)) = j.col(cols_[c]);
-        done[c] = true;
-      }
-    } else if (const auto* hex = dynamic_cast<const kin::Hexapod*>(model_.get());
-               hex && m.kind == MeasurementKind::struts) {
-      const kin::IdentificationJacobian j = hex->identification_jacobian(m.measured);
-      for (std::size_t c = 0; c < cols_.size(); ++c) {
-        d.col(static_cast<Eigen::Index>(c)) = j.col(cols_[c]);
-        done[c] = true;
-      }
-    }
-  }
-
-  const kin::Model& base_;
-  std::vector<int> cols_;
-  bool numeric_;
-  std::vector<double> x_;
-  kin::ModelPtr model_;
-  std::vector<kin::ModelPtr> plus_, minus_;
-  std::mutex mutex_;
-};
-
-/// d(residual)/d(cols) from d(prediction)/d(cols), rows as residual_from.
-void residual_jacobian(const Measurement& m, const kin::Pose& measured, const Prediction& p, const Eigen::MatrixXd& d,
-                       const Weights& w, bool substitute, double* out, int stride, std::span<const int> where) {
-  const int k = static_cast<int>(d.cols());
-  int row = 0;
-  auto put = [&](const Eigen::RowVectorXd& r) {
-    for (int c = 0; c < k; ++c) out[row * stride + where[static_cast<std::size_t>(c)]] = r[c];
-    ++row;
-  };
-  if (m.kind == MeasurementKind::struts) {
-    for (Eigen::Index i = 0; i < d.rows(); ++i) put(-w.length * d.row(i));
-    return;
-  }
-  if (m.kind == MeasurementKind::axis_cosine) {
-    // d·O moves by d·(dθ × O) = (O × d)·dθ.
-    put(-w.angle * (p.pose.axis().cross(Vec3(measured.r.col(0)))).transpose() * d.bottomRows(3));
-    return;
-  }
-  if (m.kind != MeasurementKind::direction)
-    for (int i = 0; i < 3; ++i) put(-w.length * d.row(i));
-  if (m.kind == MeasurementKind::position) return;
-  const auto rot = d.bottomRows(3);
-  if (m.kind == MeasurementKind::pose && (m.has_torsion || substitute)) {
-    for (int i = 0; i < 3; ++i) put(-w.angle * rot.row(i));
-    return;
-  }
-  Vec3 u, v;
-  orthonormal_pair(measured.axis(), u, v);
-  const Vec3 o = p.pose.axis();
-  put(-w.angle * (o.cross(u)).transpose() * rot);
-  put(-w.angle * (o.cross(v)).transpose() * rot);
-}
+using lsq::Evaluator;
+using lsq::FrameColumns;
+using lsq::Prediction;
+using lsq::Weights;
 
 /// One measurement as a Ceres residual block over the whole parameter vector (the parameters
 /// not identified are held by a SubsetManifold; their Jacobian columns are 0).
@@ -284,7 +54,7 @@ class MeasurementCost final : public ceres::CostFunction {
         w_(w),
         substitute_(substitute && !m.has_torsion && m.kind == MeasurementKind::pose),
         frame_(frame) {
-    set_num_residuals(rows_of(m, ev.model().joint_count(), substitute));
+    set_num_residuals(lsq::rows_of(m, ev.model().joint_count(), substitute));
     mutable_parameter_block_sizes()->push_back(n);
     if (frame_ != nullptr) mutable_parameter_block_sizes()->push_back(6);
     where_.resize(ev.cols().size());
@@ -293,20 +63,20 @@ class MeasurementCost final : public ceres::CostFunction {
   bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override {
     ev_.set(parameters[0]);
     Prediction p;
-    if (!predict(ev_.model(), m_, p)) return false;
+    if (!lsq::predict(ev_.model(), m_, p)) return false;
     const kin::Pose measured = frame_ != nullptr ? registered_pose(m_.measured, frame_->r0, parameters[1]) : m_.measured;
-    residual_from(m_, measured, p, w_, substitute_, residuals);
+    lsq::residual_from(m_, measured, p, w_, substitute_, residuals);
     if (jacobians != nullptr && jacobians[0] != nullptr) {
       Eigen::MatrixXd d;
       if (!ev_.derivative(m_, d)) return false;
       std::fill(jacobians[0], jacobians[0] + num_residuals() * n_, 0.0);
-      residual_jacobian(m_, measured, p, d, w_, substitute_, jacobians[0], n_, where_);
+      lsq::residual_jacobian(m_, measured, p, d, w_, substitute_, jacobians[0], n_, where_);
     }
     if (frame_ != nullptr && jacobians != nullptr && jacobians[1] != nullptr) {
       std::array<double, 6> reg{};
       std::copy(parameters[1], parameters[1] + 6, reg.begin());
       static constexpr std::array<int, 6> all = {0, 1, 2, 3, 4, 5};
-      registration_jacobian(m_, frame_->r0, reg, p, w_, substitute_, num_residuals(), all, jacobians[1], 6, 0);
+      lsq::registration_jacobian(m_, frame_->r0, reg, p, w_, substitute_, num_residuals(), all, jacobians[1], 6, 0);
     }
     return true;
   }
@@ -363,13 +133,14 @@ class RidgeCost final : public ceres::CostFunction {
 };
 
 /// λ by generalised cross-validation of the linearised ridge problem b ≈ A·dx, A = −J (the
-/// residual falls by J·dx), λ over 1e-12…1e2 in quarter decades.
-double gcv_lambda(const Eigen::VectorXd& b, const Eigen::MatrixXd& j) {
-  const Eigen::JacobiSVD<Eigen::MatrixXd> svd(-j, Eigen::ComputeThinU);
+/// residual falls by J·dx), λ over 1e-12…1e2 in quarter decades. J is given compressed: `r`
+/// (some columns of R, J = Q·R) with qtb = Qᵀb, the row count and ‖b‖².
+double gcv_lambda(const Eigen::VectorXd& qtb, const Eigen::MatrixXd& r, long rows, double b_squared) {
+  const Eigen::JacobiSVD<Eigen::MatrixXd> svd(-r, Eigen::ComputeThinU);
   const Eigen::VectorXd s = svd.singularValues();
-  const Eigen::VectorXd beta = svd.matrixU().transpose() * b;
-  const double outside = std::max(0.0, b.squaredNorm() - beta.squaredNorm());
-  const double n = static_cast<double>(b.size());
+  const Eigen::VectorXd beta = svd.matrixU().transpose() * qtb;
+  const double outside = std::max(0.0, b_squared - beta.squaredNorm());
+  const double n = static_cast<double>(rows);
   double best = 1e-3, best_g = std::numeric_limits<double>::infinity();
   for (int e = -48; e <= 8; ++e) {
     const double lambda = std::pow(10.0, e / 4.0);
@@ -389,6 +160,22 @@ double gcv_lambda(const Eigen::VectorXd& b, const Eigen::MatrixXd& j) {
   return best;
 }
 
+/// lsq::linearise, or Error (usage) naming the measurement the model cannot evaluate.
+lsq::Linearised linearised(const kin::Model& model, std::span<const Measurement> data, std::span<const int> columns,
+                           std::span<const Weights> weights, std::span<const FrameState> frames,
+                           std::span<const int> frame_of, std::span<const FrameColumns> frame_columns, bool numeric,
+                           const lsq::LineariseOptions& options) {
+  lsq::Linearised lin =
+      lsq::linearise(model, data, columns, weights, frames, frame_of, frame_columns, numeric, options);
+  if (!lin.ok()) {
+    const Measurement& m = data[static_cast<std::size_t>(lin.failed)];
+    throw Error(ExitCode::usage, fmt::format("{}: the model cannot evaluate this {} measurement (joints outside its "
+                                             "reach, or a pose it cannot assume); check the row",
+                                             m.label, to_string(m.kind)));
+  }
+  return lin;
+}
+
 /// Residual rows above which the solver's steps use the normal equations (see identify()).
 constexpr int kNormalEquationRows = 60000;
 
@@ -404,11 +191,6 @@ double sigma_angle(const Measurement& m, double w) {
   return m.source.sigma_rad > 0 ? m.source.sigma_rad : sigma_length(m) / w;
 }
 
-/// The registration columns of one frame in a Jacobian: its components, from column `first`.
-struct FrameColumns {
-  std::vector<int> components;
-  int first = 0;
-};
 
 /// Residuals and Jacobian of `data` at `model`: the model's parameters `columns`, then each
 /// frame's registration components (frame_of[i]: the frame of data[i], −1 for the workpiece).
@@ -432,7 +214,7 @@ void linearise_all(const kin::Model& model, std::span<const Measurement> data, s
     const Measurement& m = data[i];
     Prediction p;
     Eigen::MatrixXd d;
-    if (!predict(ev.model(), m, p) || !ev.derivative(m, d))
+    if (!lsq::predict(ev.model(), m, p) || !ev.derivative(m, d))
       throw Error(ExitCode::usage, fmt::format("{}: the model cannot evaluate this {} measurement (joints outside its "
                                                "reach, or a pose it cannot assume); check the row",
                                                m.label, to_string(m.kind)));
@@ -440,12 +222,12 @@ void linearise_all(const kin::Model& model, std::span<const Measurement> data, s
     const FrameState* frame = f >= 0 ? &frames[static_cast<std::size_t>(f)] : nullptr;
     const kin::Pose measured = frame != nullptr ? registered_pose(m.measured, frame->r0, frame->reg.data()) : m.measured;
     const int n = residual_rows(m, nj);
-    residual_from(m, measured, p, weights[i], false, res.data() + at);
+    lsq::residual_from(m, measured, p, weights[i], false, res.data() + at);
     double* out = j.data() + static_cast<Eigen::Index>(at) * k;
-    residual_jacobian(m, measured, p, d, weights[i], false, out, k, where);
+    lsq::residual_jacobian(m, measured, p, d, weights[i], false, out, k, where);
     if (frame != nullptr && static_cast<std::size_t>(f) < frame_columns.size()) {
       const FrameColumns& fc = frame_columns[static_cast<std::size_t>(f)];
-      registration_jacobian(m, frame->r0, frame->reg, p, weights[i], false, n, fc.components, out, k, fc.first);
+      lsq::registration_jacobian(m, frame->r0, frame->reg, p, weights[i], false, n, fc.components, out, k, fc.first);
     }
     at += n;
   }
@@ -463,6 +245,21 @@ std::string_view to_string(Method m) {
   return "?";
 }
 
+std::string_view to_string(Solver s) {
+  switch (s) {
+    case Solver::automatic: return "auto";
+    case Solver::ceres: return "ceres";
+    case Solver::streamed: return "streamed";
+  }
+  return "?";
+}
+
+std::optional<Solver> parse_solver(std::string_view s) {
+  for (Solver v : {Solver::automatic, Solver::ceres, Solver::streamed})
+    if (to_string(v) == s) return v;
+  return std::nullopt;
+}
+
 std::optional<Method> parse_method(std::string_view s) {
   if (s == "least-squares" || s == "ls") return Method::least_squares;
   if (s == "ridge") return Method::ridge;
@@ -472,8 +269,8 @@ std::optional<Method> parse_method(std::string_view s) {
 
 bool measurement_residual(const kin::Model& model, const Measurement& m, double* out, double orientation_weight) {
   Prediction p;
-  if (!predict(model, m, p)) return false;
-  residual_from(m, m.measured, p, Weights{1, orientation_weight}, false, out);
+  if (!lsq::predict(model, m, p)) return false;
+  lsq::residual_from(m, m.measured, p, Weights{1, orientation_weight}, false, out);
   return true;
 }
 
@@ -499,8 +296,11 @@ void linearise(const kin::Model& model, std::span<const Measurement> data, std::
 
 IdentifyResult identify(const kin::Model& start_model, std::span<const Measurement> data, const IdentifyOptions& options) {
   const auto t0 = std::chrono::steady_clock::now();
-  const std::vector<Measurement> fit = fit_set(data);
-  if (fit.empty()) throw Error(ExitCode::usage, "identify: no measurements to fit (all are marked validate)");
+  // The fitted measurements: `data` itself unless some are held out (no copy of a large set).
+  std::vector<Measurement> fit_copy;
+  if (std::any_of(data.begin(), data.end(), [](const Measurement& m) { return m.validate; })) fit_copy = fit_set(data);
+  const std::span<const Measurement> fit = fit_copy.empty() ? data : std::span<const Measurement>(fit_copy);
+  if (std::all_of(data.begin(), data.end(), [](const Measurement& m) { return m.validate; })) throw Error(ExitCode::usage, "identify: no measurements to fit (all are marked validate)");
   const int n = static_cast<int>(start_model.parameters().size());
   auto check = [&](int k, std::string_view what) {
     if (k < 0 || k >= n)
@@ -565,13 +365,19 @@ IdentifyResult identify(const kin::Model& start_model, std::span<const Measureme
       }
   }
 
-  Eigen::VectorXd res0;
-  Eigen::MatrixXd jall;
-  linearise_all(start_model, fit, free, weights, frames, frame_of, all_columns, res0, jall, options.numeric_derivatives);
+  // Every analysis below needs J only through its columns' norms and inner products, and the
+  // residual only through Qᵀr and ‖r‖: the compressed R stands for J (jacobian_compression.hpp).
+  lsq::LineariseOptions lin_options;
+  lin_options.threads = options.threads;
+  lin_options.per_measurement = true;  // lets the solver start from it (solve_streamed)
+  const lsq::Linearised lin0 = linearised(start_model, fit, free, weights, frames, frame_of, all_columns,
+                                          options.numeric_derivatives, lin_options);
+  const long rows0 = lin0.rows;
+  const Eigen::MatrixXd jall = lin0.r();
   const Eigen::Index nfree = static_cast<Eigen::Index>(free.size());
   const Eigen::MatrixXd j0 = jall.leftCols(nfree);
-  result.initial_cost = 0.5 * res0.squaredNorm();
-  result.start = analyse(j0, free, start_model, options.rank_tolerance);
+  result.initial_cost = lin0.cost;
+  result.start = analyse_rows(j0, free, start_model, options.rank_tolerance, rows0);
   for (int k : free)
     if (std::find(result.start.dependent.begin(), result.start.dependent.end(), k) == result.start.dependent.end())
       result.identified.push_back(k);
@@ -599,7 +405,7 @@ IdentifyResult identify(const kin::Model& start_model, std::span<const Measureme
       jf.col(jf.cols() - 1) = jall.col(nfree + static_cast<Eigen::Index>(c));
       labels.push_back({fmt::format("{}[{}]", registration_name(k), frames[static_cast<std::size_t>(f)].name), k < 3 ? "mm" : "rad"});
     }
-    const Identifiability joint = analyse_labelled(jf, labels, options.rank_tolerance);
+    const Identifiability joint = analyse_labelled(jf, labels, options.rank_tolerance, rows0);
     result.start.rows = joint.rows;
     result.start.parameters = static_cast<int>(free.size() + reg_of.size());
     result.start.rank = joint.rank;
@@ -621,13 +427,14 @@ IdentifyResult identify(const kin::Model& start_model, std::span<const Measureme
     estimated_registration += static_cast<int>(est_columns[f].components.size());
   }
   const int unknowns = static_cast<int>(result.identified.size()) + estimated_registration;
-  if (static_cast<int>(res0.size()) < unknowns)
+  if (rows0 < unknowns)
     throw Error(ExitCode::usage, fmt::format("identify: {} parameters but only {} measured components; add measurements "
                                              "or fix parameters",
-                                             unknowns, res0.size()));
+                                             unknowns, rows0));
 
   std::vector<double> x = start_model.values();
   const std::vector<double> x0 = x;
+  std::optional<lsq::Linearised> streamed_final;  // the streamed solver's linearisation at x
   if (unknowns > 0) {
     if (options.method == Method::ridge && !result.identified.empty()) {
       if (options.ridge_lambda > 0) {
@@ -638,78 +445,111 @@ IdentifyResult identify(const kin::Model& start_model, std::span<const Measureme
           const auto at = std::find(free.begin(), free.end(), result.identified[c]) - free.begin();
           ji.col(static_cast<Eigen::Index>(c)) = j0.col(at);
         }
-        result.lambda = gcv_lambda(res0, ji);
+        result.lambda = gcv_lambda(lin0.qtr(), ji, rows0, lin0.squared);
       }
     }
-    Evaluator ev(start_model, result.identified, options.numeric_derivatives);
-    ev.set(x);
-    ceres::Problem::Options popt;
-    popt.cost_function_ownership = ceres::TAKE_OWNERSHIP;
-    popt.loss_function_ownership = ceres::TAKE_OWNERSHIP;
-    popt.manifold_ownership = ceres::TAKE_OWNERSHIP;
-    ceres::Problem problem(popt);
-    double* xp = x.data();
-    const bool substitute = options.method == Method::psi_substitution;
-    for (std::size_t i = 0; i < fit.size(); ++i) {
-      ceres::LossFunction* loss = nullptr;
-      if (options.loss == Loss::huber) loss = new ceres::HuberLoss(options.loss_scale);
-      if (options.loss == Loss::cauchy) loss = new ceres::CauchyLoss(options.loss_scale);
-      FrameState* frame = frame_of[i] >= 0 ? &frames[static_cast<std::size_t>(frame_of[i])] : nullptr;
-      if (frame != nullptr)
-        problem.AddResidualBlock(new MeasurementCost(ev, fit[i], n, weights[i], substitute, frame), loss, xp,
-                                 frame->reg.data());
-      else
-        problem.AddResidualBlock(new MeasurementCost(ev, fit[i], n, weights[i], substitute, nullptr), loss, xp);
+    const bool psi = options.method == Method::psi_substitution;
+    const bool can_stream = !psi && options.bounds.empty();
+    if (options.solver == Solver::streamed && !can_stream)
+      throw Error(ExitCode::usage, fmt::format("identify: the streamed solver does not take {}; use the Ceres solver",
+                                               psi ? "ψ substitution" : "parameter bounds"));
+    const bool streamed =
+        options.solver == Solver::streamed || (options.solver == Solver::automatic && can_stream && rows0 >= kStreamedRows);
+    if (streamed) {
+      std::unique_ptr<ceres::LossFunction> loss;
+      if (options.loss == Loss::huber) loss = std::make_unique<ceres::HuberLoss>(options.loss_scale);
+      if (options.loss == Loss::cauchy) loss = std::make_unique<ceres::CauchyLoss>(options.loss_scale);
+      lsq::StreamedOptions so;
+      so.max_iterations = std::max(1, options.max_iterations);
+      so.threads = options.threads;
+      so.numeric = options.numeric_derivatives;
+      so.loss = loss.get();
+      so.ridge_lambda = result.lambda;
+      so.progress = options.progress;
+      // The start analysis linearised the same columns when nothing was held or separated.
+      bool same_columns = result.identified == free;
+      for (std::size_t f = 0; f < frames.size(); ++f)
+        same_columns = same_columns && est_columns[f].components == all_columns[f].components;
+      lsq::StreamedSummary summary = lsq::solve_streamed(start_model, fit, weights, result.identified, frames, frame_of,
+                                                         est_columns, so, x, same_columns ? &lin0 : nullptr);
+      if (summary.final.aug.size() > 0 && !summary.final.per_measurement.empty()) streamed_final = std::move(summary.final);
+      result.solver = Solver::streamed;
+      result.iterations = summary.iterations;
+      result.usable = summary.usable;
+      result.converged = summary.converged;
+      result.message = summary.message;
+    } else {
+      Evaluator ev(start_model, result.identified, options.numeric_derivatives);
+      ev.set(x);
+      ceres::Problem::Options popt;
+      popt.cost_function_ownership = ceres::TAKE_OWNERSHIP;
+      popt.loss_function_ownership = ceres::TAKE_OWNERSHIP;
+      popt.manifold_ownership = ceres::TAKE_OWNERSHIP;
+      ceres::Problem problem(popt);
+      double* xp = x.data();
+      const bool substitute = options.method == Method::psi_substitution;
+      for (std::size_t i = 0; i < fit.size(); ++i) {
+        ceres::LossFunction* loss = nullptr;
+        if (options.loss == Loss::huber) loss = new ceres::HuberLoss(options.loss_scale);
+        if (options.loss == Loss::cauchy) loss = new ceres::CauchyLoss(options.loss_scale);
+        FrameState* frame = frame_of[i] >= 0 ? &frames[static_cast<std::size_t>(frame_of[i])] : nullptr;
+        if (frame != nullptr)
+          problem.AddResidualBlock(new MeasurementCost(ev, fit[i], n, weights[i], substitute, frame), loss, xp,
+                                   frame->reg.data());
+        else
+          problem.AddResidualBlock(new MeasurementCost(ev, fit[i], n, weights[i], substitute, nullptr), loss, xp);
+      }
+      if (result.lambda > 0) problem.AddResidualBlock(new RidgeCost(result.identified, x0, result.lambda), nullptr, xp);
+      std::vector<int> constant;
+      for (int k = 0; k < n; ++k)
+        if (!std::binary_search(result.identified.begin(), result.identified.end(), k)) constant.push_back(k);
+      if (static_cast<int>(constant.size()) == n) problem.SetParameterBlockConstant(xp);
+      else if (!constant.empty()) problem.SetManifold(xp, new ceres::SubsetManifold(n, constant));
+      for (FrameState& f : frames) {
+        const std::vector<int> est = f.estimated();
+        std::vector<int> held;
+        for (int k = 0; k < 6; ++k)
+          if (std::find(est.begin(), est.end(), k) == est.end()) held.push_back(k);
+        if (held.size() == 6) problem.SetParameterBlockConstant(f.reg.data());
+        else if (!held.empty()) problem.SetManifold(f.reg.data(), new ceres::SubsetManifold(6, held));
+      }
+      for (const auto& [k, range] : options.bounds) {
+        problem.SetParameterLowerBound(xp, k, range.first);
+        problem.SetParameterUpperBound(xp, k, range.second);
+      }
+      ceres::Solver::Options opt;
+      opt.minimizer_type = ceres::TRUST_REGION;
+      opt.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
+      // Dense QR of the whole Jacobian costs rows·p² per step; with many rows the normal equations
+      // (p×p, formed once per step) are as accurate at the well-conditioned problems identify()
+      // leaves after holding the unidentifiable combinations, and several times cheaper.
+      int rows = 0;
+      for (const Measurement& m : fit) rows += residual_rows(m, start_model.joint_count());
+      opt.linear_solver_type = rows > kNormalEquationRows ? ceres::DENSE_NORMAL_CHOLESKY : ceres::DENSE_QR;
+      opt.max_num_iterations = std::max(1, options.max_iterations);
+      // ψ substitution converges linearly (its torsion rows' Jacobian ignores that the substituted
+      // target moves with the model): it stops at a relative cost change of 1e-8 (1.6e-11 mm² on
+      // document 001's experiment; the identified errors agree with a 1e-12 stop to < 0.1 µm).
+      opt.function_tolerance = substitute ? 1e-8 : 1e-12;
+      opt.parameter_tolerance = 1e-12;
+      opt.gradient_tolerance = 1e-14;
+      // Serial chains have analytic derivatives throughout: their residual blocks are evaluated on
+      // options.threads (the result depends on the thread count only through the order of sums).
+      bool struts = false;
+      for (const Measurement& m : fit) struts = struts || m.kind == MeasurementKind::struts;
+      opt.num_threads = ev.all_analytic() && !struts && options.threads > 1 ? options.threads : 1;
+      opt.logging_type = ceres::SILENT;
+      ProgressCallback progress_callback(options.progress, opt.max_num_iterations);
+      if (options.progress) opt.callbacks.push_back(&progress_callback);
+      ceres::Solver::Summary summary;
+      ceres::Solve(opt, &problem, &summary);
+      // Ceres counts the evaluation at the start as iteration 0.
+      result.iterations = std::max(0, static_cast<int>(summary.iterations.size()) - 1);
+      result.usable = summary.IsSolutionUsable();
+      result.converged = summary.termination_type == ceres::CONVERGENCE;
+      result.message = summary.message;
+      result.solver = Solver::ceres;
     }
-    if (result.lambda > 0) problem.AddResidualBlock(new RidgeCost(result.identified, x0, result.lambda), nullptr, xp);
-    std::vector<int> constant;
-    for (int k = 0; k < n; ++k)
-      if (!std::binary_search(result.identified.begin(), result.identified.end(), k)) constant.push_back(k);
-    if (static_cast<int>(constant.size()) == n) problem.SetParameterBlockConstant(xp);
-    else if (!constant.empty()) problem.SetManifold(xp, new ceres::SubsetManifold(n, constant));
-    for (FrameState& f : frames) {
-      const std::vector<int> est = f.estimated();
-      std::vector<int> held;
-      for (int k = 0; k < 6; ++k)
-        if (std::find(est.begin(), est.end(), k) == est.end()) held.push_back(k);
-      if (held.size() == 6) problem.SetParameterBlockConstant(f.reg.data());
-      else if (!held.empty()) problem.SetManifold(f.reg.data(), new ceres::SubsetManifold(6, held));
-    }
-    for (const auto& [k, range] : options.bounds) {
-      problem.SetParameterLowerBound(xp, k, range.first);
-      problem.SetParameterUpperBound(xp, k, range.second);
-    }
-    ceres::Solver::Options opt;
-    opt.minimizer_type = ceres::TRUST_REGION;
-    opt.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
-    // Dense QR of the whole Jacobian costs rows·p² per step; with many rows the normal equations
-    // (p×p, formed once per step) are as accurate at the well-conditioned problems identify()
-    // leaves after holding the unidentifiable combinations, and several times cheaper.
-    int rows = 0;
-    for (const Measurement& m : fit) rows += residual_rows(m, start_model.joint_count());
-    opt.linear_solver_type = rows > kNormalEquationRows ? ceres::DENSE_NORMAL_CHOLESKY : ceres::DENSE_QR;
-    opt.max_num_iterations = std::max(1, options.max_iterations);
-    // ψ substitution converges linearly (its torsion rows' Jacobian ignores that the substituted
-    // target moves with the model): it stops at a relative cost change of 1e-8 (1.6e-11 mm² on
-    // document 001's experiment; the identified errors agree with a 1e-12 stop to < 0.1 µm).
-    opt.function_tolerance = substitute ? 1e-8 : 1e-12;
-    opt.parameter_tolerance = 1e-12;
-    opt.gradient_tolerance = 1e-14;
-    // Serial chains have analytic derivatives throughout: their residual blocks are evaluated on
-    // options.threads (the result depends on the thread count only through the order of sums).
-    bool struts = false;
-    for (const Measurement& m : fit) struts = struts || m.kind == MeasurementKind::struts;
-    opt.num_threads = ev.all_analytic() && !struts && options.threads > 1 ? options.threads : 1;
-    opt.logging_type = ceres::SILENT;
-    ProgressCallback progress_callback(options.progress, opt.max_num_iterations);
-    if (options.progress) opt.callbacks.push_back(&progress_callback);
-    ceres::Solver::Summary summary;
-    ceres::Solve(opt, &problem, &summary);
-    // Ceres counts the evaluation at the start as iteration 0.
-    result.iterations = std::max(0, static_cast<int>(summary.iterations.size()) - 1);
-    result.usable = summary.IsSolutionUsable();
-    result.converged = summary.termination_type == ceres::CONVERGENCE;
-    result.message = summary.message;
   } else {
     result.usable = true;
     result.converged = true;
@@ -717,18 +557,18 @@ IdentifyResult identify(const kin::Model& start_model, std::span<const Measureme
   }
 
   const auto solved = start_model.with_values(x);
-  Eigen::VectorXd res1;
-  Eigen::MatrixXd j1;
-  linearise_all(*solved, fit, result.identified, weights, frames, frame_of, est_columns, res1, j1,
-                options.numeric_derivatives);
-  result.final_cost = 0.5 * res1.squaredNorm();
-  const int dof = static_cast<int>(res1.size()) - unknowns;
-  result.sigma = dof > 0 ? std::sqrt(res1.squaredNorm() / dof) : std::numeric_limits<double>::quiet_NaN();
+  const lsq::Linearised lin1 = streamed_final ? std::move(*streamed_final)
+                                              : linearised(*solved, fit, result.identified, weights, frames, frame_of,
+                                                           est_columns, options.numeric_derivatives, lin_options);
+  const Eigen::MatrixXd j1 = lin1.r();
+  result.final_cost = lin1.cost;
+  const long dof = lin1.rows - unknowns;
+  result.sigma = dof > 0 ? std::sqrt(lin1.squared / static_cast<double>(dof)) : std::numeric_limits<double>::quiet_NaN();
   std::vector<Label> labels = labels_of(*solved, result.identified);
   for (std::size_t f = 0; f < frames.size(); ++f)
     for (int k : est_columns[f].components)
       labels.push_back({fmt::format("{}[{}]", registration_name(k), frames[f].name), k < 3 ? "mm" : "rad"});
-  result.solution = analyse_labelled(j1, labels, options.rank_tolerance);
+  result.solution = analyse_labelled(j1, labels, options.rank_tolerance, lin1.rows);
   for (int& c : result.solution.dependent) c = c < static_cast<int>(result.identified.size()) ? result.identified[static_cast<std::size_t>(c)] : -1;
   for (int& c : result.solution.unobserved) c = c < static_cast<int>(result.identified.size()) ? result.identified[static_cast<std::size_t>(c)] : -1;
   std::erase(result.solution.dependent, -1);
@@ -787,8 +627,8 @@ IdentifyResult identify(const kin::Model& start_model, std::span<const Measureme
   // χ² per file, in each file's own uncertainty: the residuals are in σ₀ units.
   {
     const int nj = start_model.joint_count();
-    const double share = res1.size() > 0 ? 1.0 - static_cast<double>(unknowns) / static_cast<double>(res1.size()) : 1.0;
-    int at = 0;
+    const double share =
+        lin1.rows > 0 ? 1.0 - static_cast<double>(unknowns) / static_cast<double>(lin1.rows) : 1.0;
     for (std::size_t i = 0; i < fit.size(); ++i) {
       const Measurement& m = fit[i];
       auto it = std::find_if(result.files.begin(), result.files.end(), [&](const FileFit& f) { return f.file == m.file; });
@@ -805,8 +645,7 @@ IdentifyResult identify(const kin::Model& start_model, std::span<const Measureme
       it->rows += rows;
       it->lengths = it->lengths || (m.kind != MeasurementKind::direction && m.kind != MeasurementKind::axis_cosine);
       it->angles = it->angles || (m.kind != MeasurementKind::position && m.kind != MeasurementKind::struts);
-      it->chi2 += res1.segment(at, rows).squaredNorm() / (sigma0 * sigma0);
-      at += rows;
+      it->chi2 += lin1.per_measurement[i] / (sigma0 * sigma0);
     }
     for (FileFit& f : result.files)
       f.normalised_rms = f.rows > 0 ? std::sqrt(f.chi2 / (f.rows * std::max(share, 1e-12))) : 0.0;

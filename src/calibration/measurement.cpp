@@ -306,6 +306,7 @@ bool read_measurements(CsvTable& t, const kin::Model& model, std::vector<Measure
   if (t.sink().count(gcode::Severity::error) > errors0 || !cols_ok) return false;
   if (!joints.ok()) return false;
 
+  out.reserve(out.size() + t.rows().size());  // one allocation, not a doubling growth
   for (std::size_t r = 0; r < t.rows().size(); ++r) {
     Measurement m;
     m.file = t.file();

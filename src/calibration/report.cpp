@@ -236,7 +236,8 @@ std::string report_json(const CalibrationRun& run) {
   j["method"] = std::string(to_string(run.options.method));
   j["ridge_lambda"] = r.lambda;
   j["orientation_weight_mm_per_rad"] = run.options.orientation_weight;
-  j["solver"] = {{"iterations", r.iterations},
+  j["solver"] = {{"name", std::string(to_string(r.solver))},
+                 {"iterations", r.iterations},
                  {"seconds", r.seconds},
                  {"usable", r.usable},
                  {"message", r.message},
@@ -354,10 +355,11 @@ td.l,th.l{text-align:left}.held{color:#b00}.weak{color:#a60}.plot{border:1px sol
 )";
   s += fmt::format("<h1>Calibration of {}</h1>\n", html_escape(run.machine_name));
   s += fmt::format("<p id=\"summary\">Machine file <code>{}</code> (SHA-256 {}), written to <code>{}</code> by postproc {}. Method "
-                   "<b>{}</b>{}; {} Ceres iterations, {:.3f} s; {}.</p>\n",
+                   "<b>{}</b>{}; {} {} iterations, {:.3f} s; {}.</p>\n",
                    html_escape(run.machine_file), run.machine_sha256, html_escape(run.output_file), run.tool_version,
                    to_string(run.options.method), r.lambda > 0 ? fmt::format(" (λ = {:.3g})", r.lambda) : "",
-                   r.iterations, r.seconds, html_escape(r.message));
+                   r.iterations, r.solver == Solver::streamed ? "streamed LM" : "Ceres", r.seconds,
+                   html_escape(r.message));
   s += "<h2>Data</h2><table id=\"inputs\"><tr><th class=l>file</th><th class=l>kind</th><th>measurements</th><th class=l>SHA-256</th></tr>\n";
   for (const InputFile& f : run.inputs)
     s += fmt::format("<tr><td class=l>{}</td><td class=l>{}</td><td>{}</td><td class=l>{}</td></tr>\n", html_escape(f.path),

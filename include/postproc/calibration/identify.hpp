@@ -73,6 +73,16 @@ enum class Method {
 
 enum class Loss { none, huber, cauchy };
 
+/// How identify() minimises. `ceres`: a Ceres problem with a residual block per measurement (it
+/// holds the whole Jacobian: about 4 KB per measurement). `streamed`: Levenberg–Marquardt with
+/// Ceres' step rule on the Jacobian compressed as it is formed (a tall-skinny QR in chunks, on
+/// `threads`): memory independent of the number of measurements; not with bounds or ψ
+/// substitution. `automatic`: streamed from kStreamedRows residual components where it applies.
+enum class Solver { automatic, ceres, streamed };
+[[nodiscard]] std::string_view to_string(Solver s);
+[[nodiscard]] std::optional<Solver> parse_solver(std::string_view s);
+inline constexpr long kStreamedRows = 60000;
+
 struct IdentifyOptions {
   Method method = Method::least_squares;
   /// Ridge weight λ (mm² per unit² of parameter). ≤ 0: chosen by GCV.
@@ -99,6 +109,7 @@ struct IdentifyOptions {
   int threads = 1;
   /// Told "calibrate" with the solver's iteration of max_iterations (optional).
   Progress progress;
+  Solver solver = Solver::automatic;
 };
 
 /// SVD of the column-scaled identification Jacobian (each column divided by its norm, so the
@@ -170,7 +181,8 @@ struct IdentifyResult {
   Eigen::MatrixXd covariance;
   Identifiability start;          ///< at the start model, over the requested set
   Identifiability solution;       ///< at the result, over the identified set
-  int iterations = 0;             ///< Ceres LM iterations
+  int iterations = 0;             ///< LM iterations (steps tried, as Ceres counts them)
+  Solver solver = Solver::ceres;  ///< the solver that ran (never automatic)
   double seconds = 0;             ///< wall time of identify()
   double initial_cost = 0;        ///< ½‖res‖² of the fitted measurements at the start (mm²)
   double final_cost = 0;          ///< the same at the result
