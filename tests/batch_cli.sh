@@ -95,7 +95,7 @@ grep -q '6 files: 4 written, 0 unchanged' "$T/r5.err" || fail "--force did not r
 
 # 4. A program that becomes malformed: refused, and the earlier output is removed (no stale program).
 cp "$J/a.nc" "$T/a.keep"
-printf 'G1 X1..2\n' >> "$J/a.nc"
+sed -i '3a G1 X1..2' "$J/a.nc"  # inside the program (text after its M30 is never read)
 "$P" batch "$J" -m "$M" -o "$T/o1" -j 2 -q --max-deviation 2 2> "$T/r6.err"
 [[ -e "$T/o1/a.nc" ]] && fail "stale output of a now-refused program kept"
 grep -q 'a.nc: refused: .*(the earlier output was removed)' "$T/r6.err" || fail "stale removal not reported: $(cat "$T/r6.err")"

@@ -114,7 +114,7 @@ TEST(Interpreter, ArcsByRadiusPositiveAndNegative) {
 TEST(Interpreter, FullCircleHelixAndTurns) {
   const Program r(dialect("linuxcnc"),
               "G0 X10 Y0 Z0\nG2 X10 Y0 I-5 J0 F100\nG3 X-10 Y0 Z-5 I-10 J0\nG0 X10 Y0 Z0\n"
-              "G3 X10 Y0 Z-6 I-10 J0 P3\nG2 X0 Y-10 I-10 J0 P2\n");
+              "G3 X10 Y0 Z-6 I-10 J0 P3\nG2 X0 Y-10 I-10 J0 P2\nM2\n");
   ASSERT_TRUE(r.sink.stored().empty()) << r.all_codes();
   const auto* full = r.at_line(2);
   EXPECT_TRUE(full->arc.full_circle);

@@ -17,7 +17,7 @@ constexpr double kTol = 1e-9;
 // LinuxCNC G-code reference "G4 Dwell": P is the time; rs274 runs "G4 P1 X20" as DWELL(1) then
 // STRAIGHT_FEED to X20 in the modal G1.
 TEST(ReaderLinuxcnc, DwellAxisWordsBelongToTheModalMotion) {
-  const Program r(dialect("linuxcnc"), "G21 G90\nG0 X0 Y0 Z10\nG1 F100\nG4 P1 X20\nG4 P0.5\nX30 Y5\n");
+  const Program r(dialect("linuxcnc"), "G21 G90\nG0 X0 Y0 Z10\nG1 F100\nG4 P1 X20\nG4 P0.5\nX30 Y5\nM2\n");
   ASSERT_EQ(r.motions.size(), 3u) << r.all_codes();
   EXPECT_EQ(r.motions[1].line, 4u);
   EXPECT_EQ(r.motions[1].type, MotionType::linear);
@@ -110,7 +110,7 @@ TEST(ReaderLinuxcnc, ModalStateSaveAndRestore) {
   expect_diag_at(bad, "PP-E207", 4, 1);
   // M73 in the main program saves as M70 does (rs274: M73 G20 G91 M72 G0 X1 → X1 mm absolute);
   // nothing restores it at M2.
-  const Program main_m73(dialect("linuxcnc"), "G21 G90\nG0 X0\nM73\nG20 G91\nM72\nG0 X1\nG0 X1\n");
+  const Program main_m73(dialect("linuxcnc"), "G21 G90\nG0 X0\nM73\nG20 G91\nM72\nG0 X1\nG0 X1\nM2\n");
   ASSERT_EQ(main_m73.motions.size(), 3u) << main_m73.all_codes();
   EXPECT_TRUE(main_m73.sink.stored().empty()) << main_m73.all_codes();
   EXPECT_NEAR(main_m73.motions[2].end[0], 1, kTol);
@@ -124,7 +124,7 @@ TEST(ReaderLinuxcnc, M73RestoresAtTheReturn) {
   const ResolvedProgram r(dialect("linuxcnc"),
                           "o<s> sub\nM73\nG20 G91 G18 F5\nG1 X1\no1 if [#1 GT 0]\no<s> return\no1 endif\nG1 X1\n"
                           "o<s> endsub\nG21 G90 G17 F100\nG0 X0 Y0 Z0\no<s> call [0]\nG1 X10\no<s> call [1]\n"
-                          "G1 X20\nG2 X30 I5 J0\n");
+                          "G1 X20\nG2 X30 I5 J0\nM2\n");
   ASSERT_EQ(r.motions.size(), 7u) << r.all_codes();
   EXPECT_TRUE(r.sink.stored().empty()) << r.all_codes();
   EXPECT_NEAR(r.motions[1].end[0], 25.4, kTol);   // G20 G91 inside
@@ -169,7 +169,7 @@ TEST(ReaderLinuxcnc, M73PerCallLevel) {
 // (the caller's M70 … a subroutine's M73 … the caller's M72), the program is read per call level
 // but --flatten cannot write it as one program (PP-E709 at the M72).
 TEST(ReaderLinuxcnc, M73WithACallerSaveIsNotFlat) {
-  const std::string text = "o<s> sub\nM73\nG20\no<s> endsub\nG21 G90\nG91\nM70\nG90\no<s> call\nM72\nG0 X1\nG0 X1\n";
+  const std::string text = "o<s> sub\nM73\nG20\no<s> endsub\nG21 G90\nG91\nM70\nG90\no<s> call\nM72\nG0 X1\nG0 X1\nM2\n";
   const ResolvedProgram r(dialect("linuxcnc"), text);
   ASSERT_EQ(r.motions.size(), 2u) << r.all_codes();
   EXPECT_TRUE(r.sink.stored().empty()) << r.all_codes();
@@ -341,7 +341,7 @@ TEST(ReaderLinuxcnc, PolarWordsWhereRs274Refuses) {
 // 1.5 circle at 60°, 120° … 360°.
 TEST(ReaderLinuxcnc, PolarCycleRepeatsStepFromHoleToHole) {
   const Program r(dialect("linuxcnc"), "G20 G17 G90\nG0 X1.5 Y0 Z0\nG91 G81 R.1 Z-.5 ^60 L6 F10\n"
-                                       "G90 G0 X2 Y0 Z0\nG91 G81 R.1 Z-.5 @-.75 ^45 L4\n");
+                                       "G90 G0 X2 Y0 Z0\nG91 G81 R.1 Z-.5 @-.75 ^45 L4\nM2\n");
   ASSERT_EQ(r.motions.size(), 12u) << r.all_codes();
   EXPECT_TRUE(r.sink.stored().empty()) << r.all_codes();
   for (int k = 0; k < 6; ++k) {
@@ -405,7 +405,7 @@ TEST(ReaderLinuxcnc, CycleWordsRs274Refuses) {
 
 // Editors on Windows write a UTF-8 byte-order mark; the controllers skip it.
 TEST(ReaderLinuxcnc, ByteOrderMarkIsSkipped) {
-  const Program r(dialect("linuxcnc"), "\xEF\xBB\xBFG21 G90\nG0 X1\n");
+  const Program r(dialect("linuxcnc"), "\xEF\xBB\xBFG21 G90\nG0 X1\nM2\n");
   ASSERT_EQ(r.motions.size(), 1u) << r.all_codes();
   EXPECT_TRUE(r.sink.stored().empty()) << r.all_codes();
   const Program f(dialect("fanuc"), "\xEF\xBB\xBF%\nO1000\nG90 G0 X1.\n%\n");

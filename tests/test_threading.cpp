@@ -49,7 +49,8 @@ TEST(ThreadingLinuxcnc, G76ConstantDepthPassesThenFullDepth) {
                     "M3 S500\n"
                     "G0 X10 Z5\n"
                     "G76 P1.5 Z-30 I-1 J0.1 K0.92\n"
-                    "G0 X20\n");
+                    "G0 X20\n"
+                    "M2\n");
   ASSERT_EQ(r.sink.count(gc::Severity::error) + r.sink.count(gc::Severity::warning), 0u) << r.all_codes();
   const auto ms = of_line(r, 4);
   ASSERT_EQ(ms.size(), 10u * 4 + 1);
@@ -96,7 +97,8 @@ TEST(ThreadingLinuxcnc, G76DegressionCompoundAngleSpringPassesAndTapersInDiamete
                     "G21 G18 G7 G90\n"
                     "M3 S500\n"
                     "G0 X16 Z5\n"
-                    "G76 P1.5 Z-30 I2 J0.2 K1.84 R2 Q29.5 H2 E2 L3\n");
+                    "G76 P1.5 Z-30 I2 J0.2 K1.84 R2 Q29.5 H2 E2 L3\n"
+                    "M2\n");
   ASSERT_EQ(r.sink.count(gc::Severity::error) + r.sink.count(gc::Severity::warning), 0u) << r.all_codes();
   const auto ms = of_line(r, 4);
   const double drive = 8, peak = 1, first = 0.1, height = 0.92, full = peak + height;
@@ -144,7 +146,8 @@ TEST(ThreadingLinuxcnc, G76TowardsPlusZMirrorsTheAngleAndInchIsConverted) {
                     "G20 G18 G8 G90\n"
                     "M3 S500\n"
                     "G0 X1 Z-2\n"
-                    "G76 P0.05 Z0.5 I-0.0625 J0.015625 K0.046875 Q30 H0\n");
+                    "G76 P0.05 Z0.5 I-0.0625 J0.015625 K0.046875 Q30 H0\n"
+                    "M2\n");
   ASSERT_EQ(r.sink.count(gc::Severity::error) + r.sink.count(gc::Severity::warning), 0u) << r.all_codes();
   const auto ms = of_line(r, 4);
   const double t = std::tan(rad(-30));

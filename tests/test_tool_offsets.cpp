@@ -37,7 +37,7 @@ gc::Dialect with_tools(std::string_view name, std::map<std::uint32_t, double> le
 TEST(ToolOffsets, LinuxcncOffsetChangesShiftProgramZ) {
   const auto d = with_tools("linuxcnc", {{1, 50}, {2, 100}});
   const Program r(d, "G21 G90 G17\nT1 M6\nG0 X0 Y0 Z10\nG43 H1\nG0 X5\nG43 H2\nG0 X6\nG43.1 Z3\nG0 X7\n"
-                     "G43.2 H1\nG0 X8\nG49\nG0 X9\nG43\nG0 X10\n");
+                     "G43.2 H1\nG0 X8\nG49\nG0 X9\nG43\nG0 X10\nM2\n");
   ASSERT_EQ(r.motions.size(), 7u) << r.all_codes();
   const double z[] = {10, -40, -90, 7, -43, 10, -40};
   for (std::size_t i = 0; i < 7; ++i) {

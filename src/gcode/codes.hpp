@@ -70,6 +70,10 @@ inline constexpr std::string_view kSiemensGlobalVar = "PP-U242";  ///< GUD / und
 inline constexpr std::string_view kSiemensTurnFraction = "PP-U243"; ///< TURN= not a whole number
 inline constexpr std::string_view kSiemensArcWords = "PP-E240";   ///< AR= TURN= CR= I1= misused
 inline constexpr std::string_view kSiemensGlobalFlow = "PP-E241";  ///< GUD value decides control flow / assignment
+// The program's end (M2/M30, the closing '%').
+inline constexpr std::string_view kAfterProgramEnd = "PP-W210";  ///< NC words after the end: never run
+inline constexpr std::string_view kNoProgramEnd = "PP-W211";     ///< LinuxCNC file ends without M2/M30 or '%'
+inline constexpr std::string_view kStrayPercent = "PP-E210";     ///< LinuxCNC '%' without an opening one
 // Notes.
 inline constexpr std::string_view kDialectGuess = "PP-N001";
 inline constexpr std::string_view kDialectMismatch = "PP-N002";

@@ -1,6 +1,7 @@
 #include "postproc/gcode/program.hpp"
 #include "postproc/gcode/detect.hpp"
 
+#include <algorithm>
 #include <array>
 #include <deque>
 #include <optional>
@@ -91,6 +92,142 @@ Lookahead read_leader(LineReader& reader, const Dialect& d, std::size_t max_line
 
 }  // namespace
 
+namespace {
+
+/// Where the program ends, as the controls read it: M2 or M30 ends it (every ISO dialect); in
+/// Fanuc and LinuxCNC files a '%' line after the program's first line closes the tape. Lines after
+/// the end are never run (LinuxCNC stops reading; Fanuc rewinds to the start; Sinumerik ends the
+/// program): they are said once, when they hold NC words, and copied unchanged.
+std::string_view trim_text(std::string_view s) {
+  const auto a = s.find_first_not_of(" \t\r");
+  if (a == std::string_view::npos) return {};
+  return s.substr(a, s.find_last_not_of(" \t\r") - a + 1);
+}
+
+struct ProgramEnd {
+  bool ended = false;
+  bool said = false;
+  bool opened = false;     ///< a '%' line before the program's first NC line
+  bool content = false;    ///< an NC line was read
+  bool seen = false;       ///< a line with anything but blanks was read (comments too)
+  /// LinuxCNC text from the resolver (it holds O-word lines): the resolver stopped it at the end
+  /// already, and what it passes on after an M2 (a G7x profile's lines) is read for the cycle.
+  bool resolved = false;
+  std::uint64_t end_line = 0;
+  std::string what;        ///< "M30", "the closing '%'"
+  std::uint64_t last_line = 0;  ///< the last NC line (LinuxCNC's end-of-file warning points at it)
+  std::string last_text;
+
+  [[nodiscard]] static bool percent_line(const Block& b) {
+    return b.words.empty() && std::any_of(b.tokens.begin(), b.tokens.end(),
+                                          [](const Token& t) { return t.kind == TokenKind::percent; });
+  }
+  [[nodiscard]] static bool nc_words(const Block& b) {
+    return !b.words.empty() || std::any_of(b.tokens.begin(), b.tokens.end(), [](const Token& t) {
+             return t.kind != TokenKind::paren_comment && t.kind != TokenKind::line_comment &&
+                    t.kind != TokenKind::percent;
+           });
+  }
+  [[nodiscard]] static bool tape_dialect(const Dialect& d) {
+    return d.id == DialectId::fanuc || d.id == DialectId::linuxcnc;
+  }
+
+  /// A line before the end. False when it is refused (LinuxCNC: a '%' that closes nothing).
+  bool before(const Dialect& d, const Block& b, const LexContext& ctx) {
+    if (d.id == DialectId::linuxcnc && std::any_of(b.tokens.begin(), b.tokens.end(), [](const Token& t) {
+          return t.kind == TokenKind::control_flow;
+        }))
+      resolved = true;
+    if (resolved) return true;
+    if (tape_dialect(d) && percent_line(b)) {
+      // LinuxCNC takes '%' as the opening one only on the first line that is not blank.
+      if (d.id == DialectId::linuxcnc ? !seen : !content) {
+        opened = seen = true;
+        return true;
+      }
+      if (opened) {
+        ended = true;
+        end_line = b.line;
+        what = "the closing '%'";
+        return true;
+      }
+      if (d.id == DialectId::linuxcnc) {
+        report_at(ctx, b, {0, static_cast<std::uint32_t>(std::max<std::size_t>(b.raw.size(), 1))}, Severity::error,
+                  codes::kStrayPercent,
+                  "'%' is read only on the file's first line that is not blank, and then as the line that closes "
+                  "it: LinuxCNC stops here with 'Bad character '%' used'; put the opening '%' first (before any "
+                  "comment), or end the program with M2 instead");
+        ended = said = true;
+        return false;
+      }
+      ended = true;  // Fanuc: the end of the tape
+      end_line = b.line;
+      what = "the end of tape '%'";
+      return true;
+    }
+    seen = seen || !b.words.empty() || !b.tokens.empty();
+    if (nc_words(b)) {
+      content = true;
+      if (d.id == DialectId::linuxcnc) {
+        last_text.assign(b.raw);
+        last_line = b.line;
+      }
+    }
+    return true;
+  }
+
+  /// After the line ran: M2 / M30 end the program.
+  void check(const Dialect& d, const Block& b) {
+    if (ended || resolved) return;
+    for (const Word& w : b.words)
+      if (w.letter == 'M' && w.name_len == 1 && w.kind == ValueKind::number && (w.number == 2 || w.number == 30)) {
+        ended = true;
+        end_line = b.line;
+        what = fmt::format("M{}", w.number == 2 ? (d.id == DialectId::fanuc ? "02" : "2") : "30");
+        return;
+      }
+  }
+
+  /// A line after the end (lexed without diagnostics).
+  void after(const Dialect& d, const Block& b, const LexContext& ctx) {
+    if (said) return;
+    // Another program follows (a Fanuc O-number line, a Sinumerik archive's '%_N_…' header): it
+    // runs only when called, which the reader follows where the program calls it.
+    if (std::any_of(b.tokens.begin(), b.tokens.end(), [&](const Token& t) {
+          return t.kind == TokenKind::program_number ||
+                 (t.kind == TokenKind::percent && trim_text(b.raw).size() > 1 && d.id != DialectId::linuxcnc);
+        })) {
+      said = true;
+      return;
+    }
+    if (!nc_words(b)) return;
+    said = true;
+    report_at(ctx, b, {0, static_cast<std::uint32_t>(std::max<std::size_t>(b.raw.size(), 1))}, Severity::warning,
+              codes::kAfterProgramEnd,
+              fmt::format("this line and those after it come after the program's end ({} at line {}): the control "
+                          "never runs them; they are copied unchanged. Move them before the end if they are meant "
+                          "to run",
+                          what, end_line));
+  }
+
+  /// End of file: LinuxCNC wants M2/M30 or the closing '%'.
+  void finish(const Dialect& d, const LexContext& ctx) const {
+    if (ended || resolved || !content || d.id != DialectId::linuxcnc) return;
+    Block last;
+    last.raw = last_text;
+    last.line = last_line;
+    report_at(ctx, last, {0, static_cast<std::uint32_t>(std::max<std::size_t>(last.raw.size(), 1))},
+              Severity::warning, codes::kNoProgramEnd,
+              opened ? std::string("the file opens with '%' but ends without the closing '%' (or M2/M30): LinuxCNC "
+                                   "runs every line, then stops with 'File ended with no percent sign'; add '%' or M2 "
+                                   "at the end")
+                     : std::string("the program ends without M2 or M30: LinuxCNC runs every line, then stops with "
+                                   "'File ended with no percent sign or program end'; end it with M2"));
+  }
+};
+
+}  // namespace
+
 ProgramStats run_program(LineReader& reader, const Dialect& given, std::string_view file, DiagnosticSink& sink,
                          BlockVisitor& visitor, InterpreterOptions opt) {
   // A Fanuc lathe program whose G-code system is not stated: read it off the program first.
@@ -150,12 +287,20 @@ ProgramStats run_program(LineReader& reader, const Dialect& given, std::string_v
     src.eol = all.substr(src.line.size());
     src.buffer = k;
   };
+  // The program's end: M2/M30, or (Fanuc, LinuxCNC) the '%' that closes an opening one. The
+  // control runs nothing after it: later lines are copied unchanged, like a tape leader.
+  ProgramEnd end;
   const auto process = [&](Source& src) {
     b.raw = src.line;
     b.eol = src.eol;
     b.line = src.number;
     bool ok = true;
     collect.motions.clear();
+    if (!src.leader && end.ended) {
+      (void)lex_block(dialect, b, LexContext{file, nullptr});
+      end.after(dialect, b, ctx);
+      src.leader = true;
+    }
     if (src.leader) {
       b.words.clear();
       b.tokens.clear();
@@ -163,7 +308,13 @@ ProgramStats run_program(LineReader& reader, const Dialect& given, std::string_v
       b.block_delete = false;
     } else {
       ok = lex_block(dialect, b, ctx);
+      if (!end.before(dialect, b, ctx)) {
+        ok = false;
+        b.words.clear();
+        b.tokens.clear();
+      }
       interp.execute(b, collect);
+      end.check(dialect, b);
       if (interp.corner_pending()) {
         if (src.buffer < 0) {
           keep(src, 0);
@@ -220,6 +371,7 @@ ProgramStats run_program(LineReader& reader, const Dialect& given, std::string_v
   la_count = la.lines.size();
   Source src;
   while (fetch(src)) process(src);
+  end.finish(dialect, ctx);
   interp.finish();
   release_pending();
   st.bytes = reader.bytes_read();
