@@ -15,6 +15,7 @@
 #include "postproc/calibration/plan.hpp"
 #include "postproc/error.hpp"
 #include "postproc/kinematics/model.hpp"
+#include "postproc/kinematics/prs_hybrid.hpp"
 #include "postproc/machine/machine.hpp"
 #include "calibration_support.hpp"
 #include "src/calibration/jacobian_compression.hpp"
@@ -149,6 +150,25 @@ TEST(StreamedSolver, AgreesWithCeresOnHexapodStrutReadings) {
   const auto c = solve(*mach.nominal, data, {}, cal::Solver::ceres);
   const auto s = solve(*mach.nominal, data, {}, cal::Solver::streamed);
   expect_same(c, s, 1e-5);
+}
+
+TEST(StreamedSolver, AgreesWithCeresOnThePrsHybridAndNumericDerivatives) {
+  // Document 001's 3-PRS head (its own analytic Jacobian, one thread) from 6-DoF poses with
+  // ±10 µm noise; then the B/C trunnion with central differences for every parameter.
+  const auto nominal = kin::make_document001_machine();
+  const auto truth = nominal->with_errors(kin::document001_table1_errors());
+  const auto data = cal::doc001::simulate(*nominal, *truth, cal::doc001::pose_set(), 3, true, 0.01, 0.01);
+  const auto c = solve(*nominal, data, {}, cal::Solver::ceres);
+  const auto s = solve(*nominal, data, {}, cal::Solver::streamed);
+  expect_same(c, s, 1e-5);
+
+  const auto mach = load("machines/trunnion_bc_fanuc.toml");
+  const auto start = pptest::zero_errors(*mach.actual);
+  const auto poses = simulate(*mach.actual, *start, 80, MeasurementKind::pose, 0.001, 17);
+  cal::IdentifyOptions numeric;
+  numeric.numeric_derivatives = true;
+  expect_same(solve(*start, poses, numeric, cal::Solver::ceres), solve(*start, poses, numeric, cal::Solver::streamed),
+              1e-5);
 }
 
 TEST(StreamedSolver, TheThreadCountDoesNotChangeTheResult) {
