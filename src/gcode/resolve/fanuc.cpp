@@ -214,8 +214,11 @@ void Runner::do_return(std::optional<double> to_n, Span span) {
 }
 
 void Runner::finish_tape() {
-  // The run ended in the main program: the closing '%' passes through.
+  // The run ended in the main program: the closing '%' passes through. Lines between the end and
+  // the next program (an O line) are never run: the first that holds NC words is said (PP-W210,
+  // as the reader says it for a program without O numbers).
   SourceFile& m = files_.main();
+  bool said = false;
   for (std::size_t i = (file_ == &m ? pc_ + 1 : m.lines()); i < m.lines(); ++i) {
     const std::string_view l = m.raw(i);
     const std::size_t q = l.find_first_not_of(" \t");
@@ -223,6 +226,26 @@ void Runner::finish_tape() {
       static const std::vector<Edit> none;
       emit(m, i, none);
       return;
+    }
+    if (said) continue;
+    Block b;  // lexed quietly: the control never reads these lines, so they raise nothing else
+    b.raw = l;
+    b.line = i + 1;
+    (void)lex_block(m.dialect(), b, LexContext{m.name(), nullptr});
+    const bool program = std::any_of(b.tokens.begin(), b.tokens.end(),
+                                     [](const Token& t) { return t.kind == TokenKind::program_number; });
+    const bool nc = !b.words.empty() || std::any_of(b.tokens.begin(), b.tokens.end(), [](const Token& t) {
+      return t.kind != TokenKind::paren_comment && t.kind != TokenKind::line_comment;
+    });
+    if (program) {
+      said = true;
+    } else if (nc) {
+      said = true;
+      m.report(i, {0, static_cast<std::uint32_t>(std::max<std::size_t>(1, l.size()))}, Severity::warning, "PP-W210",
+               fmt::format("this line and those after it come after the program's end (M30 or M02 at line {}): the "
+                           "control never runs them; they are copied unchanged. Move them before the end if they are "
+                           "meant to run",
+                           pc_ + 1));
     }
   }
 }

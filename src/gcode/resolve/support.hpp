@@ -30,6 +30,7 @@ class SourceFile {
 
   [[nodiscard]] const std::string& name() const { return name_; }
   [[nodiscard]] std::uint32_t index() const { return index_; }  ///< into ResolvedProgram::files
+  [[nodiscard]] const Dialect& dialect() const { return d_; }
   [[nodiscard]] std::size_t lines() const { return lines_.size(); }
   [[nodiscard]] std::string_view raw(std::size_t i) const { return lines_[i]; }
   /// The lexed block of line i (0-based). Valid until the next call of block() on this file
