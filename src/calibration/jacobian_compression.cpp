@@ -73,7 +73,7 @@ Linearised linearise(const kin::Model& model, std::span<const Measurement> data,
     for (std::size_t i = begin; i < end; ++i) {
       const Measurement& m = data[i];
       Prediction p;
-      if (!predict(ev.model(), m, p) || !ev.derivative(m, d)) {
+      if (!ev.predict_and_derive(m, p, d)) {
         cr.failed = static_cast<std::ptrdiff_t>(i);
         return;
       }

@@ -99,6 +99,19 @@ class Evaluator {
   [[nodiscard]] const kin::Model& model() const { return *model_; }
   [[nodiscard]] const std::vector<int>& cols() const { return cols_; }
 
+  /// predict() and derivative() at once: on a serial chain with analytic derivatives one pass
+  /// along the chain gives both (the pose bit for bit forward()'s).
+  bool predict_and_derive(const Measurement& m, Prediction& p, Eigen::MatrixXd& d) {
+    if (!numeric_ && m.kind != MeasurementKind::struts)
+      if (const auto* serial = dynamic_cast<const kin::SerialModel*>(model_.get())) {
+        const Eigen::Matrix<double, 6, Eigen::Dynamic> j = serial->identification_jacobian(m.q, p.pose);
+        d.resize(6, static_cast<Eigen::Index>(cols_.size()));
+        for (std::size_t c = 0; c < cols_.size(); ++c) d.col(static_cast<Eigen::Index>(c)) = j.col(cols_[c]);
+        return d.allFinite();
+      }
+    return predict(*model_, m, p) && derivative(m, d);
+  }
+
   /// d(prediction)/d(cols): pose kinds 6 × k (dP mm, dθ rad per unit), struts joints × k.
   bool derivative(const Measurement& m, Eigen::MatrixXd& d) {
     const bool struts = m.kind == MeasurementKind::struts;

@@ -591,6 +591,11 @@ Jacobian SerialModel::jacobian(const JointVector& q) const {
 }
 
 Eigen::Matrix<double, 6, Eigen::Dynamic> SerialModel::identification_jacobian(const JointVector& q) const {
+  Pose unused;
+  return identification_jacobian(q, unused);
+}
+
+Eigen::Matrix<double, 6, Eigen::Dynamic> SerialModel::identification_jacobian(const JointVector& q, Pose& pose) const {
   const Impl& m = *impl_;
   Impl::Trig t;
   m.trig(q, t);
@@ -601,6 +606,12 @@ Eigen::Matrix<double, 6, Eigen::Dynamic> SerialModel::identification_jacobian(co
   const Rigid& ts = ch.side[1];
   Eigen::Vector3d tip = ts.t;
   tip.noalias() += ts.r * m.tool0.t;
+  {  // as Impl::evaluate: the pose in the workpiece frame, tw⁻¹ · tool
+    Eigen::Matrix3d tool_r;
+    tool_r.noalias() = ts.r * m.tool0.r;
+    pose.r.noalias() = tw.r.transpose() * tool_r;
+    pose.p.noalias() = tw.r.transpose() * (tip - tw.t);
+  }
   const Eigen::Matrix3d back = tw.r.transpose();  // machine frame → workpiece frame
   Eigen::Matrix<double, 6, Eigen::Dynamic> out = Eigen::Matrix<double, 6, Eigen::Dynamic>::Zero(6, static_cast<Eigen::Index>(params_.size()));
   // Ad_T(w, v) = (R·w, R·v + t × R·w).

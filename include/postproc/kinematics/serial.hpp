@@ -140,6 +140,8 @@ class SerialModel final : public Model {
   /// or a squareness by a rotation, a scale stretches its travel), carried to the tool through the
   /// chain like a joint's own twist; "tool.length" moves the tip along the tool axis.
   [[nodiscard]] Eigen::Matrix<double, 6, Eigen::Dynamic> identification_jacobian(const JointVector& q) const;
+  /// The same, with the pose at q (bit for bit forward()'s) from the same pass along the chain.
+  [[nodiscard]] Eigen::Matrix<double, 6, Eigen::Dynamic> identification_jacobian(const JointVector& q, Pose& pose) const;
 
  private:
   SerialModel(SerialConfig cfg, std::vector<double> values);
