@@ -9,12 +9,14 @@ namespace postproc::cal {
 
 void add_measurement_file(const std::string& path, bool validate, const kin::Model& model, MeasurementFiles& into,
                           gcode::DiagnosticSink& sink) {
-  const std::string text = io::read_file(path, "measurement file");
+  std::string text = io::read_file(path, "measurement file");
   std::optional<CsvTable> table = CsvTable::parse(path, text, sink);
   if (!table) return;
   const std::optional<std::string> kind = measurement_file_kind(*table);
   if (!kind || kind->empty()) return;
   InputFile in{path, machine::sha256_hex(text), *kind, 0};
+  // The table holds its own copy of every row: the text is not needed past here but for a gauge.
+  if (*kind != "step-gauge" && *kind != "step-gauge-edge") std::string().swap(text);
   if (*kind == "step-gauge" || *kind == "step-gauge-edge") {
     if (validate) {
       table->error(CsvTable::kHeader, -1, codes::kCsvColumns,
