@@ -63,12 +63,12 @@ class MeasurementCost final : public ceres::CostFunction {
   bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override {
     ev_.set(parameters[0]);
     Prediction p;
-    if (!lsq::predict(ev_.model(), m_, p)) return false;
+    Eigen::MatrixXd d;
+    const bool jacobian = jacobians != nullptr && jacobians[0] != nullptr;
+    if (jacobian ? !ev_.predict_and_derive(m_, p, d) : !lsq::predict(ev_.model(), m_, p)) return false;
     const kin::Pose measured = frame_ != nullptr ? registered_pose(m_.measured, frame_->r0, parameters[1]) : m_.measured;
     lsq::residual_from(m_, measured, p, w_, substitute_, residuals);
-    if (jacobians != nullptr && jacobians[0] != nullptr) {
-      Eigen::MatrixXd d;
-      if (!ev_.derivative(m_, d)) return false;
+    if (jacobian) {
       std::fill(jacobians[0], jacobians[0] + num_residuals() * n_, 0.0);
       lsq::residual_jacobian(m_, measured, p, d, w_, substitute_, jacobians[0], n_, where_);
     }
@@ -160,19 +160,21 @@ double gcv_lambda(const Eigen::VectorXd& qtb, const Eigen::MatrixXd& r, long row
   return best;
 }
 
-/// lsq::linearise, or Error (usage) naming the measurement the model cannot evaluate.
+/// The refusal of a measurement the model cannot evaluate, naming it.
+Error unevaluable(const Measurement& m) {
+  return Error(ExitCode::usage, fmt::format("{}: the model cannot evaluate this {} measurement (joints outside its "
+                                            "reach, or a pose it cannot assume); check the row",
+                                            m.label, to_string(m.kind)));
+}
+
+/// lsq::linearise, or unevaluable() of the first measurement the model cannot evaluate.
 lsq::Linearised linearised(const kin::Model& model, std::span<const Measurement> data, std::span<const int> columns,
                            std::span<const Weights> weights, std::span<const FrameState> frames,
                            std::span<const int> frame_of, std::span<const FrameColumns> frame_columns, bool numeric,
                            const lsq::LineariseOptions& options) {
   lsq::Linearised lin =
       lsq::linearise(model, data, columns, weights, frames, frame_of, frame_columns, numeric, options);
-  if (!lin.ok()) {
-    const Measurement& m = data[static_cast<std::size_t>(lin.failed)];
-    throw Error(ExitCode::usage, fmt::format("{}: the model cannot evaluate this {} measurement (joints outside its "
-                                             "reach, or a pose it cannot assume); check the row",
-                                             m.label, to_string(m.kind)));
-  }
+  if (!lin.ok()) throw unevaluable(data[static_cast<std::size_t>(lin.failed)]);
   return lin;
 }
 
@@ -192,47 +194,6 @@ double sigma_angle(const Measurement& m, double w) {
 }
 
 
-/// Residuals and Jacobian of `data` at `model`: the model's parameters `columns`, then each
-/// frame's registration components (frame_of[i]: the frame of data[i], −1 for the workpiece).
-void linearise_all(const kin::Model& model, std::span<const Measurement> data, std::span<const int> columns,
-                   std::span<const Weights> weights, std::span<const FrameState> frames, std::span<const int> frame_of,
-                   std::span<const FrameColumns> frame_columns, Eigen::VectorXd& res, Eigen::MatrixXd& jac,
-                   bool numeric) {
-  Evaluator ev(model, std::vector<int>(columns.begin(), columns.end()), numeric);
-  ev.set(model.values());
-  const int nj = model.joint_count();
-  int rows = 0;
-  for (const Measurement& m : data) rows += residual_rows(m, nj);
-  int k = static_cast<int>(columns.size());
-  for (const FrameColumns& f : frame_columns) k += static_cast<int>(f.components.size());
-  res.resize(rows);
-  RowMatrix j = RowMatrix::Zero(rows, k);
-  std::vector<int> where(columns.size());
-  for (std::size_t c = 0; c < columns.size(); ++c) where[c] = static_cast<int>(c);
-  int at = 0;
-  for (std::size_t i = 0; i < data.size(); ++i) {
-    const Measurement& m = data[i];
-    Prediction p;
-    Eigen::MatrixXd d;
-    if (!lsq::predict(ev.model(), m, p) || !ev.derivative(m, d))
-      throw Error(ExitCode::usage, fmt::format("{}: the model cannot evaluate this {} measurement (joints outside its "
-                                               "reach, or a pose it cannot assume); check the row",
-                                               m.label, to_string(m.kind)));
-    const int f = frame_of.empty() ? -1 : frame_of[i];
-    const FrameState* frame = f >= 0 ? &frames[static_cast<std::size_t>(f)] : nullptr;
-    const kin::Pose measured = frame != nullptr ? registered_pose(m.measured, frame->r0, frame->reg.data()) : m.measured;
-    const int n = residual_rows(m, nj);
-    lsq::residual_from(m, measured, p, weights[i], false, res.data() + at);
-    double* out = j.data() + static_cast<Eigen::Index>(at) * k;
-    lsq::residual_jacobian(m, measured, p, d, weights[i], false, out, k, where);
-    if (frame != nullptr && static_cast<std::size_t>(f) < frame_columns.size()) {
-      const FrameColumns& fc = frame_columns[static_cast<std::size_t>(f)];
-      lsq::registration_jacobian(m, frame->r0, frame->reg, p, weights[i], false, n, fc.components, out, k, fc.first);
-    }
-    at += n;
-  }
-  jac = j;
-}
 
 }  // namespace
 
@@ -290,8 +251,26 @@ Eigen::VectorXd residuals(const kin::Model& model, std::span<const Measurement> 
 
 void linearise(const kin::Model& model, std::span<const Measurement> data, std::span<const int> columns,
                Eigen::VectorXd& res, Eigen::MatrixXd& jac, double orientation_weight, bool numeric) {
-  const std::vector<Weights> w(data.size(), Weights{1, orientation_weight});
-  linearise_all(model, data, columns, w, {}, {}, {}, res, jac, numeric);
+  Evaluator ev(model, std::vector<int>(columns.begin(), columns.end()), numeric);
+  ev.set(model.values());
+  const int nj = model.joint_count();
+  const auto k = static_cast<int>(columns.size());
+  int rows = 0;
+  for (const Measurement& m : data) rows += residual_rows(m, nj);
+  res.resize(rows);
+  RowMatrix j = RowMatrix::Zero(rows, k);
+  std::vector<int> where(columns.size());
+  for (std::size_t c = 0; c < columns.size(); ++c) where[c] = static_cast<int>(c);
+  const Weights w{1, orientation_weight};
+  Eigen::MatrixXd d;
+  int at = 0;
+  for (const Measurement& m : data) {
+    if (!lsq::measurement_rows(ev, m, w, nullptr, nullptr, where, d, res.data() + at,
+                               j.data() + static_cast<Eigen::Index>(at) * k, k))
+      throw unevaluable(m);
+    at += residual_rows(m, nj);
+  }
+  jac = j;
 }
 
 IdentifyResult identify(const kin::Model& start_model, std::span<const Measurement> data, const IdentifyOptions& options) {

@@ -72,24 +72,16 @@ Linearised linearise(const kin::Model& model, std::span<const Measurement> data,
     long at = 0;
     for (std::size_t i = begin; i < end; ++i) {
       const Measurement& m = data[i];
-      Prediction p;
-      if (!ev.predict_and_derive(m, p, d)) {
-        cr.failed = static_cast<std::ptrdiff_t>(i);
-        return;
-      }
       const int f = frame_of.empty() ? -1 : frame_of[i];
-      const FrameState* frame = f >= 0 ? &frames[static_cast<std::size_t>(f)] : nullptr;
-      const kin::Pose measured =
-          frame != nullptr ? registered_pose(m.measured, frame->r0, frame->reg.data()) : m.measured;
+      const auto fi = static_cast<std::size_t>(f);
       const int n = residual_rows(m, nj);
       res.resize(static_cast<std::size_t>(n));
-      residual_from(m, measured, p, weights[i], false, res.data());
       double* row = buf.data() + at * stride;
-      residual_jacobian(m, measured, p, d, weights[i], false, row, stride, where);
-      if (frame != nullptr && static_cast<std::size_t>(f) < frame_columns.size()) {
-        const FrameColumns& fc = frame_columns[static_cast<std::size_t>(f)];
-        registration_jacobian(m, frame->r0, frame->reg, p, weights[i], false, n, fc.components, row, stride,
-                              fc.first);
+      if (!measurement_rows(ev, m, weights[i], f >= 0 ? &frames[fi] : nullptr,
+                            f >= 0 && fi < frame_columns.size() ? &frame_columns[fi] : nullptr, where, d, res.data(),
+                            row, stride)) {
+        cr.failed = static_cast<std::ptrdiff_t>(i);
+        return;
       }
       double s = 0;
       for (double v : res) s += v * v;

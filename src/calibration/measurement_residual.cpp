@@ -131,4 +131,18 @@ void residual_jacobian(const Measurement& m, const kin::Pose& measured, const Pr
   put(-w.angle * (o.cross(v)).transpose() * rot);
 }
 
+bool measurement_rows(Evaluator& ev, const Measurement& m, const Weights& w, const FrameState* frame,
+                      const FrameColumns* columns, std::span<const int> where, Eigen::MatrixXd& d, double* res,
+                      double* jac, int stride) {
+  Prediction p;
+  if (!ev.predict_and_derive(m, p, d)) return false;
+  const kin::Pose measured = frame != nullptr ? registered_pose(m.measured, frame->r0, frame->reg.data()) : m.measured;
+  residual_from(m, measured, p, w, false, res);
+  residual_jacobian(m, measured, p, d, w, false, jac, stride, where);
+  if (frame != nullptr && columns != nullptr)
+    registration_jacobian(m, frame->r0, frame->reg, p, w, false, residual_rows(m, ev.model().joint_count()),
+                          columns->components, jac, stride, columns->first);
+  return true;
+}
+
 }  // namespace postproc::cal::lsq

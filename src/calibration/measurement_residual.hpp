@@ -186,4 +186,13 @@ class Evaluator {
   std::mutex mutex_;
 };
 
+/// The residual rows of one measurement at ev's model and their Jacobian rows: `res` gets the
+/// residual_rows() values, `jac` (row stride `stride`) the model's parameters at columns `where`
+/// and, with a frame, its components from `columns->first`. `frame`: the instrument frame the
+/// measured values are in (null: the workpiece frame); `columns`: its estimated components (null:
+/// none). `d` is scratch. False when the model cannot evaluate the measurement.
+bool measurement_rows(Evaluator& ev, const Measurement& m, const Weights& w, const FrameState* frame,
+                      const FrameColumns* columns, std::span<const int> where, Eigen::MatrixXd& d, double* res,
+                      double* jac, int stride);
+
 }  // namespace postproc::cal::lsq

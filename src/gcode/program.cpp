@@ -12,6 +12,7 @@
 
 #include "postproc/gcode/lexer.hpp"
 #include "src/gcode/codes.hpp"
+#include "src/gcode/program_end.hpp"
 #include "src/gcode/klartext.hpp"
 
 namespace postproc::gcode {
@@ -98,12 +99,6 @@ namespace {
 /// Fanuc and LinuxCNC files a '%' line after the program's first line closes the tape. Lines after
 /// the end are never run (LinuxCNC stops reading; Fanuc rewinds to the start; Sinumerik ends the
 /// program): they are said once, when they hold NC words, and copied unchanged.
-std::string_view trim_text(std::string_view s) {
-  const auto a = s.find_first_not_of(" \t\r");
-  if (a == std::string_view::npos) return {};
-  return s.substr(a, s.find_last_not_of(" \t\r") - a + 1);
-}
-
 struct ProgramEnd {
   bool ended = false;
   bool said = false;
@@ -121,12 +116,6 @@ struct ProgramEnd {
   [[nodiscard]] static bool percent_line(const Block& b) {
     return b.words.empty() && std::any_of(b.tokens.begin(), b.tokens.end(),
                                           [](const Token& t) { return t.kind == TokenKind::percent; });
-  }
-  [[nodiscard]] static bool nc_words(const Block& b) {
-    return !b.words.empty() || std::any_of(b.tokens.begin(), b.tokens.end(), [](const Token& t) {
-             return t.kind != TokenKind::paren_comment && t.kind != TokenKind::line_comment &&
-                    t.kind != TokenKind::percent;
-           });
   }
   [[nodiscard]] static bool tape_dialect(const Dialect& d) {
     return d.id == DialectId::fanuc || d.id == DialectId::linuxcnc;
@@ -166,7 +155,7 @@ struct ProgramEnd {
       return true;
     }
     seen = seen || !b.words.empty() || !b.tokens.empty();
-    if (nc_words(b)) {
+    if (program_end::holds_nc_words(b)) {
       content = true;
       if (d.id == DialectId::linuxcnc) {
         last_text.assign(b.raw);
@@ -188,26 +177,16 @@ struct ProgramEnd {
       }
   }
 
-  /// A line after the end (lexed without diagnostics).
+  /// A line after the end, not yet said (lexed without diagnostics).
   void after(const Dialect& d, const Block& b, const LexContext& ctx) {
-    if (said) return;
-    // Another program follows (a Fanuc O-number line, a Sinumerik archive's '%_N_…' header): it
-    // runs only when called, which the reader follows where the program calls it.
-    if (std::any_of(b.tokens.begin(), b.tokens.end(), [&](const Token& t) {
-          return t.kind == TokenKind::program_number ||
-                 (t.kind == TokenKind::percent && trim_text(b.raw).size() > 1 && d.id != DialectId::linuxcnc);
-        })) {
+    if (program_end::starts_program(b, d.id)) {
       said = true;
       return;
     }
-    if (!nc_words(b)) return;
+    if (!program_end::holds_nc_words(b)) return;
     said = true;
     report_at(ctx, b, {0, static_cast<std::uint32_t>(std::max<std::size_t>(b.raw.size(), 1))}, Severity::warning,
-              codes::kAfterProgramEnd,
-              fmt::format("this line and those after it come after the program's end ({} at line {}): the control "
-                          "never runs them; they are copied unchanged. Move them before the end if they are meant "
-                          "to run",
-                          what, end_line));
+              codes::kAfterProgramEnd, program_end::after_end_message(what, end_line));
   }
 
   /// End of file: LinuxCNC wants M2/M30 or the closing '%'.
@@ -297,8 +276,10 @@ ProgramStats run_program(LineReader& reader, const Dialect& given, std::string_v
     bool ok = true;
     collect.motions.clear();
     if (!src.leader && end.ended) {
-      (void)lex_block(dialect, b, LexContext{file, nullptr});
-      end.after(dialect, b, ctx);
+      if (!end.said) {
+        (void)lex_block(dialect, b, LexContext{file, nullptr});
+        end.after(dialect, b, ctx);
+      }
       src.leader = true;
     }
     if (src.leader) {

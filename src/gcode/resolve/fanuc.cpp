@@ -27,6 +27,8 @@
 // - A block delete '/' is taken as switched off: the block runs (PP-W702 when it holds a
 //   statement, since the switch could change the flow).
 #include "fanuc_runner.hpp"
+#include "src/gcode/codes.hpp"
+#include "src/gcode/program_end.hpp"
 
 namespace postproc::gcode::resolver {
 namespace fanuc_run {
@@ -232,20 +234,12 @@ void Runner::finish_tape() {
     b.raw = l;
     b.line = i + 1;
     (void)lex_block(m.dialect(), b, LexContext{m.name(), nullptr});
-    const bool program = std::any_of(b.tokens.begin(), b.tokens.end(),
-                                     [](const Token& t) { return t.kind == TokenKind::program_number; });
-    const bool nc = !b.words.empty() || std::any_of(b.tokens.begin(), b.tokens.end(), [](const Token& t) {
-      return t.kind != TokenKind::paren_comment && t.kind != TokenKind::line_comment;
-    });
-    if (program) {
+    if (program_end::starts_program(b, m.dialect().id)) {
       said = true;
-    } else if (nc) {
+    } else if (program_end::holds_nc_words(b)) {
       said = true;
-      m.report(i, {0, static_cast<std::uint32_t>(std::max<std::size_t>(1, l.size()))}, Severity::warning, "PP-W210",
-               fmt::format("this line and those after it come after the program's end (M30 or M02 at line {}): the "
-                           "control never runs them; they are copied unchanged. Move them before the end if they are "
-                           "meant to run",
-                           pc_ + 1));
+      m.report(i, {0, static_cast<std::uint32_t>(std::max<std::size_t>(1, l.size()))}, Severity::warning,
+               codes::kAfterProgramEnd, program_end::after_end_message("M30 or M02", pc_ + 1));
     }
   }
 }
