@@ -199,8 +199,8 @@ TEST(Batch, MissingMachineFailsTheFileNotTheBatch) {
 TEST(Batch, ResolvedProgramsAreWrittenBackOrRefused) {
   TempDir t;
   write(t.path / "jobs/literal.ngc",
-        "G21 G90 G94 G18 G8\nG54\n#<_feed> = 300\nG0 X60. Z10. B0. C0.\nG1 X45. Z2. F#<_feed>\n"
-        "o100 if [#<_feed> GT 100]\n  G1 X47.5 Z-5. B-4. C40.\no100 endif\nM30\n");
+        "G21 G90 G94 G18 G8\nG54\n#<_cut_feed> = 300\nG0 X60. Z10. B0. C0.\nG1 X45. Z2. F#<_cut_feed>\n"
+        "o100 if [#<_cut_feed> GT 100]\n  G1 X47.5 Z-5. B-4. C40.\no100 endif\nM30\n");
   write(t.path / "jobs/computed.ngc",
         "G21 G90 G94 G18 G8\nG54\n#<r> = 45\nG0 X60. Z10. B0. C0.\nG1 X[#<r> + 1] Z2. F300.\nM30\n");
   batch::BatchOptions o;
@@ -220,8 +220,8 @@ TEST(Batch, ResolvedProgramsAreWrittenBackOrRefused) {
   EXPECT_EQ(literal.figures["resolution"]["written"], "in place");
   EXPECT_EQ(literal.figures["resolution"]["source_lines_rewritten"], 3);
   const std::string out = io::read_file((o.out_dir / "literal.ngc").string(), "output");
-  EXPECT_NE(out.find("\n#<_feed> = 300\n"), std::string::npos);
-  EXPECT_NE(out.find(" F#<_feed>\n"), std::string::npos);
+  EXPECT_NE(out.find("\n#<_cut_feed> = 300\n"), std::string::npos);
+  EXPECT_NE(out.find(" F#<_cut_feed>\n"), std::string::npos);
   // --flatten: both written as literal moves.
   o.compensate.flatten = true;
   o.out_dir = t.path / "flat";

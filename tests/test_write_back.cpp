@@ -120,14 +120,14 @@ const char* const kLinuxCnc = R"(%
 G21 G90 G94 G18 G8
 G54
 T1 M6
-#<_feed> = 300
+#<_cut_feed> = 300
 o100 sub
   G1 X46. Z0. B-3. C20.
   #<_depth> = [#<_depth> + 1]
 o100 endsub
 #<_depth> = 0
 G0 X60. Z10. B0. C0.
-G1 X45. Z2. F#<_feed>
+G1 X45. Z2. F#<_cut_feed>
 o100 call
 o200 if [#<_depth> GT 0]
   G1 X47.5 Z-5. B-4. C40. (taken)
@@ -189,12 +189,12 @@ TEST(WriteBack, LinuxCncInPlaceEqualsFlattened) {
   run(m, kLinuxCnc, r, false);
   ASSERT_TRUE(r.ok()) << r.errors();
   // Statements, the branch not taken and comments stay byte for byte; the literal words of the
-  // executed moves are corrected; F#<_feed> keeps its parameter.
-  for (const char* kept : {"#<_feed> = 300", "  #<_depth> = [#<_depth> + 1]", "o200 if [#<_depth> GT 0]",
+  // executed moves are corrected; F#<_cut_feed> keeps its parameter.
+  for (const char* kept : {"#<_cut_feed> = 300", "  #<_depth> = [#<_depth> + 1]", "o200 if [#<_depth> GT 0]",
                            "  G1 X48. Z-6. B-2. C50. (not taken)", "o300 repeat [2]", "M30"})
     EXPECT_TRUE(has_line(r.out, kept)) << kept;
-  EXPECT_FALSE(has_line(r.out, "G1 X45. Z2. F#<_feed>"));
-  EXPECT_NE(r.out.find(" F#<_feed>\n"), std::string::npos);
+  EXPECT_FALSE(has_line(r.out, "G1 X45. Z2. F#<_cut_feed>"));
+  EXPECT_NE(r.out.find(" F#<_cut_feed>\n"), std::string::npos);
   EXPECT_NE(r.out.find("#<x> = 5\n"), std::string::npos);  // the assignment on a move line is kept
   EXPECT_EQ(lines_without_header(r.out).size(), lines_without_header(kLinuxCnc).size() + r.result.segments_added);
 }
@@ -236,14 +236,14 @@ TEST(WriteBack, ContourModesInPlaceEqualFlattened) {
 G21 G90 G94 G18 G8
 G54
 T1 M6
-#<_feed> = 300
+#<_cut_feed> = 300
 G0 X60. Z10. B0. C0.
-G1 X45. Z2. F#<_feed>
+G1 X45. Z2. F#<_cut_feed>
 G1 X46. Z0. B-3. C20.
 o100 repeat [1]
   G0 X60. Z10.
 o100 endrepeat
-o200 if [#<_feed> GT 100]
+o200 if [#<_cut_feed> GT 100]
   G1 X47.5 Z-5. B-4. C40.
 o200 else
   G1 X48. Z-6. B-2. C50.

@@ -351,9 +351,52 @@ class Lexer {
     if (j >= n() || s_[j] != '=')
       return bad(i, "PP-E105", "parameter reference outside a word or assignment",
                  "assign it (#1=5) or use it as a word value (X#1)", name_end - i);
-    j = rest_of_statement(j + 1);
+    // LinuxCNC reads one value after '=' (rs274ngc read_real_value: a number, a parameter, a
+    // bracketed expression or a function, each after any signs); words and further assignments may
+    // follow on the line ("#1 = 7 G1 X#1": the move takes #1 as it was before the line). Fanuc's
+    // statement runs to the end of the block.
+    const std::uint32_t value_end = d_.id == DialectId::linuxcnc ? real_value_end(j + 1) : 0;
+    j = value_end != 0 ? value_end : rest_of_statement(j + 1);
     push_token(TokenKind::assignment, {i, j}, {i, name_end});
     return j;
+  }
+
+  /// LinuxCNC: the end of one value from `j` (spaces and signs first): a number (digits and one
+  /// point, no exponent), a parameter reference, `[…]`, a function `NAME[…]` or `ATAN[…]/[…]`.
+  /// 0 when the text there is none of these (the statement's parser then says what is wrong).
+  std::uint32_t real_value_end(std::uint32_t j) {
+    j = skip_space(j);
+    while (j < n() && (s_[j] == '+' || s_[j] == '-')) j = skip_space(j + 1);
+    if (j >= n()) return 0;
+    const char c = s_[j];
+    if (c == '[') return match_bracket(j, '[', ']');
+    if (c == '#') return parameter_ref_end(j);
+    // rs274 drops every space before it reads a line: "1 0 . 5" is 10.5, "A T A N" is ATAN.
+    const auto next_in = [&](std::uint32_t k, auto part) {
+      if (k < n() && part(s_[k])) return k + 1;
+      const std::uint32_t m = d_.spaces_inside_words ? skip_space(k) : k;
+      return m < n() && m > k && part(s_[m]) ? m + 1 : 0u;
+    };
+    if (is_alpha(c)) {
+      std::string name;
+      std::uint32_t k = j;
+      for (std::uint32_t m; (m = next_in(k, is_alpha)) != 0; k = m) name += upper(s_[m - 1]);
+      const bool atan = name == "ATAN";
+      k = skip_space(k);
+      if (k >= n() || s_[k] != '[') return 0;
+      std::uint32_t e = match_bracket(k, '[', ']');
+      if (e == 0 || !atan) return e;
+      k = skip_space(e);
+      if (k >= n() || s_[k] != '/') return 0;
+      k = skip_space(k + 1);
+      return k < n() && s_[k] == '[' ? match_bracket(k, '[', ']') : 0;
+    }
+    if (!is_digit(c) && c != '.') return 0;
+    std::uint32_t k = j;
+    bool point = false;
+    const auto digit_or_point = [&point](char ch) { return is_digit(ch) || (ch == '.' && !point); };
+    for (std::uint32_t m; (m = next_in(k, digit_or_point)) != 0; k = m) point = point || s_[m - 1] == '.';
+    return k;
   }
 
   /// End of a statement's text: up to a comment (outside brackets/strings) or the end of line,

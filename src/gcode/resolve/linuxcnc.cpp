@@ -93,7 +93,13 @@ void Machine::compile(SourceFile& f, std::size_t i, Line& l) {
         l.ok = false;
         continue;
       }
-      l.deletions.push_back(t.span);
+      // Assignments one after another ("#1 = 2 #2 = 3") go as one piece, with the blanks between.
+      const std::string_view raw = b.raw;
+      if (!l.deletions.empty() && raw.substr(l.deletions.back().end, t.span.begin - l.deletions.back().end)
+                                          .find_first_not_of(" \t") == std::string_view::npos)
+        l.deletions.back().end = t.span.end;
+      else
+        l.deletions.push_back(t.span);
     } else if (t.kind == TokenKind::paren_comment) {
       std::string c = lower(b.text(t.span));
       c.erase(std::remove(c.begin(), c.end(), ' '), c.end());
@@ -300,6 +306,22 @@ void Machine::prepare(SourceFile& f) {
         label(l, i);
         open.push_back({l.oname, l.kw, i});
         break;
+      case Kw::break_: case Kw::continue_: {
+        // rs274 2.9 checks the loop a break / continue names as it reads the line, executed or not
+        // (a branch not taken, a subroutine's definition): a repeat loop stops it with "no matching
+        // while/do label".
+        const auto o = std::find_if(open.rbegin(), open.rend(), [&](const Open& x) {
+          return x.oname == l.oname && (x.kw == Kw::while_ || x.kw == Kw::do_ || x.kw == Kw::repeat);
+        });
+        if (o != open.rend() && o->kw == Kw::repeat) {
+          f.report(i, l.control_span, Severity::error, "PP-E708",
+                   fmt::format("'{}' in a repeat loop: LinuxCNC takes break and continue only in while and do loops "
+                               "and stops here (\"no matching while/do label\"); write the loop with while",
+                               f.raw(i).substr(l.control_span.begin, l.control_span.size())));
+          throw Stop{};
+        }
+        break;
+      }
       case Kw::endsub: close(f, fi, open, l, i, Kw::sub); break;
       case Kw::endif: close(f, fi, open, l, i, Kw::if_); break;
       case Kw::endwhile: close(f, fi, open, l, i, Kw::while_); break;

@@ -167,10 +167,25 @@ class Parser {
       c.ops.push_back({op});
     }
   }
+  /// The characters at the cursor that `part` accepts, spaces between them dropped (rs274ngc drops
+  /// every space of a line before reading it: "1 0 . 5" is 10.5, "C O S" is COS).
+  template <class Part>
+  std::string spaced(Part part) {
+    std::string t;
+    while (pos_ < s_.size()) {
+      std::size_t k = pos_;
+      while (!t.empty() && k < s_.size() && (s_[k] == ' ' || s_[k] == '\t')) ++k;
+      if (k >= s_.size() || !part(s_[k])) break;
+      t += s_[k];
+      pos_ = k + 1;
+    }
+    return t;
+  }
   double number() {
     const std::size_t b = pos_;
-    while (pos_ < s_.size() && (std::isdigit(static_cast<unsigned char>(s_[pos_])) || s_[pos_] == '.')) ++pos_;
-    const std::string_view t = s_.substr(b, pos_ - b);
+    const std::string digits =
+        spaced([](char ch) { return std::isdigit(static_cast<unsigned char>(ch)) || ch == '.'; });
+    const std::string_view t = digits;
     if (t.empty()) return 0;
     double v = 0;
     if (!parse_number(t, v)) fail(fmt::format("'{}' is not a number", t));
@@ -207,8 +222,7 @@ class Parser {
   }
   void function(Code& c) {
     const std::size_t b = pos_;
-    while (pos_ < s_.size() && std::isalpha(static_cast<unsigned char>(s_[pos_]))) ++pos_;
-    std::string f(s_.substr(b, pos_ - b));
+    std::string f = spaced([](char ch) { return std::isalpha(static_cast<unsigned char>(ch)) != 0; });
     for (char& ch : f) ch = static_cast<char>(std::toupper(static_cast<unsigned char>(ch)));
     static const std::map<std::string, Op> unary = {
         {"ABS", Op::abs}, {"ACOS", Op::acos}, {"ASIN", Op::asin}, {"COS", Op::cos}, {"EXP", Op::exp},

@@ -132,6 +132,9 @@ class Machine {
 
  private:
   struct Stop {};  // program end (M2/M30) or a refusal: unwinds everything
+  /// A break left a while loop, and no do … while has gone back since (rs274 then runs the next
+  /// do … while once only: refused where that matters).
+  bool while_broken_ = false;
 
   struct FileInfo {
     std::vector<Line> lines;

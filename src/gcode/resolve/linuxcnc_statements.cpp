@@ -2,6 +2,10 @@
 // assignments, the line loop, O-word control flow and subroutine calls (linuxcnc_runner.hpp).
 #include "linuxcnc_runner.hpp"
 
+#include <algorithm>
+#include <iterator>
+#include <string_view>
+
 namespace postproc::gcode::resolver::lcnc_run {
 
 std::string Machine::context() const {
@@ -27,6 +31,26 @@ double Machine::numbered(double index) {
   }
   return numbered_[static_cast<std::size_t>(n)];
 }
+
+namespace {
+
+/// LinuxCNC's predefined named parameters (G-code overview, "Predefined Named Parameters"; names
+/// folded to lower case): rs274 refuses an assignment to any of them ("Cannot assign to read-only
+/// parameter", checked name by name against rs274 2.9).
+bool read_only_named(std::string_view n) {
+  static constexpr std::string_view kPredefined[] = {
+      "_vmajor", "_vminor", "_line", "_motion_mode", "_plane", "_ccomp", "_metric", "_imperial", "_absolute",
+      "_incremental", "_inverse_time", "_units_per_minute", "_units_per_rev", "_coord_system", "_tool_offset",
+      "_retract_r_plane", "_retract_old_z", "_spindle_rpm_mode", "_spindle_css_mode", "_ijk_absolute_mode",
+      "_lathe_diameter_mode", "_lathe_radius_mode", "_spindle_on", "_spindle_cw", "_mist", "_flood",
+      "_speed_override", "_feed_override", "_adaptive_feed", "_feed_hold", "_feed", "_rpm", "_x", "_y", "_z", "_a",
+      "_b", "_c", "_u", "_v", "_w", "_abs_x", "_abs_y", "_abs_z", "_abs_a", "_abs_b", "_abs_c", "_current_tool",
+      "_current_pocket", "_selected_tool", "_selected_pocket", "_value", "_value_returned", "_task", "_call_level",
+      "_remap_level"};
+  return std::find(std::begin(kPredefined), std::end(kPredefined), n) != std::end(kPredefined);
+}
+
+}  // namespace
 
 std::optional<double> Machine::named(int id) {
   const std::string& n = names_.name(id);
@@ -95,6 +119,13 @@ void Machine::store(std::unordered_map<int, double>& m, int id, double v) {
 void Machine::assign(const Assign& a, double v, SourceFile& f, std::size_t i, Span span) {
   if (a.named) {
     const std::string& n = names_.name(a.name_id);
+    if (read_only_named(n)) {
+      f.report(i, span, Severity::error, "PP-E710",
+               fmt::format("#<{}> is a predefined parameter, read-only in LinuxCNC: its interpreter stops here "
+                           "('Cannot assign to read-only parameter'); use a name of your own{}",
+                           n, context()));
+      throw Stop{};
+    }
     store(n[0] == '_' ? globals_ : frames_.back().locals, a.name_id, v);
     return;
   }
@@ -105,6 +136,13 @@ void Machine::assign(const Assign& a, double v, SourceFile& f, std::size_t i, Sp
     throw Stop{};
   }
   const int n = static_cast<int>(r);
+  if ((n >= 5400 && n <= 5413) || (n >= 5420 && n <= 5428)) {
+    f.report(i, span, Severity::error, "PP-E710",
+             fmt::format("#{} ({}) is read-only in LinuxCNC: its interpreter stops here ('Parameter is readonly'); "
+                         "use a parameter of your own (#31–#5000){}",
+                         n, n <= 5413 ? "the current tool's number and offsets" : "the current position", context()));
+    throw Stop{};
+  }
   if (numbered_[static_cast<std::size_t>(n)] != v) guard_.changed();
   numbered_[static_cast<std::size_t>(n)] = v;
   if (runtime_numbered(n)) set_numbered_.insert(n);
@@ -250,11 +288,11 @@ std::size_t Machine::control(SourceFile& f, FileInfo& fi, std::size_t i, Line& l
                  fmt::format("'{}' outside a subroutine", f.raw(i).substr(l.control_span.begin, l.control_span.size())));
         throw Stop{};
       }
-      if (!l.args.empty()) {
-        globals_[names_.id("_value")] = value(f, i, l.control_span, l.args[0]);
-        globals_[names_.id("_value_returned")] = 1;
-        guard_.changed();
-      }
+      // rs274 2.9: a return or endsub without a value sets #<_value> and #<_value_returned> to 0;
+      // a call leaves them as they are until then (tests/rs274_control_compare.py).
+      globals_[names_.id("_value")] = l.args.empty() ? 0.0 : value(f, i, l.control_span, l.args[0]);
+      globals_[names_.id("_value_returned")] = l.args.empty() ? 0.0 : 1.0;
+      guard_.changed();
       if (const SavedState& st = frames_.back().state; st.valid && st.restore) {
         // M73: LinuxCNC restores the state saved at this level as the subroutine returns; the
         // resolved program does it with an M72 written on the return line.
@@ -280,7 +318,21 @@ std::size_t Machine::control(SourceFile& f, FileInfo& fi, std::size_t i, Line& l
     case Kw::endif: return i + 1;
     case Kw::while_:
       if (auto s = fi.start_of.find(i); s != fi.start_of.end()) {  // the end of a do … while
-        return truth(f, i, l) ? s->second + 1 : i + 1;
+        const bool again = truth(f, i, l);
+        if (again && while_broken_) {
+          // rs274 2.9 (LinuxCNC's interpreter) runs the first do … while after a break out of a while
+          // loop once only: its 'while' line does not go back (tests/rs274_control_compare.py found
+          // it; with the same number twice rs274 hangs). Not a rule to follow: refused.
+          f.report(i, l.control_span, Severity::error, "PP-E709",
+                   fmt::format("'{}' would repeat its do loop, but LinuxCNC 2.9's interpreter runs the first do … "
+                               "while after a 'break' out of a while loop only once (a while loop ended with break "
+                               "before it); the result depends on the interpreter version: end that while loop without "
+                               "break, or write this loop with while … endwhile{}",
+                               f.raw(i).substr(l.control_span.begin, l.control_span.size()), context()));
+          throw Stop{};
+        }
+        if (again) while_broken_ = false;
+        return again ? s->second + 1 : i + 1;
       }
       return truth(f, i, l) ? i + 1 : fi.end_of.at(i) + 1;
     case Kw::endwhile: return fi.start_of.at(i);
@@ -308,11 +360,11 @@ std::size_t Machine::control(SourceFile& f, FileInfo& fi, std::size_t i, Line& l
       const Line& ll = line(f, loop);
       const std::size_t end = fi.end_of.at(loop);
       if (l.kw == Kw::break_) {
-        if (ll.kw == Kw::repeat) frames_.back().repeats.erase(loop);
+        if (ll.kw == Kw::while_) while_broken_ = true;
         return end + 1;
       }
       if (ll.kw == Kw::while_) return loop;  // evaluate the condition again
-      return end;                            // do: its while line; repeat: its endrepeat
+      return end;                            // do: its while line
     }
     default: return i + 1;
   }
@@ -366,7 +418,6 @@ void Machine::cycle_profile(SourceFile& f, std::size_t pc, const Line& l) {
   std::fill(numbered_.begin() + 1, numbered_.begin() + 31, 0.0);
   frames_.push_back(std::move(fr));
   guard_.changed();
-  globals_[names_.id("_value_returned")] = 0;
   globals_[names_.id("_call_level")] = static_cast<double>(frames_.size() - 1);
   profile_ = &prof;
   try {
@@ -547,7 +598,6 @@ void Machine::call(SourceFile& f, std::size_t i, Line& l) {
   for (int k = 1; k <= 30; ++k) numbered_[static_cast<std::size_t>(k)] = k <= static_cast<int>(args.size()) ? args[static_cast<std::size_t>(k - 1)] : 0;
   frames_.push_back(std::move(fr));
   guard_.changed();
-  globals_[names_.id("_value_returned")] = 0;
   globals_[names_.id("_call_level")] = static_cast<double>(frames_.size() - 1);
   out_.push_call(CallFrame{f.name(), i + 1, l.oname + " call"});
   execute(*s.file, s.begin + 1, s.end + 1, true);
