@@ -11,7 +11,7 @@ move after every step prints the counters and values, so a branch, a pass or a v
 differently shows up as a move rs274 does not make. Verdicts as tests/rs274_random_compare.py
 (agree / located / refused; WRONG fails).
 """
-import os, random, sys, tempfile
+import os, random, sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import rs274_random_compare as R  # noqa: E402
@@ -138,27 +138,7 @@ def program(r):
 
 
 def main():
-    postproc = os.path.realpath(sys.argv[1])
-    first = int(sys.argv[2]) if len(sys.argv) > 2 else 1
-    count = int(sys.argv[3]) if len(sys.argv) > 3 else 200
-    counts, wrong = {}, []
-    with tempfile.TemporaryDirectory() as d:
-        for seed in range(first, first + count):
-            path = os.path.join(d, f'c{seed}.ngc')
-            with open(path, 'w') as fh:
-                fh.write(program(random.Random(seed)))
-            verdict, why = R.judge(postproc, path)
-            counts[verdict] = counts.get(verdict, 0) + 1
-            if verdict == 'WRONG':
-                wrong.append(f'seed {seed}: {why}')
-    print(', '.join(f'{k}: {v}' for k, v in sorted(counts.items())))
-    for w in wrong:
-        print('WRONG', w, f'(regenerate: python3 -c "import random,sys; sys.path.insert(0, \'tests\'); '
-              f'import rs274_control_compare as C; print(C.program(random.Random({w.split()[1][:-1]})), end=\'\')")')
-    if counts.get('agree', 0) < count // 2:
-        print('FAIL: fewer than half of the programs were compared move for move')
-        return 1
-    return 1 if wrong else 0
+    return R.run_seeds(program, 'rs274_control_compare', sys.argv, 200, 0.5)
 
 
 if __name__ == '__main__':

@@ -154,28 +154,35 @@ def judge(postproc, path):
     return 'WRONG', f'rs274 {len(ref)} moves, postproc {len(got)} (exit {rc})'
 
 
-def main():
-    postproc = os.path.realpath(sys.argv[1])
-    first = int(sys.argv[2]) if len(sys.argv) > 2 else 1
-    count = int(sys.argv[3]) if len(sys.argv) > 3 else 250
+def run_seeds(program_of, module, argv, default_count, min_agree_share):
+    """Writes program_of(random.Random(seed)) for each seed, judges it (judge()), prints the counts
+    and every WRONG with the command that regenerates it; exit status 1 on a WRONG or when fewer
+    than min_agree_share of the programs were compared move for move."""
+    postproc = os.path.realpath(argv[1])
+    first = int(argv[2]) if len(argv) > 2 else 1
+    count = int(argv[3]) if len(argv) > 3 else default_count
     counts, wrong = {}, []
     with tempfile.TemporaryDirectory() as d:
         for seed in range(first, first + count):
-            path = os.path.join(d, f'r{seed}.ngc')
+            path = os.path.join(d, f'p{seed}.ngc')
             with open(path, 'w') as fh:
-                fh.write(program(random.Random(seed)))
+                fh.write(program_of(random.Random(seed)))
             verdict, why = judge(postproc, path)
             counts[verdict] = counts.get(verdict, 0) + 1
             if verdict == 'WRONG':
-                wrong.append(f'seed {seed}: {why}')
+                wrong.append((seed, why))
     print(', '.join(f'{k}: {v}' for k, v in sorted(counts.items())))
-    for w in wrong:
-        print('WRONG', w, f'(regenerate: python3 -c "import random,sys; sys.path.insert(0, \'tests\'); '
-              f'import rs274_random_compare as R; print(R.program(random.Random({w.split()[1][:-1]})), end=\'\')")')
-    if counts.get('agree', 0) < count // 4:
-        print('FAIL: fewer than a quarter of the programs were compared move for move')
+    for seed, why in wrong:
+        print(f'WRONG seed {seed}: {why} (regenerate: python3 -c "import random,sys; sys.path.insert(0, \'tests\'); '
+              f'import {module} as M; print(M.program(random.Random({seed})), end=\'\')")')
+    if counts.get('agree', 0) < count * min_agree_share:
+        print(f'FAIL: fewer than {min_agree_share:.0%} of the programs were compared move for move')
         return 1
     return 1 if wrong else 0
+
+
+def main():
+    return run_seeds(program, 'rs274_random_compare', sys.argv, 250, 0.25)
 
 
 if __name__ == '__main__':

@@ -135,6 +135,8 @@ class Machine {
   /// A break left a while loop, and no do … while has gone back since (rs274 then runs the next
   /// do … while once only: refused where that matters).
   bool while_broken_ = false;
+  /// A continue went to the end of a do loop (rs274 then does not leave a while loop at a break).
+  bool do_continued_ = false;
 
   struct FileInfo {
     std::vector<Line> lines;

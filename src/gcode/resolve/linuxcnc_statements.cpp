@@ -360,9 +360,21 @@ std::size_t Machine::control(SourceFile& f, FileInfo& fi, std::size_t i, Line& l
       const Line& ll = line(f, loop);
       const std::size_t end = fi.end_of.at(loop);
       if (l.kw == Kw::break_) {
+        if (ll.kw == Kw::while_ && do_continued_) {
+          // rs274 2.9: after a continue in a do loop, a break does not leave a while loop (it runs on
+          // to its condition's end); an interpreter defect the result would depend on: refused.
+          f.report(i, l.control_span, Severity::error, "PP-E709",
+                   fmt::format("'{}' after a 'continue' in a do loop: LinuxCNC 2.9's interpreter then does not leave "
+                               "the while loop at a break (it runs on until its condition fails); the result depends "
+                               "on the interpreter version: write the do loop without continue, or end this loop by "
+                               "its condition{}",
+                               f.raw(i).substr(l.control_span.begin, l.control_span.size()), context()));
+          throw Stop{};
+        }
         if (ll.kw == Kw::while_) while_broken_ = true;
         return end + 1;
       }
+      if (ll.kw == Kw::do_) do_continued_ = true;
       if (ll.kw == Kw::while_) return loop;  // evaluate the condition again
       return end;                            // do: its while line
     }
