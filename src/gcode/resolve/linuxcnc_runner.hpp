@@ -197,6 +197,10 @@ class Machine {
   void close_tape(SourceFile& main);
   [[noreturn]] void endless(SourceFile& f, std::size_t i, const std::string& why);
   [[noreturn]] void runaway(SourceFile& f, std::size_t i);
+  /// PP-E709 at loop statement `l` (line i): a defect of rs274 2.9's loop handling (`what` it does)
+  /// would decide the result; `instead` says how to write the loop.
+  [[noreturn]] void loop_defect(SourceFile& f, std::size_t i, const Line& l, std::string_view what,
+                                std::string_view instead);
 
   bool truth(SourceFile& f, std::size_t i, const Line& l) { return value(f, i, l.control_span, l.args[0]) != 0; }
 

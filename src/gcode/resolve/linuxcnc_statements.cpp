@@ -323,13 +323,10 @@ std::size_t Machine::control(SourceFile& f, FileInfo& fi, std::size_t i, Line& l
           // rs274 2.9 (LinuxCNC's interpreter) runs the first do … while after a break out of a while
           // loop once only: its 'while' line does not go back (tests/rs274_control_compare.py found
           // it; with the same number twice rs274 hangs). Not a rule to follow: refused.
-          f.report(i, l.control_span, Severity::error, "PP-E709",
-                   fmt::format("'{}' would repeat its do loop, but LinuxCNC 2.9's interpreter runs the first do … "
-                               "while after a 'break' out of a while loop only once (a while loop ended with break "
-                               "before it); the result depends on the interpreter version: end that while loop without "
-                               "break, or write this loop with while … endwhile{}",
-                               f.raw(i).substr(l.control_span.begin, l.control_span.size()), context()));
-          throw Stop{};
+          loop_defect(f, i, l,
+                      "would repeat its do loop, but LinuxCNC 2.9's interpreter runs the first do … while after a "
+                      "'break' out of a while loop only once (a while loop ended with break before it)",
+                      "end that while loop without break, or write this loop with while … endwhile");
         }
         if (again) while_broken_ = false;
         return again ? s->second + 1 : i + 1;
@@ -363,13 +360,10 @@ std::size_t Machine::control(SourceFile& f, FileInfo& fi, std::size_t i, Line& l
         if (ll.kw == Kw::while_ && do_continued_) {
           // rs274 2.9: after a continue in a do loop, a break does not leave a while loop (it runs on
           // to its condition's end); an interpreter defect the result would depend on: refused.
-          f.report(i, l.control_span, Severity::error, "PP-E709",
-                   fmt::format("'{}' after a 'continue' in a do loop: LinuxCNC 2.9's interpreter then does not leave "
-                               "the while loop at a break (it runs on until its condition fails); the result depends "
-                               "on the interpreter version: write the do loop without continue, or end this loop by "
-                               "its condition{}",
-                               f.raw(i).substr(l.control_span.begin, l.control_span.size()), context()));
-          throw Stop{};
+          loop_defect(f, i, l,
+                      "after a 'continue' in a do loop: LinuxCNC 2.9's interpreter then does not leave the while "
+                      "loop at a break (it runs on until its condition fails)",
+                      "write the do loop without continue, or end this loop by its condition");
         }
         if (ll.kw == Kw::while_) while_broken_ = true;
         return end + 1;
@@ -561,6 +555,14 @@ void Machine::check_restore(SourceFile& f, std::size_t i, Span at, const SavedSt
                         "written back into itself, subroutines kept), or save and restore at one call level{}",
                         what, between, context()));
   if (!capture.stored().empty()) r_.not_flat.push_back(capture.stored().front());
+}
+
+void Machine::loop_defect(SourceFile& f, std::size_t i, const Line& l, std::string_view what,
+                          std::string_view instead) {
+  f.report(i, l.control_span, Severity::error, "PP-E709",
+           fmt::format("'{}' {}; the result depends on the interpreter version: {}{}",
+                       f.raw(i).substr(l.control_span.begin, l.control_span.size()), what, instead, context()));
+  throw Stop{};
 }
 
 std::size_t Machine::enclosing_loop(SourceFile& f, FileInfo& fi, std::size_t i, const Line& l) {
