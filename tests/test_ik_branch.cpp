@@ -6,10 +6,13 @@
 // End to end: a Fanuc G43.5 program read into the commanded path takes the branch the setting
 // names.
 #include <cmath>
+#include <limits>
+#include <random>
 #include <fstream>
 #include <sstream>
 #include <string>
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include "postproc/compensation/compensate.hpp"
@@ -242,6 +245,182 @@ TEST(IkBranch, CompensatedAtThePoleUnderEachRule) {
     EXPECT_GE(v.compared, 3u);
     EXPECT_LT(v.max_excess_mm, 1e-6) << "line " << v.worst_line;
   }
+}
+
+}  // namespace
+
+namespace {
+
+/// The B/C trunnion with B's travel [bmin, bmax] and C's [cmin, cmax] (infinite: no limits).
+std::optional<mc::Machine> trunnion_travel(const std::string& setting, double bmin, double bmax, double cmin,
+                                           double cmax, gc::DiagnosticSink& sink) {
+  std::string text = sample("trunnion_bc_fanuc.toml");
+  const std::string anchor = "[machine]\n", b_travel = "min = -110\nmax = 110\n",
+                    c_pivot = "pivot = [0, 0, 0]           # C unlimited: no min/max\n";
+  if (text.find(b_travel) == std::string::npos || text.find(c_pivot) == std::string::npos) return std::nullopt;
+  text.replace(text.find(b_travel), b_travel.size(), fmt::format("min = {}\nmax = {}\n", bmin, bmax));
+  if (std::isfinite(cmin))
+    text.replace(text.find(c_pivot), c_pivot.size(), c_pivot + fmt::format("min = {}\nmax = {}\n", cmin, cmax));
+  text.replace(text.find(anchor), anchor.size(), anchor + "ik_branch = \"" + setting + "\"\n");
+  return mc::parse_machine("bc.toml", text, sink);
+}
+
+/// The tool axis of the B/C trunnion in the workpiece frame, written out independently of the
+/// model: the table turns the part, so the spindle's +Z seen from the part is Rz(−C)·Ry(−B)·Z.
+Eigen::Vector3d bc_tool_axis(double b_deg, double c_deg) {
+  const double b = b_deg * kin::kDeg, c = c_deg * kin::kDeg;
+  return {-std::sin(b) * std::cos(c), std::sin(b) * std::sin(c), std::cos(b)};
+}
+
+/// Heidenhain's rule for PLANE without SEQ (TNC 640 user's manual, "Tilting the working plane",
+/// "Selecting possible solutions: SEQ"; Beckhoff TF5200 P-CHAN-00189 tool_ori_cs.mode 2): of the
+/// solutions within the rotary axes' travel the one nearest the present position; none: an error.
+/// Written here from the closed form of bc_tool_axis, every turn of C enumerated.
+std::optional<std::pair<double, double>> expected_in_travel(const Eigen::Vector3d& o, double b0, double c0,
+                                                            double bmin, double bmax, double cmin, double cmax) {
+  std::optional<std::pair<double, double>> best;
+  double best_d = 1e300;
+  const double tilt = std::acos(std::clamp(o.z(), -1.0, 1.0)) / kin::kDeg;
+  for (const double sign : {1.0, -1.0}) {
+    const double b = sign * tilt, sb = std::sin(b * kin::kDeg);
+    const double c = std::atan2(o.y() / sb, -o.x() / sb) / kin::kDeg;
+    if (b < bmin || b > bmax) continue;
+    const double lo = std::isfinite(cmin) ? cmin : c0 - 720, hi = std::isfinite(cmax) ? cmax : c0 + 720;
+    for (double k = std::ceil((lo - c) / 360.0); c + 360 * k <= hi; ++k) {
+      const double d = (b - b0) * (b - b0) + (c + 360 * k - c0) * (c + 360 * k - c0);
+      if (d < best_d) {
+        best_d = d;
+        best = std::make_pair(b, c + 360 * k);
+      }
+    }
+  }
+  return best;
+}
+
+TEST(IkBranch, NearestInTravelTakesTheNearestSolutionWithinTheRotaryTravel) {
+  std::mt19937 rng(2311);
+  std::uniform_real_distribution<double> u(0, 1);
+  const double inf = std::numeric_limits<double>::infinity();
+  struct Travel {
+    double bmin, bmax, cmin, cmax;
+  };
+  const Travel travels[] = {{-110, 110, -inf, inf}, {-110, 5, -inf, inf}, {-5, 110, -inf, inf},
+                            {-110, 110, -30, 200},  {-5, 110, 0, 359.999}, {-110, 110, -400, -100},
+                            {-110, 110, 0, 90},     {-30, 110, 0, 90}};
+  int refused = 0, switched = 0;
+  for (const Travel& t : travels) {
+    gc::DiagnosticSink sink;
+    const auto m = trunnion_travel("nearest-in-travel", t.bmin, t.bmax, t.cmin, t.cmax, sink);
+    ASSERT_TRUE(m) << (sink.stored().empty() ? "" : sink.stored()[0].message);
+    EXPECT_EQ(mc::to_string(m->ik_branch), "nearest-in-travel");
+    const mc::ProgramMap map(*m, m->nominal, m->nominal, mc::Form::tcp_vector, gc::AxisVector::Zero(), false, 100.0);
+    const int b = joint(*m->nominal, 'B'), c = joint(*m->nominal, 'C');
+    // The independent tool axis agrees with the model's convention (one pose).
+    kin::JointVector probe = kin::JointVector::Zero(m->nominal->joint_count());
+    probe[b] = 30;
+    probe[c] = 70;
+    kin::Pose pp;
+    ASSERT_TRUE(m->nominal->forward(probe, pp).ok());
+    ASSERT_LT((pp.axis() - bc_tool_axis(30, 70)).norm(), 1e-12);
+    for (int i = 0; i < 200; ++i) {
+      const double tb = 5 + 75 * u(rng), tc = 360 * u(rng);
+      const Eigen::Vector3d o = bc_tool_axis(tb, tc);
+      kin::JointVector start = kin::JointVector::Zero(m->nominal->joint_count());
+      start[b] = std::max(t.bmin, -60.0) + (std::min(t.bmax, 60.0) - std::max(t.bmin, -60.0)) * u(rng);
+      start[c] = std::isfinite(t.cmin) ? t.cmin + (t.cmax - t.cmin) * u(rng) : -500 + 1000 * u(rng);
+      mc::Command cmd;
+      cmd.c << 10, -5, 20, 0, 0, 0, 0, 0, 0;
+      cmd.vector = o;
+      kin::JointVector q;
+      const kin::Solve s = map.joints(cmd, start, q);
+      const auto want = expected_in_travel(o, start[b], start[c], t.bmin, t.bmax, t.cmin, t.cmax);
+      if (!want) {
+        EXPECT_EQ(s.status, kin::Status::out_of_limits) << "no solution in travel: the controller stops";
+        EXPECT_NE(map.explain(s).find("nearest-in-travel"), std::string::npos) << map.explain(s);
+        ++refused;
+        continue;
+      }
+      ASSERT_TRUE(s.ok()) << i << ": " << map.explain(s);
+      EXPECT_NEAR(q[b], want->first, 1e-6) << i;
+      EXPECT_NEAR(q[c], want->second, 1e-6) << i;
+      EXPECT_LT((bc_tool_axis(q[b], q[c]) - o).norm(), 1e-9);
+      kin::Pose p;
+      ASSERT_TRUE(m->nominal->forward(q, p).ok());
+      EXPECT_LT((p.p - Eigen::Vector3d(10, -5, 20)).norm(), 1e-6) << "the tool tip where programmed";
+      // Where the unconstrained nearest solution leaves the travel, the rule switched.
+      const auto free = expected_in_travel(o, start[b], start[c], -inf, inf, -inf, inf);
+      if (free && (free->first < t.bmin || free->first > t.bmax || (std::isfinite(t.cmin) && (free->second < t.cmin || free->second > t.cmax))))
+        ++switched;
+    }
+  }
+  EXPECT_GT(refused, 10) << "the sample reaches the case with no solution in travel";
+  EXPECT_GT(switched, 50) << "the sample reaches the switch";
+}
+
+/// End to end: B's travel stops at +5°, and the program tilts the tool 20° toward −X, which the
+/// nearest solution takes with B +20° (C stays). Under "nearest" the block is refused at its line
+/// (the controller would stop there); under "nearest-in-travel" the controller takes B −20° with
+/// C half a turn on, and the compensated program, read back under the same rule, is verified.
+TEST(IkBranch, NearestInTravelEndToEnd) {
+  const double inf = std::numeric_limits<double>::infinity();
+  const std::string program =
+      "%\nO1\nG21 G90 G94 G54\nG0 X0. Y0. Z100. B0. C0.\nG43.5 H7 X0. Y0. Z50. I-0.34202 J0. K0.93969\n"
+      "G1 X5. Y0. Z10. F1000.\nX10. Y2. Z10.\nG49\nM30\n%\n";
+  for (const char* setting : {"nearest", "nearest-in-travel"}) {
+    SCOPED_TRACE(setting);
+    gc::DiagnosticSink msink;
+    const auto m = trunnion_travel(setting, -110, 5, -inf, inf, msink);
+    ASSERT_TRUE(m);
+    const gc::Dialect d = *gc::make_dialect(m->dialect_name, m->dialect_options);
+    std::vector<std::uint64_t> line_map;
+    postproc::comp::CompensateOptions opt;
+    opt.line_map = &line_map;
+    opt.tool_version = "test";
+    gc::DiagnosticSink sink;
+    auto out = postproc::io::OutputFile::memory();
+    const postproc::comp::CompensateResult r =
+        postproc::comp::compensate_program(program, "in.nc", d, *m, opt, {}, out, sink);
+    if (std::string(setting) == "nearest") {
+      ASSERT_TRUE(sink.has_errors());
+      const auto& e = sink.stored()[0];
+      EXPECT_EQ(e.code, "PP-E603") << e.message;
+      EXPECT_EQ(e.where.line, 5u) << e.message;
+      continue;
+    }
+    for (const auto& diag : sink.stored())
+      if (diag.severity == gc::Severity::error) ADD_FAILURE() << diag.message;
+    ASSERT_FALSE(sink.has_errors());
+    const std::string written = out.take();
+    EXPECT_NE(written.find("ik-branch=nearest-in-travel"), std::string::npos) << written;
+    EXPECT_LT(r.max_residual_mm, 0.001);
+    EXPECT_LT(r.max_residual_rad, 0.1 * r.max_error_before_rad);
+    const postproc::comp::VerifyResult v = postproc::comp::verify(program, written, line_map, d, *m);
+    EXPECT_GE(v.compared, 3u);
+    EXPECT_LT(v.max_excess_mm, 1e-6) << "line " << v.worst_line;
+    // Read into the path, the tilted blocks stand at B −20° and C 180° (the independent closed form).
+    gc::DiagnosticSink psink;
+    gc::LineReader in{std::string_view(program)};
+    const postproc::contour::Path path = postproc::contour::build_path(in, "t.nc", d, *m, {}, psink);
+    ASSERT_FALSE(path.points.empty());
+    const int b = joint(*m->nominal, 'B'), c = joint(*m->nominal, 'C');
+    EXPECT_NEAR(path.points.back().q[b], -20.0, 0.01);
+    EXPECT_NEAR(std::abs(wrap(path.points.back().q[c])), 180.0, 1e-6);
+  }
+  // No solution within travel (B limited to ±5°): refused at the line, naming B and the rule.
+  gc::DiagnosticSink msink;
+  const auto m = trunnion_travel("nearest-in-travel", -5, 5, -inf, inf, msink);
+  ASSERT_TRUE(m);
+  const gc::Dialect d = *gc::make_dialect(m->dialect_name, m->dialect_options);
+  postproc::comp::CompensateOptions opt;
+  opt.tool_version = "test";
+  gc::DiagnosticSink sink;
+  auto out = postproc::io::OutputFile::memory();
+  (void)postproc::comp::compensate_program(program, "in.nc", d, *m, opt, {}, out, sink);
+  ASSERT_TRUE(sink.has_errors());
+  EXPECT_EQ(sink.stored()[0].code, "PP-E603");
+  EXPECT_EQ(sink.stored()[0].where.line, 5u);
+  EXPECT_NE(sink.stored()[0].message.find("joint B within its travel -5 … 5 deg"), std::string::npos)
+      << sink.stored()[0].message;
 }
 
 }  // namespace

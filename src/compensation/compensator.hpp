@@ -396,7 +396,7 @@ class Compensator final : public gcode::BlockVisitor {
     kin::JointVector q;
     if (unknown == 0) {
       const kin::Solve s = map->correct(cmd, joints_, out, q);
-      if (!s.ok()) return kin_failure(b, m, s);
+      if (!s.ok()) return kin_failure(b, m, s, map);
       // First: later checks run the remap on other points.
       measured_block_ = &b;
       if (figures) measure(m, cmd, *map, out, q);
@@ -428,7 +428,11 @@ class Compensator final : public gcode::BlockVisitor {
     return kin::joint_outside_limits(map.actual(), known);
   }
 
-  bool kin_failure(const Block& b, const Motion& m, const kin::Solve& s) {
+  bool kin_failure(const Block& b, const Motion& m, const kin::Solve& s, const ProgramMap* map = nullptr) {
+    if (map != nullptr && s.status == kin::Status::out_of_limits && s.joint >= 0) {
+      refuse(b, m.column, kTravel, map->explain(s));
+      return false;
+    }
     refuse(b, m.column, kKinematics,
            fmt::format("the kinematics failed for this position ({}, {} iterations, residual {:.3g} mm / {:.3g} rad); "
                        "the pose may be singular or unreachable on this machine",

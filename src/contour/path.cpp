@@ -325,8 +325,8 @@ class Builder final : public gcode::BlockVisitor {
       if (!mo.tool_vector_known) start.vector = mo.tool_vector;
       kin::JointVector q;
       q_ = kin::JointVector::Zero(m_.nominal->joint_count());
-      if (!map.joints(start, q_, q).ok()) {
-        error(b, mo, kKinematics, "the controller's inverse kinematics failed at the start of this move");
+      if (const kin::Solve s = map.joints(start, q_, q); !s.ok()) {
+        error(b, mo, kKinematics, "the controller's inverse kinematics failed at the start of this move (" + map.explain(s) + ")");
         note_position(mo);
         return;
       }
@@ -357,8 +357,8 @@ class Builder final : public gcode::BlockVisitor {
       }
       if (i == n) c.c = mo.end;
       kin::JointVector q;
-      if (!map.joints(c, q_, q).ok()) {
-        error(b, mo, kKinematics, "the controller's inverse kinematics failed for this move's end point");
+      if (const kin::Solve s = map.joints(c, q_, q); !s.ok()) {
+        error(b, mo, kKinematics, "the controller's inverse kinematics failed for this move's end point (" + map.explain(s) + ")");
         end_run();
         note_position(mo);
         return;

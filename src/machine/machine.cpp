@@ -24,6 +24,7 @@ std::string_view to_string(IkBranch b) {
     case IkBranch::nearest: return "nearest";
     case IkBranch::tilt_positive: return "tilt-positive";
     case IkBranch::tilt_negative: return "tilt-negative";
+    case IkBranch::nearest_in_travel: return "nearest-in-travel";
   }
   return "?";
 }
@@ -403,11 +404,13 @@ std::optional<Machine> parse_machine(std::string file, std::string text, gcode::
     if (auto p = f.quantity("interpolation_period", Dim::time, "s", false, {1e-6, 0.1})) m.interpolation_period = *p;
     if (auto c = f.quantity("max_rotary_correction", Dim::angle, "deg", false, {1e-7, 0.5}))
       m.max_rotary_correction_rad = *c;
-    static constexpr std::string_view kBranches[] = {"nearest", "tilt-positive", "tilt-negative"};
+    static constexpr std::string_view kBranches[] = {"nearest", "tilt-positive", "tilt-negative",
+                                                     "nearest-in-travel"};
     if (auto br = f.text("ik_branch", false, kBranches)) {
-      m.ik_branch = *br == "tilt-positive"   ? IkBranch::tilt_positive
-                    : *br == "tilt-negative" ? IkBranch::tilt_negative
-                                             : IkBranch::nearest;
+      m.ik_branch = *br == "tilt-positive"       ? IkBranch::tilt_positive
+                    : *br == "tilt-negative"     ? IkBranch::tilt_negative
+                    : *br == "nearest-in-travel" ? IkBranch::nearest_in_travel
+                                                 : IkBranch::nearest;
       if (m.model_kind != "serial" && m.ik_branch != IkBranch::nearest)
         f.error_at("ik_branch", codes::kInconsistent,
                    fmt::format("[machine] ik_branch = \"{}\" chooses between the two solutions of a serial machine "

@@ -105,6 +105,68 @@ std::optional<std::size_t> branch_by_tilt_sign(const kin::Model& model, const st
 }
 
 
+/// Under [machine] ik_branch = "nearest-in-travel": of the closed-form orientation solutions, each
+/// with every turn of a limited rotary axis that lies in its travel, the one nearest `start` over
+/// the rotary joints (the linear joints are solved afterwards). Nullopt when none lies in travel;
+/// `outside` is then the first rotary joint outside its travel on the nearest solution.
+std::optional<kin::JointVector> branch_in_travel(const kin::Model& model, const std::vector<kin::JointVector>& c,
+                                                 const kin::JointVector& start, int& outside) {
+  std::optional<kin::JointVector> best;
+  double best_d = std::numeric_limits<double>::infinity();
+  outside = -1;
+  std::vector<int> rotary;
+  for (int j = 0; j < model.joint_count(); ++j)
+    if (model.joints()[static_cast<std::size_t>(j)].type == kin::JointType::rotary) rotary.push_back(j);
+  const auto distance = [&](const kin::JointVector& q) {
+    double d = 0;
+    for (const int j : rotary) d += (q[j] - start[j]) * (q[j] - start[j]);
+    return d;
+  };
+  double nearest_d = std::numeric_limits<double>::infinity();
+  for (const kin::JointVector& candidate : c) {
+    // The turns of each rotary joint within its travel (the candidate's own value where the joint
+    // has no limits: the nearest turn); the product over the rotary joints.
+    std::vector<std::vector<double>> turns;
+    for (const int j : rotary) {
+      const kin::Joint& jt = model.joints()[static_cast<std::size_t>(j)];
+      std::vector<double> v;
+      if (std::isfinite(jt.min) && std::isfinite(jt.max) && jt.max - jt.min < 3600) {
+        for (double k = std::ceil((jt.min - 1e-9 - candidate[j]) / 360.0); candidate[j] + 360.0 * k <= jt.max + 1e-9; ++k)
+          v.push_back(candidate[j] + 360.0 * k);
+      } else if (candidate[j] >= jt.min - 1e-9 && candidate[j] <= jt.max + 1e-9) {
+        v.push_back(candidate[j]);
+      }
+      turns.push_back(std::move(v));
+    }
+    if (const double d = distance(candidate); d < nearest_d) {
+      nearest_d = d;
+      outside = -1;
+      for (std::size_t k = 0; k < rotary.size() && outside < 0; ++k)
+        if (turns[k].empty()) outside = rotary[k];
+      if (outside < 0) outside = kin::joint_outside_limits(model, candidate);
+    }
+    std::vector<std::size_t> pick(rotary.size(), 0);
+    bool any = true;
+    for (const auto& t : turns) any = any && !t.empty();
+    while (any) {
+      kin::JointVector q = candidate;
+      for (std::size_t k = 0; k < rotary.size(); ++k) q[rotary[k]] = turns[k][pick[k]];
+      if (const double d = distance(q); d < best_d) {
+        best_d = d;
+        best = q;
+      }
+      std::size_t k = 0;
+      for (; k < pick.size(); ++k) {
+        if (++pick[k] < turns[k].size()) break;
+        pick[k] = 0;
+      }
+      if (k == pick.size()) break;
+    }
+  }
+  return best;
+}
+
+
 /// The exact inverse (tool tip and tool axis matched) is taken while no rotary joint moves more than
 /// this fraction of the allowed rotary correction c; from there to c the damping of the bounded
 /// solve is blended in (smoothstep of the exact correction), so the joints are a continuous
@@ -298,8 +360,21 @@ kin::Solve ProgramMap::joints(const Command& cmd, const kin::JointVector& start,
     // ik_branch): the one nearest the previous joints, or the one whose tilting axis has the sign
     // the controller keeps.
     kin::Pose at;
-    const bool by_sign = m_->ik_branch != IkBranch::nearest;
-    if (by_sign || (nominal_->forward(seed, at).ok() && at.axis().dot(target.axis()) < std::cos(10 * kin::kDeg))) {
+    const bool by_sign = m_->ik_branch == IkBranch::tilt_positive || m_->ik_branch == IkBranch::tilt_negative;
+    if (m_->ik_branch == IkBranch::nearest_in_travel) {
+      // Every solution is a candidate (the nearest may be outside the travel, the other not).
+      const std::vector<kin::JointVector> candidates = serial->orientation_candidates(target.axis(), start);
+      int outside = -1;
+      if (const auto in = branch_in_travel(*nominal_, candidates, start, outside)) {
+        seed = *in;
+      } else if (!candidates.empty()) {
+        kin::Solve s;
+        s.status = kin::Status::out_of_limits;
+        s.joint = outside;
+        return s;
+      }
+    } else if (by_sign ||
+               (nominal_->forward(seed, at).ok() && at.axis().dot(target.axis()) < std::cos(10 * kin::kDeg))) {
       const std::vector<kin::JointVector> candidates = serial->orientation_candidates(target.axis(), start);
       const std::optional<std::size_t> signed_branch =
           by_sign ? branch_by_tilt_sign(*nominal_, candidates, m_->ik_branch == IkBranch::tilt_positive) : std::nullopt;
@@ -355,6 +430,18 @@ kin::Solve ProgramMap::joints(const Command& cmd, const kin::JointVector& start,
     q = start;
   }
   return s;
+}
+
+std::string ProgramMap::explain(const kin::Solve& s) const {
+  if (s.status == kin::Status::out_of_limits && s.joint >= 0 && s.joint < nominal_->joint_count()) {
+    const kin::Joint& jt = nominal_->joints()[static_cast<std::size_t>(s.joint)];
+    return fmt::format("no solution of the programmed tool axis puts joint {} within its travel {} … {} deg; "
+                       "under [machine] ik_branch = \"{}\" the controller stops here (change the tool axis or "
+                       "the set-up)",
+                       jt.name, jt.min, jt.max, to_string(m_->ik_branch));
+  }
+  return fmt::format("{}, {} iterations, residual {:.3g} mm / {:.3g} rad", kin::to_string(s.status), s.iterations,
+                     s.residual_mm, s.residual_rad);
 }
 
 kin::Solve ProgramMap::command(const kin::JointVector& q, const Command& like, Command& out) const {

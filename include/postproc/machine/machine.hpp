@@ -40,6 +40,10 @@ enum class IkBranch : std::uint8_t {
   nearest,        ///< the solution nearest the joints of the block before (postproc's former fixed rule)
   tilt_positive,  ///< the tilting axis at a positive angle (where it is not 0)
   tilt_negative,  ///< the tilting axis at a negative angle
+  /// Of the solutions whose rotary axes lie within their travel (each turn of a rotary axis with
+  /// limits counted), the one nearest the joints of the block before; none within travel: the
+  /// controller stops (Heidenhain PLANE without SEQ; Beckhoff TF5200 P-CHAN-00189 mode 2).
+  nearest_in_travel,
 };
 [[nodiscard]] std::string_view to_string(IkBranch b);
 

@@ -63,6 +63,10 @@ class ProgramMap {
   void new_block() const { origin_known_ = false; }
   /// C(c): the joints the controller commands; `start` picks the branch / turn for tool-tip forms.
   [[nodiscard]] kin::Solve joints(const Command& cmd, const kin::JointVector& start, kin::JointVector& q) const;
+  /// Why joints() failed, in the user's terms: for a tool axis no solution of which lies within
+  /// the rotary axes' travel (ik_branch "nearest-in-travel") the joint and its travel; otherwise
+  /// the solver's status.
+  [[nodiscard]] std::string explain(const kin::Solve& s) const;
   /// The inverse of C on the nominal model: the command whose controller joints are q.
   [[nodiscard]] kin::Solve command(const kin::JointVector& q, const Command& like, Command& out) const;
   /// The geometric remap of one command: corrected command, the actual joints it commands.
