@@ -7,6 +7,7 @@
 // names.
 #include <cmath>
 #include <limits>
+#include <map>
 #include <random>
 #include <fstream>
 #include <sstream>
@@ -421,6 +422,66 @@ TEST(IkBranch, NearestInTravelEndToEnd) {
   EXPECT_EQ(sink.stored()[0].where.line, 5u);
   EXPECT_NE(sink.stored()[0].message.find("joint B within its travel -5 … 5 deg"), std::string::npos)
       << sink.stored()[0].message;
+}
+
+}  // namespace
+
+namespace {
+
+/// Under a rule that does not depend on the block before (a sign rule; "nearest-in-travel" where
+/// only one solution lies in travel), a program restarted in the middle gets the same corrected
+/// blocks from the restart on: the correction carries no history of its own.
+TEST(IkBranch, RestartInMidProgramGivesTheSameBlocksUnderHistoryFreeRules) {
+  // A G43.5 sweep at B −(12…35)° and C −60…60° (the tilt-negative solution; written as I J K with
+  // the closed form above), every block giving the tool tip and the axis.
+  std::string program = "%\nO1\nN10 G21 G90 G94 G54\nN20 G0 X0. Y0. Z100. B0. C0.\n";
+  for (int k = 0; k < 40; ++k) {
+    const double b = -12 - 23 * std::sin(0.08 * k), c = -60 + 3 * k;
+    const Eigen::Vector3d o = bc_tool_axis(b, c);
+    program += fmt::format("N{} {}X{:.3f} Y{:.3f} Z{:.3f} I{:.6f} J{:.6f} K{:.6f}{}\n", 30 + 10 * k,
+                           k == 0 ? "G43.5 H7 G1 " : "", 20 * std::cos(0.1 * k), 15 * std::sin(0.1 * k), 5 + 0.2 * k,
+                           o.x(), o.y(), o.z(), k == 0 ? " F1000." : "");
+  }
+  program += "N500 G49\nN510 M30\n%\n";
+  // Restart at N230: drop N30 … N220; N230 gives every word of the pose, and G43.5 / F again.
+  const std::size_t from = program.find("\nN30 ") + 1, to = program.find("\nN230 ") + 1;
+  std::string restarted = program.substr(0, from) + program.substr(to);
+  restarted.replace(restarted.find("N230 "), 5, "N230 G43.5 H7 G1 F1000. ");
+  const double inf = std::numeric_limits<double>::infinity();
+  for (const char* setting : {"tilt-negative", "nearest-in-travel"}) {
+    SCOPED_TRACE(setting);
+    gc::DiagnosticSink msink;
+    const auto m = trunnion_travel(setting, -110, std::string(setting) == "nearest-in-travel" ? 5 : 110, -inf, inf,
+                                   msink);
+    ASSERT_TRUE(m);
+    const gc::Dialect d = *gc::make_dialect(m->dialect_name, m->dialect_options);
+    const auto run = [&](const std::string& text) {
+      postproc::comp::CompensateOptions opt;
+      opt.tool_version = "test";
+      gc::DiagnosticSink sink;
+      auto out = postproc::io::OutputFile::memory();
+      (void)postproc::comp::compensate_program(text, "in.nc", d, *m, opt, {}, out, sink);
+      for (const auto& diag : sink.stored())
+        if (diag.severity == gc::Severity::error) ADD_FAILURE() << diag.message;
+      std::map<int, std::string> by_n;
+      std::istringstream in(out.take());
+      std::string line;
+      while (std::getline(in, line))
+        if (line.size() > 1 && line[0] == 'N') by_n[std::stoi(line.substr(1))] = line;
+      return by_n;
+    };
+    const auto a = run(program), b = run(restarted);
+    int same = 0, changed = 0;
+    for (const auto& [n, line] : b) {
+      if (n <= 230) continue;  // N230 carries the restart's extra words
+      ASSERT_TRUE(a.contains(n)) << n;
+      EXPECT_EQ(a.at(n), line) << "N" << n;
+      ++same;
+      changed += program.find(line) == std::string::npos;
+    }
+    EXPECT_GE(same, 20);
+    EXPECT_GE(changed, 15) << "the blocks compared are corrected ones";
+  }
 }
 
 }  // namespace
