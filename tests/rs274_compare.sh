@@ -83,4 +83,6 @@ for i, (a, (line, b)) in enumerate(zip(ref, got)):
 print(f"{name}: {len(ref)} moves agree with rs274")
 PY
 done
+# LinuxCNC's line length limit ("Command too long"), on lines run, skipped over and after M2.
+python3 "$SRC/tests/rs274_line_length.py" "$P" || fails=$((fails + 1))
 [[ $fails -eq 0 ]] || { echo "$fails program(s) differ"; exit 1; }

@@ -3,6 +3,9 @@
 // the intended path are subdivided, and anything that cannot be resolved exactly is refused.
 #include "postproc/compensation/compensate.hpp"
 
+#include <filesystem>
+
+
 #include "postproc/kinematics/hexapod.hpp"
 #include "src/compensation/compensator.hpp"
 
@@ -110,9 +113,14 @@ std::optional<Mode> parse_mode(std::string_view s) {
   return std::nullopt;
 }
 
-std::string header_comment(const gcode::Dialect& d, const machine::Machine& m, const CompensateOptions& opt) {
-  std::string text = fmt::format("postproc {} compensate mode={} machine={} sha256={}", opt.tool_version, to_string(opt.mode),
-                                 m.file, m.sha256);
+namespace {
+
+/// The header's text at one of three lengths (0: everything; 1: the machine file by its name, the
+/// sha256 still naming it exactly; 2: also the free text and the --set values by count only).
+std::string header_text(const machine::Machine& m, const CompensateOptions& opt, int shorter) {
+  const std::string file = shorter >= 1 ? std::filesystem::path(m.file).filename().string() : m.file;
+  std::string text =
+      fmt::format("postproc {} compensate mode={} machine={} sha256={}", opt.tool_version, to_string(opt.mode), file, m.sha256);
   // The controller conventions the corrections were computed under (docs/machine-file.md).
   if (const auto* hex = dynamic_cast<const kin::Hexapod*>(m.nominal.get()))
     text += fmt::format(" hexapod-spin={}", kin::to_string(hex->config().spin));
@@ -121,14 +129,32 @@ std::string header_comment(const gcode::Dialect& d, const machine::Machine& m, c
     if (m.dialect_options.rollover[static_cast<std::size_t>(a)] != gcode::RotaryRollover::off)
       text += fmt::format(" rollover-{}={}", gcode::kAxisLetters[static_cast<std::size_t>(a)],
                           gcode::to_string(m.dialect_options.rollover[static_cast<std::size_t>(a)]));
-  if (opt.flatten) text += " flattened=parameters, calls and loops resolved into literal moves";
+  if (opt.flatten)
+    text += shorter >= 2 ? " flattened" : " flattened=parameters, calls and loops resolved into literal moves";
   if (opt.resolved_in_place && !opt.flatten)
-    text += " resolved=parameters, calls and loops kept, literal words corrected in place";
-  for (const auto& [name, value] : opt.resolve.set) text += fmt::format(" set {}={}", name, value);
+    text += shorter >= 2 ? " resolved-in-place" : " resolved=parameters, calls and loops kept, literal words corrected in place";
+  if (shorter >= 2 && !opt.resolve.set.empty())
+    text += fmt::format(" set={} values (see the report)", opt.resolve.set.size());
+  else
+    for (const auto& [name, value] : opt.resolve.set) text += fmt::format(" set {}={}", name, value);
   for (char& c : text)
     if (c == '(' || c == ')' || c == ';') c = '_';
-  if (d.paren_comments) return "(" + text + ")";
-  return "; " + text;
+  return text;
+}
+
+}  // namespace
+
+std::string header_comment(const gcode::Dialect& d, const machine::Machine& m, const CompensateOptions& opt) {
+  // A controller that reads lines up to a length (LinuxCNC: 252 characters) must be able to read
+  // the header: it is shortened until it fits (a CR of the end of line counted).
+  const std::size_t limit = gcode::max_line_length(d);
+  std::string line;
+  for (int shorter = 0; shorter <= 2; ++shorter) {
+    const std::string text = header_text(m, opt, shorter);
+    line = d.paren_comments ? "(" + text + ")" : "; " + text;
+    if (limit == 0 || line.size() + 1 <= limit) break;
+  }
+  return line;
 }
 
 std::size_t compensation_header_offset(std::string_view line) {

@@ -102,6 +102,8 @@ class ContourWriter final : public gcode::BlockVisitor {
       line_.clear();
       ed.render(line_);
       ++r_.changed_blocks;
+      if (const auto too_long = gcode::line_too_long(d_, line_.size(), !b.eol.empty() && b.eol.front() == '\r'))
+        refuse(b, 1, corrected_line_too_long(*too_long));
       emit(line_, b.eol, b.line);
     }
   }

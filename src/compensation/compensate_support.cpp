@@ -18,6 +18,12 @@ const gcode::Motion* cutter_offset_motion(std::span<const gcode::Motion> motions
   return nullptr;
 }
 
+std::string corrected_line_too_long(std::string_view why) {
+  return fmt::format("the corrected block would be longer than the controller reads ({}): shorten the block's "
+                     "comment or put it on a line of its own",
+                     why);
+}
+
 std::string cutter_offset_refusal(const gcode::Motion& m) {
   return fmt::format(
       "compensation of a program under cutter radius compensation with {} is not supported: the controller "

@@ -55,6 +55,9 @@ using machine::kToolLengthError;  // PP-E621
 [[nodiscard]] const gcode::Motion* cutter_offset_motion(std::span<const gcode::Motion> motions);
 /// Why such a program is refused: the controller would offset corrected points again.
 [[nodiscard]] std::string cutter_offset_refusal(const gcode::Motion& m);
+/// Why a corrected block is refused whose line the controller could not read (`why`:
+/// gcode::line_too_long's reason).
+[[nodiscard]] std::string corrected_line_too_long(std::string_view why);
 
 /// The rounding bound of a written motion: half a unit of the last decimal of each written axis
 /// (`need`), carried through the controller's map to the tool tip (sum over the axes of the

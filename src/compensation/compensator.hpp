@@ -192,7 +192,10 @@ class Compensator final : public gcode::BlockVisitor {
       line_.clear();
       ed.render(line_);
       ++r_.changed_blocks;
-      emit(line_, after_.empty() ? b.eol : std::string_view(eol_), b.line);
+      const std::string_view eol = after_.empty() ? b.eol : std::string_view(eol_);
+      if (const auto too_long = gcode::line_too_long(d_, line_.size(), !eol.empty() && eol.front() == '\r'))
+        refuse(b, 1, kRefused, corrected_line_too_long(*too_long));
+      emit(line_, eol, b.line);
     }
     for (std::size_t i = 0; i < after_.size(); ++i)
       emit(after_[i], i + 1 == after_.size() ? b.eol : std::string_view(eol_), b.line);

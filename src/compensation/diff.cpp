@@ -23,7 +23,9 @@ std::vector<const CollectedMotion*> motions_of(std::string_view text, std::strin
     if (sink.count(gcode::Severity::error) > errors) return out;
     gcode::DiagnosticSink mapped = gcode::source_mapped(r, sink);
     gcode::LineReader in{std::string_view(r.text)};
-    gcode::run_program(in, d, file, mapped, c);
+    gcode::InterpreterOptions opt;
+    opt.source_text = false;  // the resolver checked the source lines
+    gcode::run_program(in, d, file, mapped, c, opt);
     for (auto& [line, m] : c.by_line)
       if (line >= 1 && line <= r.source_line.size()) m.motion.line = r.source_line[line - 1];
   } else {

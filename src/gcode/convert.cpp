@@ -285,7 +285,9 @@ ConvertResult convert(LineReader& in, std::string_view file, const Dialect& give
   pass.in_changed = &line_changed;
   pass.line_map = opt.line_map;
   LineReader again{std::string_view(buffer)};
-  run_program(again, dialect, file, pass.collector(), pass);
+  InterpreterOptions again_opt;
+  again_opt.source_text = false;  // the first pass's output: its source was checked
+  run_program(again, dialect, file, pass.collector(), pass, again_opt);
   pass.flush();
   result.changed_blocks += lin.changed_blocks;
   result.inserted_lines += lin.inserted_lines;

@@ -289,7 +289,16 @@ ProgramStats run_program(LineReader& reader, const Dialect& given, std::string_v
       b.block_delete = false;
     } else {
       ok = lex_block(dialect, b, ctx);
-      if (!end.before(dialect, b, ctx)) {
+      if (const auto too_long = opt.source_text ? line_too_long(dialect, b.raw.size(), !b.eol.empty() && b.eol.front() == '\r')
+                                                : std::nullopt) {
+        const auto at = static_cast<std::uint32_t>(std::min(b.raw.size(), max_line_length(dialect)));
+        report_at(ctx, b, {at, static_cast<std::uint32_t>(std::max<std::size_t>(b.raw.size(), at + 1))},
+                  Severity::error, codes::kControllerRefuses,
+                  *too_long + ": split the line (a comment can go on a line of its own)");
+        ok = false;
+        b.words.clear();
+        b.tokens.clear();
+      } else if (!end.before(dialect, b, ctx)) {
         ok = false;
         b.words.clear();
         b.tokens.clear();

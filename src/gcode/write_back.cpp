@@ -324,6 +324,26 @@ WriteBackResult write_back(std::string_view source, std::string_view file, const
       refuse(line, s.text, why, file);
       continue;
     }
+    // Every line of the replacement must be one the controller reads (LinuxCNC: 252 characters).
+    std::optional<std::string> too_long;
+    for (std::size_t a = 0; a <= rep->size() && !too_long;) {
+      std::size_t e = rep->find('\n', a);
+      if (e == std::string::npos) e = rep->size();
+      const bool cr = e > a && (*rep)[e - 1] == '\r';
+      too_long = line_too_long(d, e - a - (cr ? 1 : 0), cr || (e == rep->size() && !s.eol.empty() && s.eol.front() == '\r'));
+      a = e + 1;
+    }
+    if (too_long) {
+      st.refused = true;
+      ok = false;
+      refuse(line, s.text,
+             {1, static_cast<std::uint32_t>(std::max<std::size_t>(1, s.text.size())),
+              fmt::format("the corrected line would be longer than the controller reads ({}): shorten the line's "
+                          "comment or put it on a line of its own",
+                          *too_long)},
+             file);
+      continue;
+    }
     if (run > 1 && st.unchanged) {
       conflict(fmt::format("run {} needs '{}' but the runs before it none", run, shorten(*rep)));
       continue;

@@ -27,7 +27,7 @@ constexpr int kOffsetFirst = 36;
 constexpr double kMinStrutLength = 1e-6;
 constexpr double kMaxRotationStep = 0.3;  // rad
 
-Eigen::Matrix3d rotation_exp(const Eigen::Vector3d& w) {
+Eigen::Matrix3d so3_exp(const Eigen::Vector3d& w) {
   const double a = w.norm();
   if (!(a > 0)) return Eigen::Matrix3d::Identity();
   return Eigen::AngleAxisd(a, w / a).toRotationMatrix();
@@ -271,7 +271,7 @@ Solve Hexapod::solve_forward(const JointVector& q, PlatformPose x, Pose& out, co
     const Eigen::Vector3d dphi = scale * step.tail<3>();
     s.residual_rad = dphi.norm();
     x.t += scale * step.head<3>();
-    x.r = rotation_exp(dphi) * x.r;
+    x.r = so3_exp(dphi) * x.r;
   }
 }
 

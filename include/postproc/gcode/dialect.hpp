@@ -178,6 +178,13 @@ struct DialectOptions {
 [[nodiscard]] std::optional<Dialect> make_dialect(std::string_view name, const DialectOptions& opt = {});
 [[nodiscard]] Dialect make_dialect(DialectId id, const DialectOptions& opt = {});
 [[nodiscard]] std::string_view dialect_names();
+
+/// The longest line the controller reads, in characters (the CR of a CRLF line counted); 0: no
+/// limit postproc knows of. LinuxCNC: 252 (rs274ngc's "Command too long").
+[[nodiscard]] std::size_t max_line_length(const Dialect& d);
+/// Why the controller stops at a line of `chars` characters (without its end of line; `cr`: a CR
+/// ends it), for a diagnostic; nullopt when it reads the line.
+[[nodiscard]] std::optional<std::string> line_too_long(const Dialect& d, std::size_t chars, bool cr);
 /// Rebuilds a Fanuc lathe dialect's G-code table for G-code system `system` ('A' or 'B').
 void set_gcode_system(Dialect& d, char system);  ///< "fanuc|siemens|linuxcnc|heidenhain-iso"
 

@@ -119,6 +119,9 @@ struct InterpreterOptions {
   /// Tolerance on the difference of start and end radius of an arc given by its centre, in mm,
   /// applied together with a relative tolerance of 0.1 % (both must be exceeded to refuse).
   double arc_radius_tolerance_mm = 0.002;
+  /// The lines read are the program's own source (false: text a resolver wrote from it), so the
+  /// limits of the controller's line reader apply to them (LinuxCNC: 252 characters, CR counted).
+  bool source_text = true;
 };
 
 /// Interprets one program. Not thread-safe; one instance per program.

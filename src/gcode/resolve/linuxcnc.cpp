@@ -241,6 +241,24 @@ void Machine::compile_control(SourceFile& f, std::size_t i, const Block& b, cons
   }
 }
 
+namespace {
+
+/// Line i holds M2 or M30 (looked at only where the text can: lexing every line would report
+/// errors on lines rs274 skips over without reading their words).
+bool ends_program(SourceFile& f, std::size_t i) {
+  const std::string_view raw = f.raw(i);
+  bool maybe = false;
+  for (std::size_t k = raw.find_first_of("mM"); k != std::string_view::npos && !maybe; k = raw.find_first_of("mM", k + 1))
+    maybe = raw.find_first_of("23", k + 1) != std::string_view::npos;
+  if (!maybe || !f.lexed_ok(i)) return false;
+  const Block& b = f.block(i);
+  return std::any_of(b.words.begin(), b.words.end(), [](const Word& w) {
+    return w.letter == 'M' && w.kind == ValueKind::number && (w.number == 2 || w.number == 30);
+  });
+}
+
+}  // namespace
+
 void Machine::prepare(SourceFile& f) {
   FileInfo& fi = info(f);
   struct Open { std::string oname; Kw kw; std::size_t line; };
@@ -257,8 +275,20 @@ void Machine::prepare(SourceFile& f) {
                          f.raw(i).substr(l.control_span.begin, l.control_span.size()), o->line + 1));
     throw Stop{};
   };
+  // rs274 reads every line up to the M2 / M30 that ends the program, run or skipped over: the
+  // length limit holds for each (the first M2 / M30 outside any block ends the reading).
+  bool ended = false;
   for (std::size_t i = 0; i < f.lines(); ++i) {
     const std::string_view raw = f.raw(i);
+    if (!ended) {
+      if (const auto too_long = line_too_long(f.dialect(), raw.size(), f.ends_in_cr(i))) {
+        const auto at = static_cast<std::uint32_t>(std::min(raw.size(), max_line_length(f.dialect())));
+        f.report(i, Span{at, static_cast<std::uint32_t>(std::max<std::size_t>(raw.size(), at + 1))}, Severity::error,
+                 "PP-E207", *too_long + ": split the line (a comment can go on a line of its own)");
+        throw Stop{};
+      }
+      ended = open.empty() && ends_program(f, i);
+    }
     const std::size_t p = raw.find_first_not_of(" \t/");
     if (p == std::string_view::npos) continue;
     // An O-word starts the line, possibly after an N number.

@@ -45,7 +45,9 @@ ProgramStats run_resolved(const ResolvedProgram& r, const Dialect& d, std::strin
   DiagnosticSink mapped = source_mapped(r, sink);
   SourceLines lines(r, visitor);
   LineReader reader{std::string_view(r.text)};
-  return run_program(reader, d, file, mapped, lines);
+  InterpreterOptions opt;
+  opt.source_text = false;  // the resolver checked the source lines
+  return run_program(reader, d, file, mapped, lines, opt);
 }
 
 ResolveOptions with_program_folder(ResolveOptions opt, std::string_view file) {

@@ -33,6 +33,11 @@ class SourceFile {
   [[nodiscard]] const Dialect& dialect() const { return d_; }
   [[nodiscard]] std::size_t lines() const { return lines_.size(); }
   [[nodiscard]] std::string_view raw(std::size_t i) const { return lines_[i]; }
+  /// Line i ends in a CR (a CRLF or CR-only end of line).
+  [[nodiscard]] bool ends_in_cr(std::size_t i) const {
+    const std::size_t end = static_cast<std::size_t>(lines_[i].data() - text_.data()) + lines_[i].size();
+    return end < text_.size() && text_[end] == '\r';
+  }
   /// The lexed block of line i (0-based). Valid until the next call of block() on this file
   /// unless the line is cached (a line asked for twice is cached from then on).
   const Block& block(std::size_t i);
