@@ -247,7 +247,7 @@ class Lexer {
       }
       return 0;
     }
-    if (d_.id == DialectId::fanuc) return fanuc_spaced_number(j, w);
+    if (d_.id == DialectId::fanuc || d_.id == DialectId::linuxcnc) return spaced_number(j, w);
     bool point = false;
     const std::uint32_t e = lex_number(s_, j, d_.spaces_inside_words, w.number, &point);
     note_literal(j, e);
@@ -272,17 +272,19 @@ class Lexer {
     return e;
   }
 
-  /// Fanuc: true when blanks at `e` are followed by more digits of the same number ("X1 0.5").
-  [[nodiscard]] bool fanuc_digits_follow(std::uint32_t e) const {
-    if (d_.id != DialectId::fanuc || e >= n() || !is_space(s_[e])) return false;
+  /// Fanuc, LinuxCNC: true when blanks at `e` are followed by more digits of the same number ("X1 0.5").
+  [[nodiscard]] bool spaced_digits_follow(std::uint32_t e) const {
+    if ((d_.id != DialectId::fanuc && d_.id != DialectId::linuxcnc) || e >= n() || !is_space(s_[e])) return false;
     const std::uint32_t k = skip_space(e);
     return k < n() && (is_digit(s_[k]) || s_[k] == '.');
   }
 
-  /// Fanuc reads a number with blanks anywhere in it ("X 1 0 . 5" is X10.5): the tape reader ignores
-  /// spaces (B-64484EN "Tape code": SP is disregarded in significant information). The value span
-  /// runs from the first to the last character of the number.
-  std::uint32_t fanuc_spaced_number(std::uint32_t i, Word& w) {
+  /// Fanuc and LinuxCNC read a number with blanks anywhere in it ("X 1 0 . 5" is X10.5): the Fanuc
+  /// tape reader ignores spaces (B-64484EN "Tape code": SP is disregarded in significant
+  /// information); rs274ngc removes blanks and tabs outside comments before it reads a line
+  /// (checked against rs274: tests/resolve/linuxcnc/reader_spaced_words.ngc). The value span runs
+  /// from the first to the last character of the number.
+  std::uint32_t spaced_number(std::uint32_t i, Word& w) {
     const std::uint32_t j = skip_space(i);
     char buf[64];
     std::size_t len = 0;
@@ -329,8 +331,10 @@ class Lexer {
 
   /// End of `#123`, `#<name>`, `##1`, `#[expr]`, or 0.
   std::uint32_t parameter_ref_end(std::uint32_t i) {
+    // LinuxCNC reads the line without its blanks: "# 1", "# # 2", "#1 0" are #1, ##2, #10.
+    const bool spaced = d_.spaces_inside_words;
     std::uint32_t j = i;
-    while (j < n() && s_[j] == '#') ++j;
+    while (j < n() && s_[j] == '#') j = spaced ? skip_space(j + 1) : j + 1;
     if (j >= n()) return 0;
     if (s_[j] == '<') {
       const std::uint32_t e = static_cast<std::uint32_t>(s_.find('>', j));
@@ -338,8 +342,12 @@ class Lexer {
     }
     if (s_[j] == '[') return match_bracket(j, '[', ']');
     const std::uint32_t start = j;
-    while (j < n() && is_digit(s_[j])) ++j;
-    return j == start ? 0 : j;
+    std::uint32_t end = j;
+    while (j < n() && is_digit(s_[j])) {
+      end = ++j;
+      if (spaced) j = skip_space(j);
+    }
+    return end == start ? 0 : end;
   }
 
   /// `#1=expr`, `#<name>=expr`: the right-hand side runs to a comment or the end of the block.
@@ -428,7 +436,7 @@ class Lexer {
         bool point = false;
         const std::uint32_t e = lex_number(s_, i + 1, d_.spaces_inside_words, v, &point);
         note_literal(i + 1, e);
-        if (e != i + 1 && (e >= n() || (s_[e] != '.' && !is_digit(s_[e]))) && !fanuc_digits_follow(e)) {
+        if (e != i + 1 && (e >= n() || (s_[e] != '.' && !is_digit(s_[e]))) && !spaced_digits_follow(e)) {
           if (L == 'N' && first_item && !b_.has_n) {
             b_.has_n = true;
             b_.n_span = {i, e};
