@@ -9,6 +9,8 @@
 #include <gtest/gtest.h>
 
 #include "postproc/compensation/compensate.hpp"
+#include "postproc/gcode/convert.hpp"
+#include "postproc/gcode/line_reader.hpp"
 #include "postproc/gcode/dialect.hpp"
 #include "postproc/io/output_file.hpp"
 #include "postproc/machine/machine.hpp"
@@ -145,6 +147,28 @@ TEST(LineLengthLimit, TheContourStageWritesARunUncorrectedWhereACorrectedBlockWo
   for (const auto& d : ok.sink.stored()) written = written && d.code != "PP-W621";
   EXPECT_TRUE(written);
   EXPECT_EQ(ok.written.find("G1 X50 Y50 ("), std::string::npos) << "corrected: " << ok.written;
+}
+
+TEST(LineLengthLimit, ConvertRefusesALineItWouldMakeTooLong) {
+  const gc::Dialect d = *gc::make_dialect("linuxcnc");
+  gc::ConvertOptions opt;
+  opt.renumber_start = 10;  // N1 becomes N10: one character more
+  for (const std::size_t length : {251u, 252u}) {
+    SCOPED_TRACE(length);
+    const std::string program = "G21 G90\n" + comment_to("N1 G1 X1 F100", length) + "\nN2 M2\n";
+    gc::LineReader in{std::string_view(program)};
+    gc::DiagnosticSink sink;
+    auto out = postproc::io::OutputFile::memory();
+    (void)gc::convert(in, "in.ngc", d, opt, out, sink);
+    if (length == 251) {
+      EXPECT_FALSE(sink.has_errors()) << (sink.stored().empty() ? "" : sink.stored()[0].message);
+      EXPECT_EQ(longest_line(out.take()), 252u);
+    } else {
+      ASSERT_TRUE(sink.has_errors());
+      EXPECT_EQ(sink.stored()[0].code, "PP-E504");
+      EXPECT_EQ(sink.stored()[0].where.line, 2u);
+    }
+  }
 }
 
 }  // namespace

@@ -20,6 +20,7 @@ inline constexpr std::string_view kArcGeometry = "PP-E301";
 inline constexpr std::string_view kRenumberRefused = "PP-E501";
 inline constexpr std::string_view kUnitsRefused = "PP-E502";
 inline constexpr std::string_view kLinearizeRefused = "PP-E503";
+inline constexpr std::string_view kConvertedLineTooLong = "PP-E504";  ///< a converted line the controller would not read
 // Warnings: accepted, but not resolved (compensation refuses unless --pass-through).
 inline constexpr std::string_view kTurningCycle = "PP-U201";
 inline constexpr std::string_view kThreading = "PP-U202";
