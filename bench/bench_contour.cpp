@@ -77,7 +77,7 @@ int main(int argc, char** argv) {
     comp::CompensateOptions opt;
     opt.mode = postproc::comp::Mode::contour;
     auto out = io::OutputFile::memory();
-    r = comp::compensate_contour(text, "bench.nc", d, *m, opt, contour::PrecompensateOptions{}, out, sink);
+    r = comp::compensate_contour({text, "bench.nc", d, *m}, opt, out, sink);
   });
   const double t_geo = median_seconds([&] {
     comp::CompensateOptions opt;

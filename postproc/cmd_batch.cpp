@@ -219,7 +219,7 @@ void setup_batch(CLI::App& app, int& rc) {
     opt.compensate.flatten = o->flatten;
     opt.compensate.allow_recompensation = o->allow_recompensation;
     opt.compensate.resolve = make_resolve_options(o->resolve);
-    opt.precompensate.max_iterations = o->iterations;
+    opt.compensate.contour.max_iterations = o->iterations;
     opt.compensate.contour_split = o->contour_split == "auto";
     opt.jobs = o->jobs > 0 ? o->jobs : usable_cores();
     if (!o->shard.empty()) opt.shard = batch::parse_shard(o->shard);

@@ -354,11 +354,10 @@ void setup_compensate(CLI::App& app, int& rc) {
       // The contour stage reads the program twice (path, then writing): it is held in memory.
       // So is a program to resolve.
       text = io::read_file(o->input, "NC program");
-      contour::PrecompensateOptions popt;
-      popt.max_iterations = o->iterations;
-      popt.learning_iterations = o->refine_iterations;
+      opt.contour.max_iterations = o->iterations;
+      opt.contour.learning_iterations = o->refine_iterations;
       opt.contour_split = o->contour_split == "auto";
-      r = comp::compensate_program(text, o->input, d, *machine, opt, popt, target, sink, &contour);
+      r = comp::compensate_program({text, o->input, d, *machine}, opt, target, sink, &contour);
     }
     bar.finish();
     if (filter_mode && filter_percent->exchange(100) < 100) std::fputs("FILTER_PROGRESS=100\n", stderr);

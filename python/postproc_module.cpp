@@ -141,12 +141,12 @@ py::dict compensate_program(const std::string& path, const std::string& machine_
   opt.mode = *md;
   opt.max_deviation_mm = max_deviation_um / 1000.0;
   opt.tool_version = POSTPROC_VERSION;
-  contour::PrecompensateOptions popt;
   gcode::DiagnosticSink sink;
   auto out = io::OutputFile::memory();
   comp::ContourDetails details;
   const comp::CompensateResult got =
-      comp::compensate_program(text, path, *dd, *m, opt, popt, out, sink, opt.mode == comp::Mode::geometric ? nullptr : &details);
+      comp::compensate_program({text, path, *dd, *m}, opt, out, sink,
+                               opt.mode == comp::Mode::geometric ? nullptr : &details);
   if (sink.has_errors()) refuse(fmt::format("{}: refused", path), sink);
   py::dict res;
   res["program"] = out.take();

@@ -47,8 +47,9 @@ void compensate(const std::string& program, const mc::Machine& m, const std::str
   opt.mode = *comp::parse_mode(mode);
   opt.tool_version = "test";
   opt.contour_split = split;
+  opt.contour = popt;
   auto out = postproc::io::OutputFile::memory();
-  run.r = comp::compensate_program(program, file, d, m, opt, popt, out, run.sink);
+  run.r = comp::compensate_program({program, file, d, m}, opt, out, run.sink);
   run.written = out.take();
 }
 
@@ -129,10 +130,11 @@ TEST(CompensateGate, ContourNotBetterOnTheSimulatorIsWrittenUncorrected) {
     opt.mode = comp::Mode::contour;
     opt.tool_version = "test";
     opt.contour_split = false;
+    opt.contour = without_refinement();
     comp::ContourDetails cd;
     gc::DiagnosticSink sink;
     auto out = postproc::io::OutputFile::memory();
-    comp::compensate_program(prog, "t.nc", d, m, opt, without_refinement(), out, sink, &cd);
+    comp::compensate_program({prog, "t.nc", d, m}, opt, out, sink, &cd);
     ASSERT_TRUE(cd.simulated_before.has_value());
     ASSERT_TRUE(cd.simulated_after.has_value());
     EXPECT_NEAR(cd.simulated_before->tip.max, s0.tip.max, 1e-9);
@@ -306,7 +308,7 @@ TEST(CompensateGate, CompensatedProgramIsRefusedUnlessAllowed) {
   opt.tool_version = "test";
   opt.allow_recompensation = true;
   auto out = postproc::io::OutputFile::memory();
-  comp::compensate_program(first.written, "t.nc", d, m, opt, ct::PrecompensateOptions{}, out, again.sink);
+  comp::compensate_program({first.written, "t.nc", d, m}, opt, out, again.sink);
   EXPECT_FALSE(again.sink.has_errors());
   EXPECT_FALSE(out.take().empty());
 }

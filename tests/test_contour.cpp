@@ -185,7 +185,7 @@ std::string contour_compensate(const std::string& program, const mc::Machine& m,
   opt.mode = postproc::comp::Mode::contour;
   opt.tool_version = "test";
   auto out = postproc::io::OutputFile::memory();
-  r = comp::compensate_contour(program, "t.nc", d, m, opt, ct::PrecompensateOptions{}, out, sink);
+  r = comp::compensate_contour({program, "t.nc", d, m}, opt, out, sink);
   return out.take();
 }
 

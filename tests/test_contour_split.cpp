@@ -157,7 +157,7 @@ void contour(const std::string& prog, const mc::Machine& m, bool split, Outcome&
   opt.tool_version = "test";
   opt.contour_split = split;
   auto o = postproc::io::OutputFile::memory();
-  out.r = comp::compensate_program(prog, "t.nc", d, m, opt, ct::PrecompensateOptions{}, o, out.sink);
+  out.r = comp::compensate_program({prog, "t.nc", d, m}, opt, o, out.sink);
   out.written = o.take();
 }
 

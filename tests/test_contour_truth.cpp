@@ -54,7 +54,7 @@ Compensated compensate(const std::string& program, const mc::Machine& m, const s
   gc::DiagnosticSink sink;
   auto out = postproc::io::OutputFile::memory();
   Compensated c;
-  c.r = comp::compensate_program(program, "t.nc", d, m, opt, ct::PrecompensateOptions{}, out, sink);
+  c.r = comp::compensate_program({program, "t.nc", d, m}, opt, out, sink);
   EXPECT_FALSE(sink.has_errors());
   c.text = out.take();
   return c;

@@ -53,6 +53,23 @@ int joint(const kin::Model& m, char name) {
 
 double wrap(double deg) { return std::remainder(deg, 360.0); }
 
+/// `program` compensated on machine `m` (geometric mode) into memory.
+struct Compensated {
+  postproc::comp::CompensateResult r;
+  std::string written;
+  std::vector<std::uint64_t> line_map;
+  gc::DiagnosticSink sink;
+};
+void compensate(const std::string& program, const mc::Machine& m, Compensated& c) {
+  const gc::Dialect d = *gc::make_dialect(m.dialect_name, m.dialect_options);
+  postproc::comp::CompensateOptions opt;
+  opt.line_map = &c.line_map;
+  opt.tool_version = "test";
+  auto out = postproc::io::OutputFile::memory();
+  c.r = postproc::comp::compensate_program({program, "in.nc", d, m}, opt, out, c.sink);
+  c.written = out.take();
+}
+
 TEST(IkBranch, TheSettingChoosesTheSignOfTheTiltingAxis) {
   const Eigen::Vector3d axis = Eigen::Vector3d(0.3, -0.2, 1.0).normalized();
   for (const char* setting : {"nearest", "tilt-positive", "tilt-negative"}) {
@@ -222,18 +239,14 @@ TEST(IkBranch, CompensatedAtThePoleUnderEachRule) {
     const auto m = trunnion(std::string("ik_branch = \"") + setting + "\"", msink);
     ASSERT_TRUE(m);
     const gc::Dialect d = *gc::make_dialect(m->dialect_name, m->dialect_options);
-    std::vector<std::uint64_t> line_map;
-    postproc::comp::CompensateOptions opt;
-    opt.line_map = &line_map;
-    opt.tool_version = "test";
-    gc::DiagnosticSink sink;
-    auto out = postproc::io::OutputFile::memory();
-    const postproc::comp::CompensateResult r =
-        postproc::comp::compensate_program(program, "in.nc", d, *m, opt, {}, out, sink);
-    for (const auto& diag : sink.stored())
+    Compensated c;
+    compensate(program, *m, c);
+    for (const auto& diag : c.sink.stored())
       if (diag.severity == gc::Severity::error) ADD_FAILURE() << diag.message;
-    ASSERT_FALSE(sink.has_errors());
-    const std::string written = out.take();
+    ASSERT_FALSE(c.sink.has_errors());
+    const postproc::comp::CompensateResult& r = c.r;
+    const std::vector<std::uint64_t>& line_map = c.line_map;
+    const std::string& written = c.written;
     EXPECT_EQ(written.find("ik-branch=") != std::string::npos, std::string(setting) != "nearest") << written;
     EXPECT_LT(r.max_residual_mm, 0.001) << "the tool tip is corrected";
     if (std::string(setting) == "tilt-positive") {
@@ -373,14 +386,11 @@ TEST(IkBranch, NearestInTravelEndToEnd) {
     const auto m = trunnion_travel(setting, -110, 5, -inf, inf, msink);
     ASSERT_TRUE(m);
     const gc::Dialect d = *gc::make_dialect(m->dialect_name, m->dialect_options);
-    std::vector<std::uint64_t> line_map;
-    postproc::comp::CompensateOptions opt;
-    opt.line_map = &line_map;
-    opt.tool_version = "test";
-    gc::DiagnosticSink sink;
-    auto out = postproc::io::OutputFile::memory();
-    const postproc::comp::CompensateResult r =
-        postproc::comp::compensate_program(program, "in.nc", d, *m, opt, {}, out, sink);
+    Compensated run;
+    compensate(program, *m, run);
+    const gc::DiagnosticSink& sink = run.sink;
+    const postproc::comp::CompensateResult& r = run.r;
+    const std::vector<std::uint64_t>& line_map = run.line_map;
     if (std::string(setting) == "nearest") {
       ASSERT_TRUE(sink.has_errors());
       const auto& e = sink.stored()[0];
@@ -391,7 +401,7 @@ TEST(IkBranch, NearestInTravelEndToEnd) {
     for (const auto& diag : sink.stored())
       if (diag.severity == gc::Severity::error) ADD_FAILURE() << diag.message;
     ASSERT_FALSE(sink.has_errors());
-    const std::string written = out.take();
+    const std::string& written = run.written;
     EXPECT_NE(written.find("ik-branch=nearest-in-travel"), std::string::npos) << written;
     EXPECT_LT(r.max_residual_mm, 0.001);
     EXPECT_LT(r.max_residual_rad, 0.1 * r.max_error_before_rad);
@@ -411,12 +421,9 @@ TEST(IkBranch, NearestInTravelEndToEnd) {
   gc::DiagnosticSink msink;
   const auto m = trunnion_travel("nearest-in-travel", -5, 5, -inf, inf, msink);
   ASSERT_TRUE(m);
-  const gc::Dialect d = *gc::make_dialect(m->dialect_name, m->dialect_options);
-  postproc::comp::CompensateOptions opt;
-  opt.tool_version = "test";
-  gc::DiagnosticSink sink;
-  auto out = postproc::io::OutputFile::memory();
-  (void)postproc::comp::compensate_program(program, "in.nc", d, *m, opt, {}, out, sink);
+  Compensated c;
+  compensate(program, *m, c);
+  const gc::DiagnosticSink& sink = c.sink;
   ASSERT_TRUE(sink.has_errors());
   EXPECT_EQ(sink.stored()[0].code, "PP-E603");
   EXPECT_EQ(sink.stored()[0].where.line, 5u);
@@ -454,17 +461,13 @@ TEST(IkBranch, RestartInMidProgramGivesTheSameBlocksUnderHistoryFreeRules) {
     const auto m = trunnion_travel(setting, -110, std::string(setting) == "nearest-in-travel" ? 5 : 110, -inf, inf,
                                    msink);
     ASSERT_TRUE(m);
-    const gc::Dialect d = *gc::make_dialect(m->dialect_name, m->dialect_options);
     const auto run = [&](const std::string& text) {
-      postproc::comp::CompensateOptions opt;
-      opt.tool_version = "test";
-      gc::DiagnosticSink sink;
-      auto out = postproc::io::OutputFile::memory();
-      (void)postproc::comp::compensate_program(text, "in.nc", d, *m, opt, {}, out, sink);
-      for (const auto& diag : sink.stored())
+      Compensated c;
+      compensate(text, *m, c);
+      for (const auto& diag : c.sink.stored())
         if (diag.severity == gc::Severity::error) ADD_FAILURE() << diag.message;
       std::map<int, std::string> by_n;
-      std::istringstream in(out.take());
+      std::istringstream in(c.written);
       std::string line;
       while (std::getline(in, line))
         if (line.size() > 1 && line[0] == 'N') by_n[std::stoi(line.substr(1))] = line;

@@ -48,7 +48,7 @@ void run(const std::string& program, const mc::Machine& m, bool flatten, Written
   opt.flatten = flatten;
   opt.mode = mode;
   auto out = postproc::io::OutputFile::memory();
-  (void)comp::compensate_program(program, "in.ngc", d, m, opt, {}, out, r.sink);
+  (void)comp::compensate_program({program, "in.ngc", d, m}, opt, out, r.sink);
   r.written = out.take();
 }
 

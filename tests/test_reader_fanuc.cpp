@@ -493,9 +493,8 @@ void compensate(std::string_view program, Compensated& r) {
   postproc::comp::CompensateOptions opt;
   opt.tool_version = "test";
   opt.header = false;
-  postproc::contour::PrecompensateOptions popt;
   auto mem = postproc::io::OutputFile::memory();
-  postproc::comp::compensate_program(program, "t.nc", d, m, opt, popt, mem, r.sink);
+  postproc::comp::compensate_program({program, "t.nc", d, m}, opt, mem, r.sink);
   r.out = mem.take();
 }
 

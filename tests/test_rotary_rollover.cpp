@@ -306,7 +306,7 @@ TEST(RotaryDirection, CompensatedWordsKeepTheirFunctionAndReadBackToTheCorrected
   opt.flatten = true;
   gc::DiagnosticSink sink;
   auto out = postproc::io::OutputFile::memory();
-  const cp::CompensateResult r = cp::compensate_program(program, "in.mpf", d, *m, opt, {}, out, sink);
+  const cp::CompensateResult r = cp::compensate_program({program, "in.mpf", d, *m}, opt, out, sink);
   for (const auto& diag : sink.stored())
     if (diag.severity == gc::Severity::error) ADD_FAILURE() << gc::format(diag);
   ASSERT_FALSE(sink.has_errors());

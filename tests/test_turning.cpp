@@ -58,7 +58,7 @@ void compensate(const mc::Machine& m, const std::string& program, Outcome& r, co
   opt.mode = *postproc::comp::parse_mode(mode);
   postproc::io::OutputFile out(path);
   if (mode == "contour") {
-    r.result = cp::compensate_contour(program, "turn.ngc", d, m, opt, {}, out, r.sink);
+    r.result = cp::compensate_contour({program, "turn.ngc", d, m}, opt, out, r.sink);
   } else {
     gc::LineReader reader{std::string_view(program)};
     r.result = cp::compensate(reader, "turn.ngc", d, m, opt, out, r.sink);

@@ -49,9 +49,8 @@ void run(const mc::Machine& m, std::string_view program, Outcome& r, bool flatte
   opt.flatten = flatten;
   opt.mode = *postproc::comp::parse_mode(mode);
   opt.header = header;
-  postproc::contour::PrecompensateOptions popt;
   auto mem = postproc::io::OutputFile::memory();
-  r.result = cp::compensate_program(program, file, d, m, opt, popt, mem, r.sink);
+  r.result = cp::compensate_program({program, file, d, m}, opt, mem, r.sink);
   r.out = mem.take();
 }
 

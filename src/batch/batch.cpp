@@ -87,7 +87,7 @@ std::string settings_of(const BatchOptions& o) {
   std::string s = fmt::format("mode={};max_deviation_mm={:.17g};max_angle_rad={:.17g};header={}", comp::to_string(c.mode),
                               c.max_deviation_mm, c.max_angle_rad, c.header ? 1 : 0);
   if (c.mode != comp::Mode::geometric)
-    s += fmt::format(";iterations={};contour_split={}", o.precompensate.max_iterations, c.contour_split ? "auto" : "off");
+    s += fmt::format(";iterations={};contour_split={}", o.compensate.contour.max_iterations, c.contour_split ? "auto" : "off");
   if (c.flatten) s += ";flatten=1";
   if (!o.dialect.empty()) s += fmt::format(";dialect={}", o.dialect);
   for (const auto& [name, value] : c.resolve.set) s += fmt::format(";set {}={:.17g}", name, value);
@@ -227,8 +227,8 @@ class Runner {
                               sink);
     auto mem = io::OutputFile::memory();
     comp::ContourDetails details;
-    const comp::CompensateResult r = comp::compensate_program(text, in.string(), *lm->dialect, *lm->machine,
-                                                              o_.compensate, o_.precompensate, mem, sink, &details);
+    const comp::CompensateResult r = comp::compensate_program({text, in.string(), *lm->dialect, *lm->machine}, o_.compensate, mem,
+                                                              sink, &details);
     fr.diagnostics = comp::diagnostics_json(sink, o_.max_diagnostics);
     if (sink.has_errors()) {
       fr.status = "refused";

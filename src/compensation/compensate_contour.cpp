@@ -360,10 +360,11 @@ std::vector<Refined> refine(const contour::Path& path, std::vector<kin::JointVec
 
 }  // namespace
 
-CompensateResult compensate_contour(std::string_view text, std::string_view file, const gcode::Dialect& dialect,
-                                    const machine::Machine& m, const CompensateOptions& opt,
-                                    const contour::PrecompensateOptions& popt, io::OutputFile& out,
+CompensateResult compensate_contour(const ProgramInput& program, const CompensateOptions& opt, io::OutputFile& out,
                                     gcode::DiagnosticSink& sink, ContourDetails* details) {
+  const std::string_view text = program.text, file = program.file;
+  const gcode::Dialect& dialect = program.dialect;
+  const machine::Machine& m = program.machine;
   ContourDetails local;
   ContourDetails& d = details != nullptr ? *details : local;
   CompensateResult r;
@@ -388,7 +389,7 @@ CompensateResult compensate_contour(std::string_view text, std::string_view file
     const contour::Path p = contour::build_path(in, file, dialect, m, dense, quiet);
     if (!quiet.has_errors() && p.runs.size() == d.path.runs.size()) d.check_reference.emplace(p, *m.actual);
   }
-  contour::PrecompensateOptions po = popt;
+  contour::PrecompensateOptions po = opt.contour;
   if (!po.progress) po.progress = opt.progress;
   d.result = contour::precompensate(d.path, *m.actual, *d.reference, po);
   r.contour_predicted_after_mm = d.result.after.tip.max;

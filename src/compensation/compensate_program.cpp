@@ -36,15 +36,14 @@ void merge_geometric(CompensateResult& r, const CompensateResult& g) {
 
 }  // namespace
 
-CompensateResult compensate_flat(std::string_view text, std::string_view file, const gcode::Dialect& dialect,
-                                 const machine::Machine& m, const CompensateOptions& opt,
-                                 const contour::PrecompensateOptions& popt, io::OutputFile& out,
+CompensateResult compensate_flat(const ProgramInput& in, const CompensateOptions& opt, io::OutputFile& out,
                                  gcode::DiagnosticSink& sink, ContourDetails* details);
 
-CompensateResult compensate_program(std::string_view text, std::string_view file, const gcode::Dialect& dialect,
-                                    const machine::Machine& m, const CompensateOptions& options,
-                                    const contour::PrecompensateOptions& popt, io::OutputFile& out,
+CompensateResult compensate_program(const ProgramInput& in, const CompensateOptions& options, io::OutputFile& out,
                                     gcode::DiagnosticSink& sink, ContourDetails* details) {
+  const std::string_view text = in.text, file = in.file;
+  const gcode::Dialect& dialect = in.dialect;
+  const machine::Machine& m = in.machine;
   CompensateOptions opt = options;
   if (opt.input_bytes == 0) opt.input_bytes = text.size();
   if (!opt.allow_recompensation && text.find(" compensate mode=") != std::string_view::npos) {
@@ -72,7 +71,7 @@ CompensateResult compensate_program(std::string_view text, std::string_view file
       return {};
     }
     if (opt.flatten) {
-      r = compensate_flat(resolved.text, file, dialect, m, opt, popt, out, mapped, details);
+      r = compensate_flat({resolved.text, file, dialect, m}, opt, out, mapped, details);
       r.flattened = true;
     } else {
       // Compensate the literal program in memory, then carry every corrected block back onto
@@ -82,7 +81,7 @@ CompensateResult compensate_program(std::string_view text, std::string_view file
       std::vector<std::uint64_t> map;
       lopt.line_map = &map;
       auto mem = io::OutputFile::memory();
-      r = compensate_flat(resolved.text, file, dialect, m, lopt, popt, mem, mapped, details);
+      r = compensate_flat({resolved.text, file, dialect, m}, lopt, mem, mapped, details);
       if (sink.count(gcode::Severity::error) > errors) return r;
       const std::string literal = mem.take();
       CompensateOptions hopt = opt;
@@ -106,7 +105,7 @@ CompensateResult compensate_program(std::string_view text, std::string_view file
     return r;
   }
   opt.flatten = false;  // nothing to flatten: the header says nothing about it
-  return compensate_flat(text, file, dialect, m, opt, popt, out, sink, details);
+  return compensate_flat(in, opt, out, sink, details);
 }
 
 namespace {
@@ -137,21 +136,21 @@ struct FirstStage {
   std::vector<std::uint64_t> lines;
 };
 
-FirstStage first_stage(std::string_view text, std::string_view file, const gcode::Dialect& dialect,
-                       const machine::Machine& m, const CompensateOptions& opt, gcode::DiagnosticSink& sink) {
+FirstStage first_stage(const ProgramInput& in, const CompensateOptions& opt, gcode::DiagnosticSink& sink) {
+  const machine::Machine& m = in.machine;
   FirstStage f;
   CompensateOptions gopt = opt;
   gopt.header = false;
   gopt.line_map = &f.lines;
   gopt.progress = {};
   auto mem = io::OutputFile::memory();
-  gcode::LineReader reader{text};
+  gcode::LineReader reader{in.text};
   if (opt.mode == Mode::all) {
-    f.r = compensate(reader, file, dialect, m, gopt, mem, sink);
+    f.r = compensate(reader, in.file, in.dialect, m, gopt, mem, sink);
   } else {
     machine::Machine nominal = m;
     nominal.actual = m.nominal;
-    f.r = compensate(reader, file, dialect, nominal, gopt, mem, sink);
+    f.r = compensate(reader, in.file, in.dialect, nominal, gopt, mem, sink);
   }
   f.text = mem.take();
   return f;
@@ -160,12 +159,11 @@ FirstStage first_stage(std::string_view text, std::string_view file, const gcode
 /// The contour stage on `input` (the first stage's output, or the program itself when `first`
 /// is null) into `out`, its diagnostics, worst lines, run lines and line map carried back to the
 /// program's lines; in --mode all with the geometric figures of the first stage.
-CompensateResult contour_stage(std::string_view input, const FirstStage* first, std::string_view file,
-                               const gcode::Dialect& dialect, const machine::Machine& m, const CompensateOptions& opt,
-                               const contour::PrecompensateOptions& popt, io::OutputFile& out,
-                               gcode::DiagnosticSink& sink, ContourDetails& cd) {
+CompensateResult contour_stage(const ProgramInput& in, const FirstStage* first, const CompensateOptions& opt,
+                               io::OutputFile& out, gcode::DiagnosticSink& sink, ContourDetails& cd) {
   CompensateOptions copt = opt;
-  if (first == nullptr) return compensate_contour(input, file, dialect, m, copt, popt, out, sink, &cd);
+  if (first == nullptr) return compensate_contour(in, copt, out, sink, &cd);
+  const std::string_view input = in.text;
   const std::vector<std::uint64_t>& geo_lines = first->lines;
   std::vector<std::uint64_t> contour_lines;  // output line → intermediate line
   copt.line_map = opt.line_map != nullptr ? &contour_lines : nullptr;
@@ -179,7 +177,7 @@ CompensateResult contour_stage(std::string_view input, const FirstStage* first, 
       c.where.line = geo_lines[c.where.line - 1];
     sink.report(std::move(c));
   };
-  CompensateResult r = compensate_contour(input, file, dialect, m, copt, popt, out, to_input, &cd);
+  CompensateResult r = compensate_contour(in, copt, out, to_input, &cd);
   if (opt.line_map != nullptr)
     for (const std::uint64_t l : contour_lines)
       opt.line_map->push_back(l >= 1 && l <= geo_lines.size() ? geo_lines[l - 1] : 0);
@@ -399,10 +397,11 @@ CompensateResult write_merged(Merged mg, Candidate& plain, Candidate& split, con
 
 }  // namespace
 
-CompensateResult compensate_flat(std::string_view text, std::string_view file, const gcode::Dialect& dialect,
-                                 const machine::Machine& m, const CompensateOptions& opt,
-                                 const contour::PrecompensateOptions& popt, io::OutputFile& out,
+CompensateResult compensate_flat(const ProgramInput& in, const CompensateOptions& opt, io::OutputFile& out,
                                  gcode::DiagnosticSink& sink, ContourDetails* details) {
+  const std::string_view text = in.text, file = in.file;
+  const gcode::Dialect& dialect = in.dialect;
+  const machine::Machine& m = in.machine;
   if (opt.mode == Mode::geometric) {
     gcode::LineReader reader{text};
     return compensate(reader, file, dialect, m, opt, out, sink);
@@ -413,7 +412,7 @@ CompensateResult compensate_flat(std::string_view text, std::string_view file, c
   // The plain candidate's first stage (--mode all: the geometric remap; --mode contour: none).
   std::optional<FirstStage> plain_first;
   if (all) {
-    plain_first = first_stage(text, file, dialect, m, opt, sink);
+    plain_first = first_stage(in, opt, sink);
     if (sink.has_errors()) return plain_first->r;
     if (cd.keep_geometric_stage) {
       cd.geometric_input = std::string(text);
@@ -430,13 +429,14 @@ CompensateResult compensate_flat(std::string_view text, std::string_view file, c
     CompensateOptions sopt = opt;
     sopt.split = split_settings(m);
     if (sopt.split.step_s > 0) {
-      split_first = first_stage(text, file, dialect, m, sopt, split_first_diags.sink);
+      split_first = first_stage(in, sopt, split_first_diags.sink);
       if (split_first_diags.sink.has_errors() || split_first_diags.overflow || split_first->text == plain_input ||
           split_first->r.moves_split + split_first->r.arcs_linearized == 0)
         split_first.reset();
     }
   }
-  if (!split_first) return contour_stage(plain_input, all ? &*plain_first : nullptr, file, dialect, m, opt, popt, out, sink, cd);
+  if (!split_first)
+    return contour_stage({plain_input, file, dialect, m}, all ? &*plain_first : nullptr, opt, out, sink, cd);
 
   // Both candidates, into memory with their diagnostics held back; the one whose written program
   // simulates better against the split candidate's reference (the denser description of the same
@@ -446,7 +446,7 @@ CompensateResult compensate_flat(std::string_view text, std::string_view file, c
     CompensateOptions copt = opt;
     copt.line_map = &c.lines;  // always: the merge per run needs it
     auto mem = io::OutputFile::memory();
-    c.r = contour_stage(input, first, file, dialect, m, copt, popt, mem, c.diags.sink, c.cd);
+    c.r = contour_stage({input, file, dialect, m}, first, copt, mem, c.diags.sink, c.cd);
     c.written = mem.take();
   };
   Candidate plain, split;
@@ -458,7 +458,7 @@ CompensateResult compensate_flat(std::string_view text, std::string_view file, c
       c.lines.clear();
       CompensateOptions copt = opt;
       copt.line_map = &c.lines;
-      c.r = contour_stage(input, first, file, dialect, m, copt, popt, mem, sink, c.cd);
+      c.r = contour_stage({input, file, dialect, m}, first, copt, mem, sink, c.cd);
       c.written = mem.take();
     } else {
       for (gcode::Diagnostic& d : c.diags.list) sink.report(std::move(d));
@@ -489,7 +489,7 @@ CompensateResult compensate_flat(std::string_view text, std::string_view file, c
     figures = Figures{plain_sim->tip.max, plain_sim->axis.max, split_sim->tip.max, split_sim->axis.max};
   bool take_split = false;
   std::vector<char> split_runs;  // per run: the split candidate's run is better
-  const double L = popt.orientation_length_mm;
+  const double L = opt.contour.orientation_length_mm;
   if (plain_sim && split_sim) {
     const Score a = score_of(*plain_sim, L), b = score_of(*split_sim, L);
     const contour::Simulation& before = *plain.cd.simulated_before;

@@ -58,8 +58,7 @@ struct BatchOptions {
   std::string machine_name = "machine.toml";  ///< per-folder override file name
   std::string dialect;                      ///< every program read as this dialect; "" = each machine file's
   std::vector<std::string> globs;           ///< empty: default_globs()
-  comp::CompensateOptions compensate;       ///< mode, limits, header, tool version
-  contour::PrecompensateOptions precompensate;
+  comp::CompensateOptions compensate;       ///< mode, limits, header, tool version, contour iteration
   unsigned jobs = 1;                        ///< worker threads
   Shard shard;
   bool force = false;                       ///< ignore earlier manifests: compensate every file

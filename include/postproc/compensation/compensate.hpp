@@ -8,6 +8,7 @@
 #include <map>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "postproc/contour/path.hpp"
@@ -91,6 +92,17 @@ struct CompensateOptions {
     double span_s = 0;
     bool linearize_arcs = false;
   } split;
+  /// --mode contour / all: the precompensation iteration (contour/precompensate.hpp).
+  contour::PrecompensateOptions contour;
+};
+
+/// One program to compensate, held in memory: its text, the name its diagnostics give it (and
+/// where its subprogram files are looked for), the dialect it is read in and the machine.
+struct ProgramInput {
+  std::string_view text;
+  std::string_view file;
+  const gcode::Dialect& dialect;
+  const machine::Machine& machine;
 };
 
 /// Where `line` carries postproc's compensation header (as header_comment writes it: "postproc
@@ -237,9 +249,7 @@ struct ContourDetails {
 /// point corrected so that the predicted contour errors cancel (predict.hpp). Arcs, rapids and
 /// cycles are predicted but written as they are (linearise arcs first to correct them). The
 /// header names mode `opt.mode`. Blocks whose words do not change are copied byte for byte.
-CompensateResult compensate_contour(std::string_view text, std::string_view file, const gcode::Dialect& dialect,
-                                    const machine::Machine& m, const CompensateOptions& opt,
-                                    const contour::PrecompensateOptions& popt, io::OutputFile& out,
+CompensateResult compensate_contour(const ProgramInput& in, const CompensateOptions& opt, io::OutputFile& out,
                                     gcode::DiagnosticSink& sink, ContourDetails* details = nullptr);
 
 /// `postproc compensate --mode geometric|contour|all` on a program held in memory, as the CLI and
@@ -251,9 +261,7 @@ CompensateResult compensate_contour(std::string_view text, std::string_view file
 /// stage on its output, and reports the geometric figures next to the contour ones (the contour
 /// worst line mapped back to the input). `opt.mode` selects; anything else throws
 /// postproc::Error (usage). Errors go to `sink`; `out` is not committed.
-CompensateResult compensate_program(std::string_view text, std::string_view file, const gcode::Dialect& dialect,
-                                    const machine::Machine& m, const CompensateOptions& opt,
-                                    const contour::PrecompensateOptions& popt, io::OutputFile& out,
+CompensateResult compensate_program(const ProgramInput& in, const CompensateOptions& opt, io::OutputFile& out,
                                     gcode::DiagnosticSink& sink, ContourDetails* details = nullptr);
 
 /// The header comment line in the dialect's comment syntax (no end of line).
