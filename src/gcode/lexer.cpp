@@ -275,7 +275,9 @@ class Lexer {
   /// Fanuc, LinuxCNC: true when blanks at `e` are followed by more digits of the same number ("X1 0.5").
   [[nodiscard]] bool spaced_digits_follow(std::uint32_t e) const {
     if ((d_.id != DialectId::fanuc && d_.id != DialectId::linuxcnc) || e >= n() || !is_space(s_[e])) return false;
-    const std::uint32_t k = skip_space(e);
+    // One blank and then the next word's letter is the common case: no scan.
+    std::uint32_t k = e + 1;
+    if (k < n() && is_space(s_[k])) k = skip_space(k);
     return k < n() && (is_digit(s_[k]) || s_[k] == '.');
   }
 

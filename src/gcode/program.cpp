@@ -289,8 +289,10 @@ ProgramStats run_program(LineReader& reader, const Dialect& given, std::string_v
       b.block_delete = false;
     } else {
       ok = lex_block(dialect, b, ctx);
-      if (const auto too_long = opt.source_text ? line_too_long(dialect, b.raw.size(), !b.eol.empty() && b.eol.front() == '\r')
-                                                : std::nullopt) {
+      const std::size_t limit = opt.source_text ? max_line_length(dialect) : 0;
+      if (const auto too_long = limit != 0 && b.raw.size() >= limit
+                                    ? line_too_long(dialect, b.raw.size(), !b.eol.empty() && b.eol.front() == '\r')
+                                    : std::nullopt) {
         const auto at = static_cast<std::uint32_t>(std::min(b.raw.size(), max_line_length(dialect)));
         report_at(ctx, b, {at, static_cast<std::uint32_t>(std::max<std::size_t>(b.raw.size(), at + 1))},
                   Severity::error, codes::kControllerRefuses,

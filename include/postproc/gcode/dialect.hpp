@@ -180,8 +180,10 @@ struct DialectOptions {
 [[nodiscard]] std::string_view dialect_names();
 
 /// The longest line the controller reads, in characters (the CR of a CRLF line counted); 0: no
-/// limit postproc knows of. LinuxCNC: 252 (rs274ngc's "Command too long").
-[[nodiscard]] std::size_t max_line_length(const Dialect& d);
+/// limit postproc knows of. LinuxCNC: 252 — rs274ngc reads a line into a buffer of LINELEN (255)
+/// bytes with fgets and stops with "Command too long" when it is full (checked against LinuxCNC
+/// 2.9's rs274, tests/rs274_line_length.py).
+[[nodiscard]] inline std::size_t max_line_length(const Dialect& d) { return d.id == DialectId::linuxcnc ? 252 : 0; }
 /// Why the controller stops at a line of `chars` characters (without its end of line; `cr`: a CR
 /// ends it), for a diagnostic; nullopt when it reads the line.
 [[nodiscard]] std::optional<std::string> line_too_long(const Dialect& d, std::size_t chars, bool cr);
