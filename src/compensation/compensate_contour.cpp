@@ -102,7 +102,7 @@ class ContourWriter final : public gcode::BlockVisitor {
       line_.clear();
       ed.render(line_);
       ++r_.changed_blocks;
-      if (const auto too_long = gcode::line_too_long(d_, line_.size(), !b.eol.empty() && b.eol.front() == '\r'))
+      if (const auto too_long = gcode::line_too_long(d_, line_, b.eol))
         refuse(b, 1, corrected_line_too_long(*too_long));
       emit(line_, b.eol, b.line);
     }

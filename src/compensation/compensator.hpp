@@ -193,7 +193,7 @@ class Compensator final : public gcode::BlockVisitor {
       ed.render(line_);
       ++r_.changed_blocks;
       const std::string_view eol = after_.empty() ? b.eol : std::string_view(eol_);
-      if (const auto too_long = gcode::line_too_long(d_, line_.size(), !eol.empty() && eol.front() == '\r'))
+      if (const auto too_long = gcode::line_too_long(d_, line_, eol))
         refuse(b, 1, kRefused, corrected_line_too_long(*too_long));
       emit(line_, eol, b.line);
     }

@@ -122,8 +122,7 @@ class Pass final : public BlockVisitor {
       } else {
         const bool changed = line_ != b.raw;
         if (changed && !was_changed) ++r_.changed_blocks;
-        if (const auto too_long = changed ? line_too_long(d_, line_.size(), !eol.empty() && eol.front() == '\r')
-                                          : std::nullopt)
+        if (const auto too_long = changed ? line_too_long(d_, line_, eol) : std::nullopt)
           report_at(LexContext{file_, &own_}, b, {0, static_cast<std::uint32_t>(std::max<std::size_t>(b.raw.size(), 1))},
                     Severity::error, codes::kConvertedLineTooLong,
                     fmt::format("the converted line would be longer than the controller reads ({}): shorten the "

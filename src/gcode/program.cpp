@@ -169,7 +169,7 @@ struct ProgramEnd {
   void check(const Dialect& d, const Block& b) {
     if (ended || resolved) return;
     for (const Word& w : b.words)
-      if (w.letter == 'M' && w.name_len == 1 && w.kind == ValueKind::number && (w.number == 2 || w.number == 30)) {
+      if (program_end::ends_program(w)) {
         ended = true;
         end_line = b.line;
         what = fmt::format("M{}", w.number == 2 ? (d.id == DialectId::fanuc ? "02" : "2") : "30");
@@ -289,10 +289,7 @@ ProgramStats run_program(LineReader& reader, const Dialect& given, std::string_v
       b.block_delete = false;
     } else {
       ok = lex_block(dialect, b, ctx);
-      const std::size_t limit = opt.source_text ? max_line_length(dialect) : 0;
-      if (const auto too_long = limit != 0 && b.raw.size() >= limit
-                                    ? line_too_long(dialect, b.raw.size(), !b.eol.empty() && b.eol.front() == '\r')
-                                    : std::nullopt) {
+      if (const auto too_long = opt.source_text ? line_too_long(dialect, b.raw, b.eol) : std::nullopt) {
         const auto at = static_cast<std::uint32_t>(std::min(b.raw.size(), max_line_length(dialect)));
         report_at(ctx, b, {at, static_cast<std::uint32_t>(std::max<std::size_t>(b.raw.size(), at + 1))},
                   Severity::error, codes::kControllerRefuses,

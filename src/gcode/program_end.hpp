@@ -22,6 +22,11 @@ namespace postproc::gcode::program_end {
          });
 }
 
+/// An M2 or M30 word: it ends the program (every ISO dialect).
+[[nodiscard]] inline bool ends_program(const Word& w) {
+  return w.letter == 'M' && w.name_len == 1 && w.kind == ValueKind::number && (w.number == 2 || w.number == 30);
+}
+
 /// A line that starts another program of the file (a Fanuc O line; a Sinumerik archive's
 /// '%_N_…' header): it runs only where it is called, so the lines after it are not warned about.
 [[nodiscard]] inline bool starts_program(const Block& b, DialectId d) {

@@ -106,61 +106,46 @@ std::optional<std::size_t> branch_by_tilt_sign(const kin::Model& model, const st
 
 
 /// Under [machine] ik_branch = "nearest-in-travel": of the closed-form orientation solutions, each
-/// with every turn of a limited rotary axis that lies in its travel, the one nearest `start` over
-/// the rotary joints (the linear joints are solved afterwards). Nullopt when none lies in travel;
-/// `outside` is then the first rotary joint outside its travel on the nearest solution.
+/// rotary joint at its turn within travel nearest `start` (the distance is a sum over the joints,
+/// so each joint's nearest turn gives the nearest combination), the one nearest `start` over the
+/// rotary joints (the linear joints are solved afterwards). Nullopt when none lies in travel;
+/// `outside` is then a rotary joint with no turn in travel on the solution nearest `start`.
 std::optional<kin::JointVector> branch_in_travel(const kin::Model& model, const std::vector<kin::JointVector>& c,
                                                  const kin::JointVector& start, int& outside) {
   std::optional<kin::JointVector> best;
-  double best_d = std::numeric_limits<double>::infinity();
+  double best_d = std::numeric_limits<double>::infinity(), nearest_d = best_d;
   outside = -1;
-  std::vector<int> rotary;
-  for (int j = 0; j < model.joint_count(); ++j)
-    if (model.joints()[static_cast<std::size_t>(j)].type == kin::JointType::rotary) rotary.push_back(j);
-  const auto distance = [&](const kin::JointVector& q) {
-    double d = 0;
-    for (const int j : rotary) d += (q[j] - start[j]) * (q[j] - start[j]);
-    return d;
-  };
-  double nearest_d = std::numeric_limits<double>::infinity();
   for (const kin::JointVector& candidate : c) {
-    // The turns of each rotary joint within its travel (the candidate's own value where the joint
-    // has no limits: the nearest turn); the product over the rotary joints.
-    std::vector<std::vector<double>> turns;
-    for (const int j : rotary) {
+    kin::JointVector q = candidate;
+    double d = 0, d_as_is = 0;
+    int missing = -1;
+    for (int j = 0; j < model.joint_count(); ++j) {
       const kin::Joint& jt = model.joints()[static_cast<std::size_t>(j)];
-      std::vector<double> v;
+      if (jt.type != kin::JointType::rotary) continue;
+      d_as_is += (candidate[j] - start[j]) * (candidate[j] - start[j]);
       if (std::isfinite(jt.min) && std::isfinite(jt.max) && jt.max - jt.min < 3600) {
-        for (double k = std::ceil((jt.min - 1e-9 - candidate[j]) / 360.0); candidate[j] + 360.0 * k <= jt.max + 1e-9; ++k)
-          v.push_back(candidate[j] + 360.0 * k);
-      } else if (candidate[j] >= jt.min - 1e-9 && candidate[j] <= jt.max + 1e-9) {
-        v.push_back(candidate[j]);
+        // Turns k with min ≤ c + 360k ≤ max; the one nearest start (ties: the lower turn).
+        const double k_lo = std::ceil((jt.min - 1e-9 - candidate[j]) / 360.0);
+        const double k_hi = std::floor((jt.max + 1e-9 - candidate[j]) / 360.0);
+        if (k_lo > k_hi) {
+          if (missing < 0) missing = j;
+          continue;
+        }
+        const double k = std::clamp(std::ceil((start[j] - candidate[j]) / 360.0 - 0.5), k_lo, k_hi);
+        q[j] = candidate[j] + 360.0 * k;
+      } else if (candidate[j] < jt.min - 1e-9 || candidate[j] > jt.max + 1e-9) {
+        if (missing < 0) missing = j;
+        continue;
       }
-      turns.push_back(std::move(v));
+      d += (q[j] - start[j]) * (q[j] - start[j]);
     }
-    if (const double d = distance(candidate); d < nearest_d) {
-      nearest_d = d;
-      outside = -1;
-      for (std::size_t k = 0; k < rotary.size() && outside < 0; ++k)
-        if (turns[k].empty()) outside = rotary[k];
-      if (outside < 0) outside = kin::joint_outside_limits(model, candidate);
+    if (d_as_is < nearest_d) {
+      nearest_d = d_as_is;
+      outside = missing;
     }
-    std::vector<std::size_t> pick(rotary.size(), 0);
-    bool any = true;
-    for (const auto& t : turns) any = any && !t.empty();
-    while (any) {
-      kin::JointVector q = candidate;
-      for (std::size_t k = 0; k < rotary.size(); ++k) q[rotary[k]] = turns[k][pick[k]];
-      if (const double d = distance(q); d < best_d) {
-        best_d = d;
-        best = q;
-      }
-      std::size_t k = 0;
-      for (; k < pick.size(); ++k) {
-        if (++pick[k] < turns[k].size()) break;
-        pick[k] = 0;
-      }
-      if (k == pick.size()) break;
+    if (missing < 0 && d < best_d) {
+      best_d = d;
+      best = q;
     }
   }
   return best;

@@ -187,6 +187,14 @@ struct DialectOptions {
 /// Why the controller stops at a line of `chars` characters (without its end of line; `cr`: a CR
 /// ends it), for a diagnostic; nullopt when it reads the line.
 [[nodiscard]] std::optional<std::string> line_too_long(const Dialect& d, std::size_t chars, bool cr);
+/// line_too_long for a line and its end of line, checked without a call where the line cannot be
+/// too long (every line of a dialect without a limit: the per-block cost of a hot path).
+[[nodiscard]] inline std::optional<std::string> line_too_long(const Dialect& d, std::string_view line,
+                                                              std::string_view eol) {
+  const std::size_t limit = max_line_length(d);
+  if (limit == 0 || line.size() < limit) return std::nullopt;
+  return line_too_long(d, line.size(), !eol.empty() && eol.front() == '\r');
+}
 /// Rebuilds a Fanuc lathe dialect's G-code table for G-code system `system` ('A' or 'B').
 void set_gcode_system(Dialect& d, char system);  ///< "fanuc|siemens|linuxcnc|heidenhain-iso"
 

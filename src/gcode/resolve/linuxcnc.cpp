@@ -5,6 +5,7 @@
 // run without lexing or parsing again. This file: compiling lines and the block structure, the
 // run; linuxcnc_statements.cpp: executing them.
 #include "linuxcnc_runner.hpp"
+#include "src/gcode/program_end.hpp"
 
 namespace postproc::gcode::resolver {
 namespace lcnc_run {
@@ -111,7 +112,7 @@ void Machine::compile(SourceFile& f, std::size_t i, Line& l) {
     }
   }
   for (const Word& w : b.words) {
-    if (w.letter == 'M' && w.kind == ValueKind::number && (w.number == 2 || w.number == 30)) l.ends_program = true;
+    if (program_end::ends_program(w)) l.ends_program = true;
     if (w.letter == 'M' && w.kind == ValueKind::number && w.number >= 70 && w.number <= 73 &&
         w.number == std::floor(w.number)) {
       if (l.context == 0) l.context_span = w.span;
@@ -252,9 +253,7 @@ bool ends_program(SourceFile& f, std::size_t i) {
     maybe = raw.find_first_of("23", k + 1) != std::string_view::npos;
   if (!maybe || !f.lexed_ok(i)) return false;
   const Block& b = f.block(i);
-  return std::any_of(b.words.begin(), b.words.end(), [](const Word& w) {
-    return w.letter == 'M' && w.kind == ValueKind::number && (w.number == 2 || w.number == 30);
-  });
+  return std::any_of(b.words.begin(), b.words.end(), program_end::ends_program);
 }
 
 }  // namespace
