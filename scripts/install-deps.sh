@@ -6,9 +6,10 @@
 #   scripts/install-deps.sh --test     adds what the tests and benchmarks need (the `release` preset):
 #                                      GoogleTest, Google Benchmark, headless Chromium with WebDriver
 #                                      (tests/html_render.sh) and LinuxCNC's interpreter rs274
-#                                      (tests/rs274_compare.sh and the other comparisons)
-#   scripts/install-deps.sh --extra    adds --test's packages and clang (libFuzzer, the `fuzz`
-#                                      preset) and valgrind (instruction counts);
+#                                      (tests/rs274_compare.sh and the other comparisons), and
+#                                      clang with its sanitizer runtimes (the `asan` presets)
+#   scripts/install-deps.sh --extra    adds --test's packages and valgrind (instruction counts;
+#                                      clang also serves libFuzzer, the `fuzz` preset);
 #                                      POSTPROC_DEPS_EXTRA=1 does the same
 set -euo pipefail
 mode=tool
@@ -16,7 +17,7 @@ for arg in "$@"; do
   case "$arg" in
     --test) [[ $mode == extra ]] || mode=test ;;
     --extra) mode=extra ;;
-    -h|--help) sed -n '2,12p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    -h|--help) sed -n '2,13p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
     *) echo "install-deps: unknown argument '$arg' (use --test or --extra)" >&2; exit 64 ;;
   esac
 done
@@ -35,10 +36,11 @@ if [[ $mode != tool ]]; then
     chromium chromium-driver python3-selenium python3-pil  # tests/html_render.sh: reports in headless Chromium
     linuxcnc-uspace  # tests/rs274_compare.sh: LinuxCNC's own interpreter (rs274) as the reference
     pybind11-dev python3-dev python3-numpy python3-pytest  # the Python module and its tests (docs/python.md)
+    clang libclang-rt-14-dev  # the asan presets: CI runs the input-facing tests with ASan + UBSan
   )
 fi
 if [[ $mode == extra ]]; then
-  packages+=(clang libclang-rt-14-dev valgrind)
+  packages+=(valgrind)
 fi
 missing=()
 for p in "${packages[@]}"; do
