@@ -50,6 +50,24 @@ TEST(ToolOffsets, LinuxcncOffsetChangesShiftProgramZ) {
   EXPECT_TRUE(r.sink.stored().empty()) << r.all_codes();
 }
 
+// M72 and the tool length offset, checked with rs274 -t (T1 Z50, T2 Z100 scaled to mm; the trap
+// program tests/resolve/linuxcnc/reader_m72_tool_length.ngc runs without a table): rs274 records
+// group 8 as G49 for a zero offset and G43 otherwise, and M72 applies the recorded code again only
+// where it differs from the one in force. Saved G43.1 Z2, then G49: M72 is "G43" with the tool in
+// the spindle (T1: 50), not the saved 2. Saved G43 H2 (100), then G43.1 Z3: both G43, the 3 stays.
+// Before, M72 put back the saved value (10 − 2 and 10 − 100): a silent misread of Z.
+TEST(ToolOffsets, M72AppliesTheRecordedGroup8CodeOnlyWhereItDiffers) {
+  const auto d = with_tools("linuxcnc", {{1, 50}, {2, 100}});
+  const Program r(d, "G21 G90 G17\nT1 M6\nG0 X0 Y0 Z10\nG43.1 Z2\nM70\nG49\nM72\nG0 X1\n"
+                     "G43 H2\nM70\nG43.1 Z3\nM72\nG0 X2\nM2\n");
+  ASSERT_EQ(r.motions.size(), 3u) << r.all_codes();
+  EXPECT_NEAR(r.motions[1].end[2], 10 - 50, kTol);
+  EXPECT_EQ(r.motions[1].tool_length_h, 1u);
+  EXPECT_NEAR(r.motions[2].end[2], 10 - 3, kTol);  // the machine has not moved: 10 − the offset in force
+  EXPECT_NEAR(r.motions[2].tool_length, 3, kTol);
+  EXPECT_TRUE(r.sink.stored().empty()) << r.all_codes();
+}
+
 // LinuxCNC G-code reference "G10 L1 Set Tool Table" (checked with rs274 -t): G10 L1 P1 Z5 writes
 // tool 1's length (program units, G91 or not); the offset in force changes at the next G43 only.
 // G10 L10/L11 compute the entry from the machine position, unknown here: Z after G43 is unknown.

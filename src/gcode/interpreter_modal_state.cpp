@@ -56,10 +56,10 @@ void Interpreter::modal_save_restore(const Block& b, BlockWords& w) {
         continue;
       }
       // What M72 restores (checked against rs274): units, plane, distance and arc-distance modes,
-      // feed mode and F, the G54…G59.3 system, G98/G99, G7/G8, cutter compensation and the tool
-      // length offset (the program Z changes with it, the machine does not move), and whether a
-      // G92/G52 shift is applied (#5210): applied at M70, the stored shift (#5211…) is applied again
-      // as by G92.3, else the shift in force is removed as by G92.2. Not the motion mode.
+      // feed mode and F, the G54…G59.3 system, G98/G99, G7/G8, cutter compensation, the tool length
+      // offset where it switches it on or off (below), and whether a G92/G52 shift is applied
+      // (#5210): applied at M70, the stored shift (#5211…) is applied again as by G92.3, else the
+      // shift in force is removed as by G92.2. Not the motion mode.
       s_.inch = saved.inch;
       s_.plane = saved.plane;
       s_.absolute = saved.absolute;
@@ -85,9 +85,28 @@ void Interpreter::modal_save_restore(const Block& b, BlockWords& w) {
       }
       if (saved.work_offset.code10 != s_.work_offset.code10 || saved.work_offset.p != s_.work_offset.p) s_.known = 0;
       s_.work_offset = saved.work_offset;
-      s_.tool_length_active = saved.tool_length_active;
-      s_.tool_length_h = saved.tool_length_h;
-      tool_length_change(b, w, at, saved.tool_length, saved.tool_length_known);
+      // The tool length offset (rs274 2.9, tests/resolve/linuxcnc/reader_m72_tool_length.ngc):
+      // rs274 records group 8 from the offset's value — G49 when it is zero, G43 otherwise, whether
+      // G43, G43.1 or G43.2 set it — and M72 applies the recorded code again only where it differs
+      // from the one in force: G43 (the tool in the spindle, not the saved H or G43.1 value) or
+      // G49. Otherwise the offset in force stays, whatever its value. Where either value is not
+      // known, neither is the offset after M72.
+      const auto on = [](bool known, double mm) { return !known ? -1 : mm != 0 ? 1 : 0; };
+      const int was = on(saved.tool_length_known, saved.tool_length), now = on(s_.tool_length_known, s_.tool_length);
+      if (was < 0 || now < 0) {
+        tool_length_change(b, w, at, s_.tool_length, false);
+      } else if (was == 1 && now == 0) {
+        const long h = s_.current_tool;
+        double mm = 0;
+        const bool known = h >= 0 && table_length(h, mm);
+        s_.tool_length_active = true;
+        s_.tool_length_h = static_cast<std::uint16_t>(h > 0 ? h : 0);
+        tool_length_change(b, w, at, mm, known);
+      } else if (was == 0 && now == 1) {
+        s_.tool_length_active = false;
+        s_.tool_length_h = 0;
+        tool_length_change(b, w, at, 0.0, true);
+      }
       if (saved.position_offset_applied) apply_stored_position_offset();
       else remove_position_offset(false);
     }
