@@ -68,6 +68,21 @@ TEST(ToolOffsets, M72AppliesTheRecordedGroup8CodeOnlyWhereItDiffers) {
   EXPECT_TRUE(r.sink.stored().empty()) << r.all_codes();
 }
 
+// rs274 2.9 stops on a G43.2 without H ("G43.2: No axes specified and H word missing"), with H and
+// axis words ("Can not have both H and axis words") and with axis words alone ("Requested tool -1
+// not found in the tool table"); postproc read the last as an added offset.
+TEST(ToolOffsets, G43_2RefusedWhereRs274Stops) {
+  const auto d = with_tools("linuxcnc", {{1, 50}});
+  for (const char* block : {"G43.2", "G43.2 H1 Z1", "G43.2 Z1", "G43.2 H1 G0 X5"}) {
+    const Program r(d, std::string("G21 G90\nT1 M6\nG0 X0 Z10\n") + block + "\nG0 X1\nM2\n");
+    expect_diag_line(r, "PP-E207", 4);
+  }
+  const Program ok(d, "G21 G90\nT1 M6\nG0 X0 Z10\nG43.2 H1\nG0 X1\nM2\n");
+  EXPECT_EQ(ok.find("PP-E207"), nullptr) << ok.all_codes();
+  ASSERT_EQ(ok.motions.size(), 2u);
+  EXPECT_NEAR(ok.motions[1].end[2], 10 - 50, kTol);
+}
+
 // LinuxCNC G-code reference "G10 L1 Set Tool Table" (checked with rs274 -t): G10 L1 P1 Z5 writes
 // tool 1's length (program units, G91 or not); the offset in force changes at the next G43 only.
 // G10 L10/L11 compute the entry from the machine position, unknown here: Z after G43 is unknown.

@@ -204,6 +204,20 @@ void Interpreter::tool_offsets(const Block& b, BlockWords& w) {
       case GMeaning::tcp_on:
       case GMeaning::tcp_vector_on: {
         const bool additional = d_.id == DialectId::linuxcnc && g.def->code10 == 432;  // G43.2
+        if (additional && (!w.has('H') || w.axis_present != 0)) {
+          // rs274 2.9 stops on each of these (its messages quoted); the offset after it is unknown.
+          const char* why =
+              w.has('H')            ? "G43.2 with H and axis words (rs274: \"G43.2: Can not have both H and axis words\")"
+              : w.axis_present == 0 ? "G43.2 without H or axis words (rs274: \"G43.2: No axes specified and H word missing\")"
+                                    : "G43.2 with axis words and no H (rs274 2.9: \"Requested tool -1 not found in the tool "
+                                      "table\"); give the added offset as G43.2 H<tool> or set the whole offset with G43.1";
+          report(b, at, Severity::error, codes::kControllerRefuses,
+                 fmt::format("{}: LinuxCNC stops the program here", why));
+          w.axes_consumed = true;
+          s_.tool_length_known = false;
+          s_.known &= static_cast<AxisMask>(~kZ);
+          break;
+        }
         long h = -1;
         if (w.has('H')) h = w.whole_or('H', 0, 99999, -1);
         else if (d_.id == DialectId::linuxcnc && !additional) h = s_.current_tool;  // G43: the loaded tool
@@ -211,12 +225,8 @@ void Interpreter::tool_offsets(const Block& b, BlockWords& w) {
         double mm = 0;
         bool known = h >= 0 && table_length(h, mm);
         if (additional) {
-          // LinuxCNC G43.2 H n or G43.2 Z v: adds to the offset in effect.
-          if (w.axis_present & kZ) {
-            w.axes_consumed = true;
-            known = !(w.axis_unresolved & kZ);
-            mm = to_mm(2, w.axis[2]);
-          }
+          // LinuxCNC G43.2 H n: adds tool n's length to the offset in effect (the axis-word form is
+          // refused above, as rs274 2.9 stops on it).
           known = known && s_.tool_length_known;
           mm += s_.tool_length;
         }
