@@ -95,6 +95,25 @@ TEST(ReaderLinuxcnc, DrillingRepeatCount) {
   EXPECT_NEAR(f.motions[3].end[0], 30, kTol);
 }
 
+// rs274 2.9 stops on a D, E or H word that nothing in its block uses ("D word with no G41, …",
+// "E word with no G70, G76, M66, M67 or M68 …", "H word with no G43 or G76 …"); each case below was
+// run through rs274 -g. Its messages list fewer codes than it accepts: D is also taken by G70 and
+// G72, E by G70. postproc accepted the refused ones.
+TEST(ReaderLinuxcnc, UnusedDEHWordsRefusedAsRs274Does) {
+  constexpr const char* kSub = "O100 SUB\nG1 X4 Z2\nO100 ENDSUB\nG21 G90 G18\nM3 S500\nG0 X10 Z5\n";
+  const std::pair<const char*, std::uint32_t> refused[] = {{"G0 X1 D1", 7},    {"G0 X1 E1", 7},     {"G0 X1 H1", 7},
+                                                           {"G49 H1", 5},      {"G43.1 Z1 H1", 10}, {"G71 Q100 X15 Z3 D1 E1", 20}};
+  for (const auto& [block, column] : refused) {
+    const Program r(dialect("linuxcnc"), std::string(kSub) + block + "\nG0 X1\nM2\n");
+    expect_diag_at(r, "PP-E207", 7, column);
+  }
+  for (const char* block : {"G43 H0", "G96 D1000 S100", "M66 P0 E0 L0", "G70 Q100 X15 Z3 D0.5 E0.5",
+                            "G72 Q100 X15 Z3 D1", "G76 P1 Z-5 I-0.1 J0.1 K0.5 H1 E0.1", "G41 D0 G1 X2 F10"}) {
+    const Program r(dialect("linuxcnc"), std::string(kSub) + block + "\nG40\nG0 X1\nM2\n");
+    EXPECT_EQ(r.find("PP-E207"), nullptr) << block << ": " << r.all_codes();
+  }
+}
+
 // LinuxCNC M-code reference "M70–M73", checked with rs274: M72 restores units, distance modes,
 // plane, feed mode and F, G98/G99 and the tool length offset; not the motion mode.
 TEST(ReaderLinuxcnc, ModalStateSaveAndRestore) {
