@@ -121,6 +121,11 @@ TEST(ReaderLimits, LoopsWithoutProgressAreRefusedAtOnceAndLocated) {
       {DialectId::linuxcnc, "o1 while [1]\no1 endwhile\nM2\n", 2},
       {DialectId::linuxcnc, "o1 while [1]\nG1 X1 F100\no1 endwhile\nM2\n", 3},
       {DialectId::linuxcnc, "#1=0\no1 do\n#1=1\no1 while [#1 GT 0]\nM2\n", 4},
+      // Each pass changes variables and puts them back (rs274_control_compare seed 7151: #<_i4>
+      // goes 0 → 1 → 0 and the moves repeat): the same state at the head, so endless. Before, the
+      // change counted as progress and the loop ran until 1 GiB of resolved text.
+      {DialectId::linuxcnc, "#<_i>=0\no1 while [#<_i> LT 1]\n#<_i>=[#<_i>+1]\n#<_i>=0\nG1 Z0 F100\nG1 X3\no1 endwhile\nM2\n", 7},
+      {DialectId::linuxcnc, "#1=0\n#<l>=5\no1 while [#1 LT 1]\n#1=2\n#<l>=6\n#1=0\n#<l>=5\nG1 X1 F100\no1 endwhile\nM2\n", 9},
       {DialectId::fanuc, fanuc("WHILE [1] DO1\nEND1\n"), 4},
       {DialectId::fanuc, fanuc("N10 #1=1\nG1 X1 F100\nGOTO10\n"), 5},
       {DialectId::fanuc, fanuc("#1=0\nN10 IF [#1 LT 5] GOTO10\n"), 4},
@@ -146,6 +151,12 @@ TEST(ReaderLimits, LoopsThatChangeStateRunToTheirEnd) {
                              "#1=0\no1 while [#1 LT 3]\n#1=[#1+1]\no1 endwhile\no2 repeat [3]\no2 endrepeat\nG1 X#1 F100\nM2\n");
   EXPECT_FALSE(l.sink.has_errors()) << first_error(l.sink);
   EXPECT_NE(l.r.text.find("G1 X3."), std::string::npos) << l.r.text;
+  // A pass that returns a variable to a value it had earlier, but not to the state of the pass
+  // before (the state cycles with period 2, the loop ends on its counter): not refused.
+  const Outcome c = resolve_text(DialectId::linuxcnc, "#1=0\n#2=0\no1 while [#1 LT 6]\n#1=[#1+1]\n#2=[1-#2]\n"
+                                                      "G1 X#2 F100\no1 endwhile\nG1 X#1\nM2\n");
+  EXPECT_FALSE(c.sink.has_errors()) << first_error(c.sink);
+  EXPECT_NE(c.r.text.find("G1 X6."), std::string::npos) << c.r.text;
   const Outcome f = resolve_text(DialectId::fanuc, fanuc("#1=0\nWHILE [#1 LT 3] DO1\n#1=#1+1\nEND1\nG1 X#1 F100\n"));
   EXPECT_FALSE(f.sink.has_errors()) << first_error(f.sink);
   EXPECT_NE(f.r.text.find("G1 X3."), std::string::npos) << f.r.text;

@@ -112,8 +112,10 @@ double Machine::value(SourceFile& f, std::size_t i, Span span, const Code& c) {
 void Machine::store(std::unordered_map<int, double>& m, int id, double v) {
   const auto [it, fresh] = m.try_emplace(id, v);
   if (!fresh && it->second == v) return;
+  const std::uint64_t key = LoopGuard::named_key(id, &m == &globals_ ? 0 : frames_.size());
+  if (fresh) guard_.value_added(key, v);
+  else guard_.value_changed(key, it->second, v);
   it->second = v;
-  guard_.changed();
 }
 
 void Machine::assign(const Assign& a, double v, SourceFile& f, std::size_t i, Span span) {
@@ -143,9 +145,10 @@ void Machine::assign(const Assign& a, double v, SourceFile& f, std::size_t i, Sp
                          n, n <= 5413 ? "the current tool's number and offsets" : "the current position", context()));
     throw Stop{};
   }
-  if (numbered_[static_cast<std::size_t>(n)] != v) guard_.changed();
-  numbered_[static_cast<std::size_t>(n)] = v;
-  if (runtime_numbered(n)) set_numbered_.insert(n);
+  double& slot = numbered_[static_cast<std::size_t>(n)];
+  if (slot != v) guard_.value_changed(LoopGuard::numbered_key(n), slot, v);
+  slot = v;
+  if (runtime_numbered(n) && set_numbered_.insert(n).second) guard_.changed();  // now readable: progress
 }
 
 void Machine::probe_results(const Line& l) {

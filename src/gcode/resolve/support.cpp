@@ -155,10 +155,11 @@ bool Emitter::emit(SourceFile& f, std::size_t line, std::span<const Edit> edits)
 
 bool LoopGuard::back_jump(std::uint32_t file, std::size_t depth, std::size_t target) {
   const std::uint64_t key = (std::uint64_t{file} << 48) ^ (std::uint64_t{depth} << 40) ^ target;
-  const auto [it, fresh] = heads_.try_emplace(key, generation_);
+  const std::pair<std::uint64_t, std::uint64_t> now{generation_, values_};
+  const auto [it, fresh] = heads_.try_emplace(key, now);
   if (fresh) return true;
-  const bool same = it->second == generation_;
-  it->second = generation_;
+  const bool same = it->second == now;
+  it->second = now;
   return !same;
 }
 

@@ -2,6 +2,7 @@
 // Shared machinery of the dialect resolvers (include/postproc/gcode/resolve.hpp): source files
 // lexed on demand, the emitter that writes the resolved program with its line and call-stack
 // maps, and number formatting.
+#include <bit>
 #include <cstdint>
 #include <limits>
 #include <map>
@@ -126,6 +127,18 @@ class LoopGuard {
     return ++silent_ <= max_silent_;
   }
   void changed() { ++generation_; }
+  /// Variable `key` went from `from` to `to` (value_added: it did not exist). Values are tracked as
+  /// a hash of every variable's value rather than as progress, so that a pass which leaves each
+  /// variable as it found it (0 → 1 → 0) is still caught at the loop's head. Keys: numbered_key,
+  /// named_key.
+  void value_changed(std::uint64_t key, double from, double to) { values_ ^= mix(key, from) ^ mix(key, to); }
+  void value_added(std::uint64_t key, double to) { values_ ^= mix(key, to); }
+  [[nodiscard]] static std::uint64_t numbered_key(int n) { return static_cast<std::uint64_t>(static_cast<std::uint32_t>(n)); }
+  /// A named variable: global (depth 0) or local to the call `depth` levels deep.
+  [[nodiscard]] static std::uint64_t named_key(int id, std::size_t depth) {
+    return (std::uint64_t{1} << 63) | (static_cast<std::uint64_t>(depth & 0x7fffffffu) << 32) |
+           static_cast<std::uint32_t>(id);
+  }
   /// False when the program comes back to line `target` of file `file` at call depth `depth` with
   /// no state changed since it last came back there: the resolution is deterministic, so it would
   /// run the same lines and write the same blocks forever.
@@ -135,9 +148,19 @@ class LoopGuard {
   [[nodiscard]] static std::string no_progress_message();
 
  private:
+  /// A 64-bit hash of (key, value); -0 and +0 hash alike, as they compare equal.
+  [[nodiscard]] static std::uint64_t mix(std::uint64_t key, double v) {
+    std::uint64_t x = std::bit_cast<std::uint64_t>(v == 0 ? 0.0 : v) ^ (key * 0x9E3779B97F4A7C15ull);
+    x ^= x >> 30;
+    x *= 0xBF58476D1CE4E5B9ull;
+    x ^= x >> 27;
+    x *= 0x94D049BB133111EBull;
+    return x ^ (x >> 31);
+  }
   std::uint64_t max_silent_;
-  std::uint64_t silent_ = 0, last_emitted_ = 0, generation_ = 0;
-  std::unordered_map<std::uint64_t, std::uint64_t> heads_;  // loop head → generation when last there
+  std::uint64_t silent_ = 0, last_emitted_ = 0, generation_ = 0, values_ = 0;
+  /// Loop head → (generation, value hash) when last there.
+  std::unordered_map<std::uint64_t, std::pair<std::uint64_t, std::uint64_t>> heads_;
 };
 
 /// A value as the resolved text writes it: no exponent, up to 10 decimals, trailing zeros
