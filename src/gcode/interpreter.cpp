@@ -629,7 +629,8 @@ void Interpreter::apply_modes(const Block& b, BlockWords& w) {
   }
   // (A block with a G code this reader does not know is refused for it already: rs274 may know it
   // as a remapped code that takes the word.)
-  if (d_.id == DialectId::linuxcnc &&
+  constexpr std::uint32_t kDEH = (1u << ('D' - 'A')) | (1u << ('E' - 'A')) | (1u << ('H' - 'A'));
+  if (d_.id == DialectId::linuxcnc && (w.letter_present & kDEH) != 0 &&
       std::count_if(b.words.begin(), b.words.end(), [](const Word& x) { return x.letter == 'G'; }) == w.ng) {
     if (const auto [L, why] = unused_lcnc_word(w, s_.motion_code10); L != 0) {
       report(b, b.words[static_cast<std::size_t>(w.letter_word[static_cast<std::size_t>(L - 'A')])].span, Severity::error,
