@@ -24,41 +24,39 @@ using text::starts_with_i;
 /// confirmed with rs274 -g; its messages list fewer codes than it accepts): D needs G41, G41.1,
 /// G42, G42.1, G96 or a G70–G72 lathe cycle; E needs G70, G76, M66, M67 or M68; H needs G43, G43.2
 /// or G76. A motion counts when the block names it or repeats it with axis words (rs274's
-/// motion_to_be). An M code that a configuration may remap (rs274 then skips every check) lets the
-/// block pass, and so does (at the call) a G code this reader does not know. Returns the letter refused and rs274's message, or 0.
-/// (A template: Interpreter::BlockWords is private to the interpreter, the call deduces it.)
+/// motion_to_be). The block passes when it holds an M code a configuration may remap (rs274 then
+/// skips every check) or a G code this reader does not know (refused for that already). Returns the
+/// letter refused and rs274's message, or 0. (A template: Interpreter::BlockWords is private to the
+/// interpreter; the call deduces it.)
 template <class BlockWords>
-std::pair<char, const char*> unused_lcnc_word(const BlockWords& w, std::uint16_t modal_motion10) {
+std::pair<char, const char*> unused_lcnc_word(const Block& b, const BlockWords& w, std::uint16_t modal_motion10) {
   constexpr std::uint32_t kDEH = (1u << ('D' - 'A')) | (1u << ('E' - 'A')) | (1u << ('H' - 'A'));
   if ((w.letter_present & kDEH) == 0) return {0, nullptr};
+  if (std::count_if(b.words.begin(), b.words.end(), [](const Word& x) { return x.letter == 'G'; }) != w.ng)
+    return {0, nullptr};
+  bool m66_68 = false;
   for (int i = 0; i < w.m_count; ++i) {
     const double m = w.m[static_cast<std::size_t>(i)];
     const bool standard = m == 0 || m == 1 || m == 2 || m == 3 || m == 4 || m == 5 || m == 7 || m == 8 || m == 9 ||
                           m == 30 || m == 60 || (m >= 48 && m <= 53) || (m >= 62 && m <= 68) || (m >= 70 && m <= 73);
     if (!standard) return {0, nullptr};
+    m66_68 = m66_68 || (m >= 66 && m <= 68);
   }
   const std::uint16_t motion = w.motion.def != nullptr ? w.motion.def->code10 : w.axis_present != 0 ? modal_motion10 : 0;
   const auto in_block = [&](std::initializer_list<std::uint16_t> codes) {
     for (int k = 0; k < w.ng; ++k)
-      for (const std::uint16_t c : codes)
-        if (w.g[static_cast<std::size_t>(k)].def->code10 == c) return true;
-    return false;
-  };
-  const auto m_in_block = [&](double lo, double hi) {
-    for (int i = 0; i < w.m_count; ++i)
-      if (w.m[static_cast<std::size_t>(i)] >= lo && w.m[static_cast<std::size_t>(i)] <= hi) return true;
+      if (std::find(codes.begin(), codes.end(), w.g[static_cast<std::size_t>(k)].def->code10) != codes.end()) return true;
     return false;
   };
   const bool lathe_cycle = motion == 700 || motion == 710 || motion == 711 || motion == 712 || motion == 720 ||
                            motion == 721 || motion == 722;
   if (w.has('D') && !in_block({410, 411, 420, 421, 960}) && !lathe_cycle)
     return {'D', "D word with no G41, G41.1, G42, G42.1, G71, G71.1, G71.2 or G96 to use it"};
-  if (w.has('E') && motion != 700 && motion != 760 && !m_in_block(66, 68))
+  if (w.has('E') && motion != 700 && motion != 760 && !m66_68)
     return {'E', "E word with no G70, G76, M66, M67 or M68 to use it"};
   if (w.has('H') && !in_block({430, 432}) && motion != 760) return {'H', "H word with no G43 or G76 to use it"};
   return {0, nullptr};
 }
-
 
 /// Largest magnitude accepted for any word value (1e9 mm = 1000 km): beyond it, arithmetic in mm or
 /// inches could overflow, and no machine moves that far.
@@ -627,12 +625,8 @@ void Interpreter::apply_modes(const Block& b, BlockWords& w) {
       default: break;
     }
   }
-  // (A block with a G code this reader does not know is refused for it already: rs274 may know it
-  // as a remapped code that takes the word.)
-  constexpr std::uint32_t kDEH = (1u << ('D' - 'A')) | (1u << ('E' - 'A')) | (1u << ('H' - 'A'));
-  if (d_.id == DialectId::linuxcnc && (w.letter_present & kDEH) != 0 &&
-      std::count_if(b.words.begin(), b.words.end(), [](const Word& x) { return x.letter == 'G'; }) == w.ng) {
-    if (const auto [L, why] = unused_lcnc_word(w, s_.motion_code10); L != 0) {
+  if (d_.id == DialectId::linuxcnc) {
+    if (const auto [L, why] = unused_lcnc_word(b, w, s_.motion_code10); L != 0) {
       report(b, b.words[static_cast<std::size_t>(w.letter_word[static_cast<std::size_t>(L - 'A')])].span, Severity::error,
              codes::kControllerRefuses,
              fmt::format("LinuxCNC stops the program here (rs274: \"{}\"); remove the word or add the code that uses it",

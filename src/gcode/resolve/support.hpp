@@ -134,7 +134,9 @@ class LoopGuard {
   void value_changed(std::uint64_t key, double from, double to) { values_ ^= mix(key, from) ^ mix(key, to); }
   void value_added(std::uint64_t key, double to) { values_ ^= mix(key, to); }
   [[nodiscard]] static std::uint64_t numbered_key(int n) { return static_cast<std::uint64_t>(static_cast<std::uint32_t>(n)); }
-  /// A named variable: global (depth 0) or local to the call `depth` levels deep.
+  /// A named variable: global (depth 0) or local to the call `depth` levels deep. A call's locals
+  /// stay in the hash when it returns; as a call or return advances the generation, that can only
+  /// hide an endless loop across calls, never flag a loop that ends.
   [[nodiscard]] static std::uint64_t named_key(int id, std::size_t depth) {
     return (std::uint64_t{1} << 63) | (static_cast<std::uint64_t>(depth & 0x7fffffffu) << 32) |
            static_cast<std::uint32_t>(id);
