@@ -96,7 +96,10 @@ class Gen:
                     lines += body
                     lines.append(f'{indent}o{n} while [{v} LT {limit}]')
                 else:
-                    lines.append(f'{indent}o{n} repeat [{limit}]')
+                    # rs274 rounds the count to the nearest integer, ties to even (no extra random
+                    # draw: the programs of the other seeds stay as they were)
+                    count = (f'{limit}', f'{limit - 1}.5', f'{limit}.4')[n % 3]
+                    lines.append(f'{indent}o{n} repeat [{count}]')
                     lines.append(step)
                     lines += body
                     lines.append(f'{indent}o{n} endrepeat')

@@ -98,6 +98,50 @@ TEST(ResolveLinuxcnc, LoopsAndBranches) {
   EXPECT_EQ(run.r.source_line, (std::vector<std::uint64_t>{3, 3, 3, 7, 7, 12, 22, 22, 27}));
 }
 
+// rs274 2.9 (interp_o_word.cc): a continue in a do loop leaves doing_continue set; a loop that then
+// ends by skipping to its endrepeat or endwhile goes back to its head instead. A repeat reads its count
+// again there and runs again (forever when the do loop is in its body: rs274_control_compare seed
+// 7032); a while loop left by break runs on while its condition holds. Both are refused at the line
+// that would differ; where the head's second reading ends the loop anyway the program is read
+// (tests/resolve/linuxcnc/reader_loop_flags.ngc, compared with rs274).
+TEST(ResolveLinuxcnc, LoopsAfterAContinueInADoLoopAreRefusedWhereRs274RunsThemAgain) {
+  const std::string pending_continue =
+      "#1 = 0\n"
+      "o1 do\n"
+      "  #1 = [#1 + 1]\n"
+      "  o2 if [#1 EQ 1]\n"
+      "    o1 continue\n"
+      "  o2 endif\n"
+      "  G1 X#1 F100\n"
+      "o1 while [#1 LT 2]\n";
+  const auto repeat = resolve_text(pending_continue + "o3 repeat [2]\n  G1 Y1\no3 endrepeat\nM2\n");
+  ASSERT_TRUE(repeat.sink.has_errors());
+  EXPECT_EQ(repeat.sink.stored().front().code, "PP-E709");
+  EXPECT_EQ(repeat.sink.stored().front().where.line, 9u) << codes(repeat.sink);
+  const auto brk = resolve_text(pending_continue +
+                                "#5 = 0\no4 while [#5 LT 3]\n  #5 = [#5 + 1]\n  G1 Y#5\n  o4 break\no4 endwhile\nM2\n");
+  ASSERT_TRUE(brk.sink.has_errors());
+  EXPECT_EQ(brk.sink.stored().front().code, "PP-E709");
+  EXPECT_EQ(brk.sink.stored().front().where.line, 13u) << codes(brk.sink);
+  // The same loops without the continue pending (a while loop ended on its condition spent it).
+  const auto spent = resolve_text(pending_continue +
+                                  "o5 while [#1 LT 2]\no5 endwhile\no3 repeat [2]\n  G1 Y1\no3 endrepeat\nM2\n");
+  EXPECT_FALSE(spent.sink.has_errors()) << codes(spent.sink);
+  EXPECT_EQ(spent.r.text, "  G1 X2. F100\n  G1 Y1\n  G1 Y1\nM2\n");
+}
+
+// rs274 rounds a repeat count to the nearest integer, ties to even (checked with rs274 2.9).
+TEST(ResolveLinuxcnc, RepeatCountIsRoundedAsRs274) {
+  for (const auto& [count, passes] : std::vector<std::pair<std::string, int>>{
+           {"2.6", 3}, {"2.5", 2}, {"3.5", 4}, {"1.4", 1}, {"0.5", 0}, {"-1", 0}}) {
+    const auto run = resolve_text("o1 repeat [" + count + "]\n  G1 X1 F100\no1 endrepeat\nM2\n");
+    EXPECT_FALSE(run.sink.has_errors()) << codes(run.sink);
+    std::string want;
+    for (int k = 0; k < passes; ++k) want += "  G1 X1 F100\n";
+    EXPECT_EQ(run.r.text, want + "M2\n") << count;
+  }
+}
+
 TEST(ResolveLinuxcnc, SubroutinesWithArgumentsLocalsRecursionAndReturnValues) {
   const auto run = resolve_text(
       "o200 sub\n"

@@ -132,10 +132,12 @@ class Machine {
 
  private:
   struct Stop {};  // program end (M2/M30) or a refusal: unwinds everything
-  /// A break left a while loop, and no do … while has gone back since (rs274 then runs the next
-  /// do … while once only: refused where that matters).
+  /// rs274's doing_break left set: a break left a while loop and no do … while has ended since
+  /// (rs274 then runs the next do … while once only: refused where that matters).
   bool while_broken_ = false;
-  /// A continue went to the end of a do loop (rs274 then does not leave a while loop at a break).
+  /// rs274's doing_continue left set: a continue went to the end of a do loop, and no loop has since
+  /// ended by skipping to its endwhile or endrepeat (where rs274 then goes back to the loop's head
+  /// instead of leaving: refused where that changes the program).
   bool do_continued_ = false;
 
   struct FileInfo {
@@ -199,6 +201,7 @@ class Machine {
   [[noreturn]] void runaway(SourceFile& f, std::size_t i);
   /// PP-E709 at loop statement `l` (line i): a defect of rs274 2.9's loop handling (`what` it does)
   /// would decide the result; `instead` says how to write the loop.
+  double repeat_count(SourceFile& f, std::size_t i, const Line& l);
   [[noreturn]] void loop_defect(SourceFile& f, std::size_t i, const Line& l, std::string_view what,
                                 std::string_view instead);
 

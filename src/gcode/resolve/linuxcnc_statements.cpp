@@ -331,15 +331,22 @@ std::size_t Machine::control(SourceFile& f, FileInfo& fi, std::size_t i, Line& l
                       "'break' out of a while loop only once (a while loop ended with break before it)",
                       "end that while loop without break, or write this loop with while … endwhile");
         }
-        if (again) while_broken_ = false;
+        while_broken_ = false;  // rs274 clears doing_break at every end of a do loop
         return again ? s->second + 1 : i + 1;
       }
-      return truth(f, i, l) ? i + 1 : fi.end_of.at(i) + 1;
+      if (truth(f, i, l)) return i + 1;
+      // rs274 skips to the endwhile; a continue left pending by a do loop goes back to this line
+      // there, whose condition is still false: the loop ends and the pending continue is spent.
+      do_continued_ = false;
+      return fi.end_of.at(i) + 1;
     case Kw::endwhile: return fi.start_of.at(i);
     case Kw::do_: return i + 1;
     case Kw::repeat: {
-      const double n = std::floor(value(f, i, l.control_span, l.args[0]));
-      if (n < 1) return fi.end_of.at(i) + 1;
+      const double n = repeat_count(f, i, l);
+      if (n < 1) {
+        do_continued_ = false;  // spent at the endrepeat; the count read again is the same
+        return fi.end_of.at(i) + 1;
+      }
       frames_.back().repeats[i] = saturate<long>(n) - 1;
       guard_.changed();
       return i + 1;
@@ -352,6 +359,18 @@ std::size_t Machine::control(SourceFile& f, FileInfo& fi, std::size_t i, Line& l
         guard_.changed();  // the pass count is state: a repeat with an empty body still ends
         return s + 1;
       }
+      if (do_continued_) {
+        // rs274 (interp_o_word.cc, O_endrepeat): the loop ends by skipping to its endrepeat, where a
+        // continue still pending from a do loop goes back to the repeat line, which reads its count
+        // again and, if that is at least 1, runs the loop again (and again each time the do loop's
+        // continue recurs): an interpreter defect the program would depend on, refused.
+        if (repeat_count(f, s, line(f, s)) >= 1)
+          loop_defect(f, s, line(f, s),
+                      "would end here, but after a 'continue' in a do loop LinuxCNC 2.9's interpreter reads the "
+                      "repeat count again and runs the loop again",
+                      "write the do loop without continue (an if around the rest of its body)");
+        do_continued_ = false;
+      }
       return i + 1;
     }
     case Kw::break_:
@@ -361,17 +380,22 @@ std::size_t Machine::control(SourceFile& f, FileInfo& fi, std::size_t i, Line& l
       const std::size_t end = fi.end_of.at(loop);
       if (l.kw == Kw::break_) {
         if (ll.kw == Kw::while_ && do_continued_) {
-          // rs274 2.9: after a continue in a do loop, a break does not leave a while loop (it runs on
-          // to its condition's end); an interpreter defect the result would depend on: refused.
-          loop_defect(f, i, l,
-                      "after a 'continue' in a do loop: LinuxCNC 2.9's interpreter then does not leave the while "
-                      "loop at a break (it runs on until its condition fails)",
-                      "write the do loop without continue, or end this loop by its condition");
+          // rs274 2.9: after a continue in a do loop, a break skips to the endwhile, which goes back to
+          // the while line (the pending continue is spent there): the loop ends only if its condition
+          // is false now; if true it runs on, an interpreter defect the result would depend on: refused.
+          if (truth(f, loop, line(f, loop)))
+            loop_defect(f, i, l,
+                        "after a 'continue' in a do loop: LinuxCNC 2.9's interpreter then does not leave the while "
+                        "loop at a break while its condition holds (it runs on until the condition fails)",
+                        "write the do loop without continue, or end this loop by its condition");
+          do_continued_ = false;
         }
         if (ll.kw == Kw::while_) while_broken_ = true;
         return end + 1;
       }
-      if (ll.kw == Kw::do_) do_continued_ = true;
+      // rs274: a continue of a while loop is spent at its endwhile; one of a do loop stays pending
+      // (doing_continue is cleared only at an endwhile or endrepeat the interpreter skips to).
+      do_continued_ = ll.kw == Kw::do_;
       if (ll.kw == Kw::while_) return loop;  // evaluate the condition again
       return end;                            // do: its while line
     }
@@ -558,6 +582,11 @@ void Machine::check_restore(SourceFile& f, std::size_t i, Span at, const SavedSt
                         "written back into itself, subroutines kept), or save and restore at one call level{}",
                         what, between, context()));
   if (!capture.stored().empty()) r_.not_flat.push_back(capture.stored().front());
+}
+
+double Machine::repeat_count(SourceFile& f, std::size_t i, const Line& l) {
+  // rs274 rounds the count to the nearest integer, ties to even ([2.5] runs twice, [2.6] three times).
+  return std::nearbyint(value(f, i, l.control_span, l.args[0]));
 }
 
 void Machine::loop_defect(SourceFile& f, std::size_t i, const Line& l, std::string_view what,
