@@ -14,7 +14,8 @@ files=("$dir"/*.ngc)
 [[ ${#files[@]} -gt 20 ]] || { echo "FAIL: only ${#files[@]} programs in $dir"; exit 1; }
 here=$(dirname "$0")
 # LinuxCNC 2.9 (Debian 12): 44 of the 49 programs rs274 runs agree; the other 5 are refused, located
-# (3 probing, a G5.1 spline, a G70 under cutter compensation).
+# (3 probing, a G5.1 spline, a G70 under cutter compensation, whose start rs274 makes from the
+# profile's end: an interpreter defect, not followed).
 min=44
 [[ $dir == /usr/share/linuxcnc/ncfiles ]] || min=0
 exec python3 "$here/lcnc_samples_compare.py" "$1" --min-agree "$min" --tool-table "$here/lcnc_samples_tools.tbl" "${files[@]}"

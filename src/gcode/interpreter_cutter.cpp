@@ -382,13 +382,18 @@ bool Interpreter::linuxcnc_comp_motion(const Block& b, BlockWords& w, GMeaning m
   switch (mode) {
     case GMeaning::drill_cycle: why = "Cannot use canned cycles with cutter compensation on"; break;
     case GMeaning::turning_cycle:
-      // G71/G72 refuse compensation (interp_g7x.cc); G70 runs its finishing pass offset by the nose
-      // radius itself, which this version does not compute.
+      // G71/G72 refuse compensation (interp_g7x.cc). G70 makes its moves with convert_straight and
+      // convert_arc, so compensation offsets them as other moves, except at its start: rs274 2.9 first
+      // takes the tool to the tool-centre point at the profile's last point (both rapids of the cycle's
+      // start go there; checked with rs274 on entry and non-entry cases), then from there to the
+      // offset profile's start. That defect is not followed: the cycle is not resolved.
       if (code / 10 != 70) why = fmt::format("G{}.{} cannot be used with cutter compensation enabled", code / 10, code % 10);
       else if (active || !s_.cutter_radius_known) {
         report(b, at, Severity::warning, codes::kCutterComp,
-               "G70 under cutter radius compensation: LinuxCNC offsets the finishing pass by the tool radius itself, "
-               "which this version does not compute; the cycle is not followed");
+               "G70 under cutter radius compensation: LinuxCNC 2.9's interpreter starts the cycle with a rapid to "
+               "the tool-centre point at the profile's end, not at the cycle's X Z (an interpreter defect); the "
+               "cycle is not followed (X and Z unknown until the program states them); program the finishing pass as "
+               "G1/G2/G3 moves under the compensation instead");
         s_.known &= static_cast<AxisMask>(~(bit(Axis::x) | bit(Axis::z)));
         w.axes_consumed = true;
         return false;
