@@ -114,6 +114,25 @@ TEST(ReaderLinuxcnc, UnusedDEHWordsRefusedAsRs274Does) {
   }
 }
 
+// rs274 2.9 reads T, H and M with read_integer_value: within 0.0001 of a whole number the value is
+// that number (T1.99995 is tool 2), else the program stops ("Non integer value for integer"); each
+// case run through rs274 -g (tests/lcnc_samples_tools.tbl gives tool 2 a length). postproc took T2.6.
+TEST(ReaderLinuxcnc, ToolLengthAndMWordsMustBeWholeNumbersAsRs274Reads) {
+  for (const auto& [block, column] : std::vector<std::pair<std::string, std::uint32_t>>{
+           {"T2.6 M6", 1}, {"T2 M6 G43 H1.6", 11}, {"M3.5 S100", 1}, {"M3 T1.0002", 4}}) {
+    const Program r(dialect("linuxcnc"), "G21 G90\n" + block + "\nG0 X1\nM2\n");
+    expect_diag_at(r, "PP-E207", 2, column);
+  }
+  // Within the tolerance: the whole number (tool 2's length applies to Z; M2.99995 starts the spindle).
+  gc::Dialect d = dialect("linuxcnc");
+  d.tool_lengths[2] = 5;
+  const Program near(d, "G21 G90\nT1.99995 M6\nG43 H1.99995\nG0 Z10\nM2.99995 S100\nM2\n");
+  EXPECT_EQ(near.find("PP-E207"), nullptr) << near.all_codes();
+  ASSERT_EQ(near.motions.size(), 1u) << near.all_codes();
+  EXPECT_TRUE(near.motions[0].known & gc::bit(Axis::z)) << near.all_codes();
+  EXPECT_NEAR(near.motions[0].end[2], 10, kTol);  // program Z; the length is tool 2's, not tool 1's (unknown)
+}
+
 // LinuxCNC M-code reference "M70–M73", checked with rs274: M72 restores units, distance modes,
 // plane, feed mode and F, G98/G99 and the tool length offset; not the motion mode.
 TEST(ReaderLinuxcnc, ModalStateSaveAndRestore) {

@@ -58,6 +58,31 @@ std::pair<char, const char*> unused_lcnc_word(const Block& b, const BlockWords& 
   return {0, nullptr};
 }
 
+/// rs274's read_integer_value (T, H and M words; L is checked with its cycle): a value within 0.0001
+/// of a whole number is that number (floor, or the next one up when the fraction exceeds 0.9999);
+/// any other stops the program ("Non integer value for integer"). Snaps the block's values and
+/// returns the index of the first word refused, or -1.
+template <class BlockWords>
+int lcnc_whole_words(BlockWords& w) {
+  const auto snap = [](double& v) {
+    const double f = std::floor(v), frac = v - f;
+    if (frac > 0.9999) v = f + 1;
+    else if (frac > 0.0001) return false;
+    else v = f;
+    return true;
+  };
+  int bad = -1;
+  for (const char L : {'T', 'H'}) {
+    const auto li = static_cast<std::size_t>(L - 'A');
+    if (w.has(L) && !w.unresolved(L) && !snap(w.letter[li]) && (bad < 0 || w.letter_word[li] < bad)) bad = w.letter_word[li];
+  }
+  for (int i = 0; i < w.m_count; ++i) {
+    const auto k = static_cast<std::size_t>(i);
+    if (!snap(w.m[k]) && (bad < 0 || w.m_word[k] < bad)) bad = w.m_word[k];
+  }
+  return bad;
+}
+
 /// Largest magnitude accepted for any word value (1e9 mm = 1000 km): beyond it, arithmetic in mm or
 /// inches could overflow, and no machine moves that far.
 constexpr double kMaxMagnitude = 1e9;
@@ -626,6 +651,13 @@ void Interpreter::apply_modes(const Block& b, BlockWords& w) {
     }
   }
   if (d_.id == DialectId::linuxcnc) {
+    if (const int bad = lcnc_whole_words(w); bad >= 0) {
+      const Span at = b.words[static_cast<std::size_t>(bad)].span;
+      report(b, at, Severity::error, codes::kControllerRefuses,
+             fmt::format("'{}' is not a whole number: LinuxCNC stops the program here (rs274: \"Non integer value for "
+                         "integer\"); T, H and M take whole numbers",
+                         b.text(at)));
+    }
     if (const auto [L, why] = unused_lcnc_word(b, w, s_.motion_code10); L != 0) {
       report(b, b.words[static_cast<std::size_t>(w.letter_word[static_cast<std::size_t>(L - 'A')])].span, Severity::error,
              codes::kControllerRefuses,
