@@ -6,6 +6,7 @@
 
 #include "common.hpp"
 #include "postproc/gcode/program.hpp"
+#include "postproc/machine/machine.hpp"
 #include "postproc/io/output_file.hpp"
 
 namespace postproc::cli {
@@ -81,9 +82,7 @@ class Dumper final : public gcode::BlockVisitor {
       empty();
     }
     str(m.frame == gcode::Frame::machine ? "machine" : "work");
-    str(m.work_offset.code10 % 10 == 0 ? fmt::format("G{}", m.work_offset.code10 / 10)
-        : m.work_offset.code10 == 541  ? fmt::format("G54.1P{}", m.work_offset.p)
-                                        : fmt::format("G{}.{}", m.work_offset.code10 / 10, m.work_offset.code10 % 10));
+    str(machine::work_offset_name(m.work_offset));
     for (int i = 0; i < 3; ++i) num(m.local_offset[i]);
     for (int i = 0; i < 3; ++i) num(m.position_offset[i]);
     m.tool_length_active ? num(m.tool_length_h) : empty();

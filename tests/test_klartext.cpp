@@ -7,6 +7,7 @@
 
 #include "postproc/gcode/detect.hpp"
 #include "src/gcode/klartext.hpp"
+#include "postproc/machine/machine.hpp"
 #include "support.hpp"
 
 namespace {
@@ -126,6 +127,34 @@ TEST(KlartextFrames, DatumShiftAbsoluteAndIncremental) {
   EXPECT_NEAR(m->end.y(), -5, 1e-12);
   EXPECT_NEAR(m->local_offset.x(), 10, 1e-12);
   EXPECT_NEAR(m->local_offset.y(), 5, 1e-12);
+}
+
+// TNC 640 cycles manual, cycle 247 DATUM SETTING: row Q339 of the preset table becomes the datum at
+// the definition. The moves after it are in that frame (work offset PRESET<Q339>, like an ISO G55),
+// their coordinates unknown until programmed; without a literal Q339 the frame is not known (the
+// motions say so: compensate refuses them, PP-E602). Before it: the datum active at the start (G54).
+// A comment wrapped with '~' continues on an indented line (Fusion's Heidenhain post writes so).
+TEST(KlartextFrames, DatumSettingSelectsThePreset) {
+  const Program p(klartext(),
+                  "0 BEGIN PGM P MM\n1 ;  description: a long comment on the~\n Head\n2 L X+0 Y+0 Z+10 FMAX\n"
+                  "3 CYCL DEF 247 DATUM SETTING ~\n    Q339=+2    ;DATUM NUMBER\n4 L X+5 FMAX\n5 L Y+5 Z+1 FMAX\n"
+                  "6 CYCL DEF 247 DATUM SETTING ~\n    Q339=+Q9 ;DATUM NUMBER\n7 L X+1 Y+1 Z+1 FMAX\n8 END PGM P MM\n");
+  EXPECT_EQ(p.find("PP-E101"), nullptr) << p.all_codes();
+  const gc::Motion* before = p.at_line(4);
+  const gc::Motion* x_only = p.at_line(7);
+  const gc::Motion* stated = p.at_line(8);
+  const gc::Motion* unknown = p.at_line(11);
+  ASSERT_TRUE(before && x_only && stated && unknown) << p.all_codes();
+  EXPECT_EQ(postproc::machine::work_offset_name(before->work_offset), "G54");
+  EXPECT_FALSE(before->work_offset_rewritten);
+  EXPECT_EQ(postproc::machine::work_offset_name(stated->work_offset), "PRESET2");
+  EXPECT_FALSE(stated->work_offset_rewritten);
+  EXPECT_FALSE(x_only->known & gc::bit(gc::Axis::y));  // Y in the new frame is not known yet
+  EXPECT_TRUE((stated->known & 7u) == 7u);
+  EXPECT_TRUE(unknown->work_offset_rewritten);  // Q339 not a number: the preset is not known
+  // An indented line that continues no block is refused at the line, as any unknown block.
+  const Program bad(klartext(), "0 BEGIN PGM B MM\n1 L X+0 Y+0 Z+0 FMAX\n   Head\n2 END PGM B MM\n");
+  expect_diag_at(bad, "PP-E101", 3, 4);
 }
 
 // "Program section repeats": CALL LBL 1 REP 2 runs the section two more times.

@@ -34,6 +34,10 @@ enum class Verb : std::uint8_t {
 [[nodiscard]] Verb verb_of(const Block& b);
 [[nodiscard]] std::string_view to_string(Verb v);
 
+/// True for an indented line the lexer could not read as a Klartext block and did not report: the
+/// rest of a block continued with '~', or else an error the interpreter reports (PP-E101).
+[[nodiscard]] bool unread_text(const Block& b);
+
 /// True when the line continues on the next one: its text ends with '~' (after a comment too:
 /// "Q200=+2 ;SET-UP CLEARANCE ~").
 [[nodiscard]] bool continued(std::string_view raw);

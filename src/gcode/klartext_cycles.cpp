@@ -69,10 +69,15 @@ void Interp::cycle_def(const Block& b) {
     case 12:  // PGM CALL definition (called by CYCL CALL)
       cycle_ = n;
       return;
-    case 247: {  // datum setting: a preset of the preset table
-      warn(b, at, codes::kKlartextUnresolved,
-           "cycle 247 activates a preset of the preset table (a new datum): positions in the new frame are unknown "
-           "until the program states them");
+    case 247: {
+      // DATUM SETTING (TNC 640 cycles manual, cycle 247): activates row Q339 of the preset table as
+      // the datum, effective at its definition. The coordinates that follow refer to it, as after an
+      // ISO G55: positions in the new frame are unknown until programmed; the frame is PRESET<Q339>
+      // (machine file [work_offsets]). Its parameter follows on the next lines (cycle_parameter).
+      preset_pending_ = true;
+      preset_ = WorkOffset{2470, 0};
+      preset_unknown_ = true;  // until Q339 gives the row
+      cycle_params_open_ = true;
       known_ = 0;
       return;
     }
@@ -180,6 +185,13 @@ void Interp::cycle_parameter(const Block& b) {
   while (!rhs.empty() && (rhs.front() == ' ' || rhs.front() == '\t')) rhs.remove_prefix(1);
   while (!rhs.empty() && (rhs.back() == ' ' || rhs.back() == '\t')) rhs.remove_suffix(1);
   if (!parse_number(name.substr(1), n)) return;
+  if (preset_pending_) {  // CYCL DEF 247: only Q339, the preset's row
+    if (n == 339 && parse_number(rhs, v) && v >= 0 && v <= 65535 && v == std::floor(v)) {
+      preset_ = WorkOffset{2470, static_cast<std::uint16_t>(v)};
+      preset_unknown_ = false;
+    }
+    return;
+  }
   if (parse_number(rhs, v)) cycle_params_[static_cast<int>(n)] = v;
   else cycle_params_.erase(static_cast<int>(n));
 }
@@ -225,6 +237,8 @@ bool Interp::drill_call(const Block& b, Span at, MotionSink& out) {
   m.feed = q(206) ? len(*q(206)) : feed_;
   m.feed_known = !inch_ && (q(206).has_value() || feed_known_);
   m.local_offset = datum_;
+  m.work_offset = preset_;
+  m.work_offset_rewritten = preset_unknown_;
   m.tool_length_active = tool_active_;
   m.tool_length_h = static_cast<std::uint16_t>(std::max(0, tool_number_));
   m.tilted_plane = tilted_;

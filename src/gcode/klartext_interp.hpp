@@ -142,6 +142,12 @@ class Interp {
   bool tangent_known_ = false;
   bool polar_words_ = false;
   AxisVector datum_ = AxisVector::Zero();
+  /// The datum (preset) the coordinates refer to: the one active at the start is named G54 (as the
+  /// ISO dialects' default), cycle 247 Q339=n selects PRESETn (machine::work_offset_name); unknown
+  /// while a cycle 247 has not given a literal Q339 (compensate then refuses: PP-E602).
+  WorkOffset preset_{};
+  bool preset_unknown_ = false;
+  bool preset_pending_ = false;  ///< a CYCL DEF 247 whose parameter lines are being read
   bool mirror_ = false, rotation_ = false, scaling_ = false, tilted_ = false, tcp_ = false;
   bool frame_machine_ = false, kinematic_m_ = false, turning_mode_ = false, spindle_ = false, tcp_refpnt_ = false;
   int m92_ = 0;

@@ -30,6 +30,7 @@ void Interp::execute(const Block& b, MotionSink& out) {
     return;
   }
   cycle_params_open_ = false;
+  preset_pending_ = false;
   switch (v) {
     case Verb::none:
     case Verb::comment:
@@ -98,7 +99,13 @@ void Interp::execute(const Block& b, MotionSink& out) {
            "SEL selects a program or cycle to call later; the call is not followed by this version");
       return;
     case Verb::other:
-      known_ = 0;  // the lexer reported the verb
+      // The lexer reported the verb, except on an indented line that continues no block.
+      if (unread_text(b))
+        report(b, b.tokens.front().span, Severity::error, "PP-E101",
+               fmt::format("'{}' is not a Klartext block this version reads (and the line before does not end "
+                           "with '~' to continue its block here); the block is not followed",
+                           b.text(b.tokens.front().span)));
+      known_ = 0;
       return;
   }
 }
@@ -284,6 +291,8 @@ void Interp::retract(const Block& b, const Words& w, Span at, MotionSink& out) {
   m.known = known_;
   m.word_index.fill(-1);
   m.local_offset = datum_;
+  m.work_offset = preset_;
+  m.work_offset_rewritten = preset_unknown_;
   m.tool_length_active = tool_active_;
   m.tool_length_h = static_cast<std::uint16_t>(std::max(0, tool_number_));
   m.inch_source = inch_;

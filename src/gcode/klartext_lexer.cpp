@@ -90,6 +90,23 @@ class Lexer {
     pos_ = raw_.size();
   }
 
+  /// A line that starts with a blank and is not a Klartext block may be the rest of a block the
+  /// line before continued with '~' (a long comment wraps so: "; … on the~" then " Head"). Which
+  /// it is depends on that line, so it is kept as one unknown keyword from `s` to the end (verb
+  /// Verb::other) without a report; the interpreter reports it unless it continues a block
+  /// (klartext::unread_text). `e` is where the first word ends (== s: no word).
+  bool indented_text(std::size_t s, std::size_t e) {
+    if (raw_.empty() || !is_blank(raw_[0]) || (e > s && known_verb(raw_.substr(s, e - s)))) return false;
+    token(TokenKind::keyword, s, raw_.size(), span(s, raw_.size()));
+    pos_ = raw_.size();
+    return true;
+  }
+  static bool known_verb(std::string_view w1) {
+    for (const Verbs& v : kVerbs)
+      if (text::iequals(w1, v.first)) return true;
+    return false;
+  }
+
   bool verb() {
     const char c = raw_[pos_];
     if (c == ';') {
@@ -105,6 +122,7 @@ class Lexer {
     const std::size_t s = pos_;
     const std::size_t e = letters_end(pos_);
     if (e == s) {
+      if (indented_text(s, e)) return true;
       report(span(s, s + 1), fmt::format("'{}' cannot start a Klartext block (expected a word such as L, CC, "
                                          "TOOL CALL or CYCL DEF)", raw_.substr(s, 1)));
       token(TokenKind::keyword, s, raw_.size(), span(s, raw_.size()));
@@ -155,6 +173,7 @@ class Lexer {
       pos_ = e;
       return true;
     }
+    if (indented_text(s, e)) return true;
     report(span(s, e), fmt::format("'{}' is not a Klartext block this version reads; the block is not followed",
                                    w1));
     token(TokenKind::keyword, s, e, span(s, e));
@@ -364,6 +383,12 @@ std::string_view to_string(Verb v) {
     case Verb::other: return "unknown";
   }
   return "unknown";
+}
+
+bool unread_text(const Block& b) {
+  // Lexer::indented_text: an indented line that is no Klartext block, lexed without a report.
+  return verb_of(b) == Verb::other && !b.raw.empty() && is_blank(b.raw[0]) && b.tokens.size() == 1 &&
+         b.tokens.front().span.end == b.raw.size();
 }
 
 bool continued(std::string_view raw) {

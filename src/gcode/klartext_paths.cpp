@@ -184,6 +184,8 @@ void Interp::motion(const Block& b, Verb v, MotionSink& out) {
   m.feed_known = feed_known_ && m.type != MotionType::rapid;
   m.feed_mode = feed_mode_;
   m.local_offset = datum_;
+  m.work_offset = preset_;
+  m.work_offset_rewritten = preset_unknown_;
   m.tool_length_active = tool_active_;
   m.tool_length_h = static_cast<std::uint16_t>(std::max(0, tool_number_));
   m.tool_length_known = false;

@@ -338,6 +338,7 @@ std::string rewritten_length_refusal(const gcode::Motion& mo) {
 
 std::string work_offset_name(const gcode::WorkOffset& w) {
   if (w.code10 == 541) return fmt::format("G54.1P{}", w.p);
+  if (w.code10 == 2470) return fmt::format("PRESET{}", w.p);  // Heidenhain cycle 247 Q339=p
   if (w.code10 % 10 == 0) return fmt::format("G{}", w.code10 / 10);
   return fmt::format("G{}.{}", w.code10 / 10, w.code10 % 10);
 }

@@ -61,6 +61,9 @@ std::string program_offset_refusal(const machine::Machine& m, const gcode::Motio
                        axes, axes);
   }
   const std::string name = machine::work_offset_name(mo.work_offset);
+  if (mo.frame == gcode::Frame::work && mo.work_offset_rewritten && mo.work_offset.code10 == 2470)
+    return "a CYCL DEF 247 (datum setting) before this move activates a preset whose row the program does not give as "
+           "a number (Q339): where the coordinates lie on the machine is not known; give Q339 as a number";
   if (mo.frame == gcode::Frame::work && mo.work_offset_rewritten)
     return fmt::format("the program wrote work offset {} (G10 L2/L20) before this move: the machine file's {} is not "
                        "where the controller puts it now (and a G10 offset written from the current position, or with a "
