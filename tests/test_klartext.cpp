@@ -167,9 +167,19 @@ TEST(KlartextResolve, SectionRepeatAndFormula) {
   EXPECT_NEAR(p.motions.back().end.x(), 30, 1e-12);  // three times IX+10
 }
 
+// A Q parameter the program reads before it sets it holds a run-time value (Q100–Q199: the control's;
+// Q120–Q122 after PLANE … STAY: the rotary angles from the kinematics). A coordinate word reading it
+// leaves that block not followed and its axes unknown (PP-U213 at the word; compensate refuses a
+// correction that depends on them, PP-E601); a formula or condition reading it is refused (PP-E701).
 TEST(KlartextResolve, ParameterReadBeforeItIsSetIsRefusedAtTheRead) {
-  const ResolvedProgram p(klartext(), "0 BEGIN PGM Q MM\n1 L X+Q108 FMAX\n2 END PGM Q MM\n");
-  expect_diag_at(p, "PP-E701", 2, 6);
+  const ResolvedProgram p(klartext(), "0 BEGIN PGM Q MM\n1 L X+0 Y+0 FMAX\n2 L X+Q108 FMAX\n3 L Y+5 FMAX\n4 END PGM Q MM\n");
+  expect_diag_at(p, "PP-U213", 3, 5);
+  EXPECT_EQ(p.find("PP-E701"), nullptr) << p.all_codes();
+  ASSERT_EQ(p.motions.size(), 2u) << p.all_codes();
+  EXPECT_FALSE(p.motions[1].known & gc::bit(gc::Axis::x));  // X after the block reading Q108 is not known
+  EXPECT_TRUE(p.motions[1].known & gc::bit(gc::Axis::y));
+  const ResolvedProgram formula(klartext(), "0 BEGIN PGM Q MM\n1 Q1 = Q108 * 2\n2 L X+Q1 FMAX\n3 END PGM Q MM\n");
+  expect_diag_at(formula, "PP-E701", 2, 8);
   gc::ResolveOptions set;
   set.set["Q108"] = 4;
   const ResolvedProgram given(klartext(), "0 BEGIN PGM Q MM\n1 L X+Q108 FMAX\n2 END PGM Q MM\n", set);

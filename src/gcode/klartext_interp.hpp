@@ -46,6 +46,7 @@ struct Words {
   std::int16_t mb = -1;              ///< M140 MB distance word
   bool mb_max = false;
   std::int16_t unread = -1;          ///< first word this version does not read here
+  std::int16_t unread_keyword = -1;  ///< token index of the first keyword it does not read here
 };
 
 /// One program's interpretation: state carried from block to block.

@@ -48,6 +48,12 @@ class Lexer {
 
   bool run() {
     skip_blanks();
+    // Block skip before the block number ("/85 M30", as hyperMILL writes it) or after it ("85 /M30").
+    if (pos_ + 1 < raw_.size() && raw_[pos_] == '/' && is_digit(raw_[pos_ + 1])) {
+      b_.block_delete = true;
+      b_.block_delete_span = span(pos_, pos_ + 1);
+      ++pos_;
+    }
     // Block number.
     if (pos_ < raw_.size() && is_digit(raw_[pos_])) {
       const std::size_t s = pos_;

@@ -19,14 +19,32 @@ bool Interp::collect(const Block& b, Verb v, Words& w) {
     const Word& wd = b.words[i];
     const std::string_view name = b.text(wd.name);
     const auto idx = static_cast<std::int16_t>(i);
+    const std::string_view up = name;
     if (wd.kind != ValueKind::number) {
+      const std::string_view value = b.text(wd.value);
+      const std::string q = text::upper(value.substr(value.empty() || (value[0] != '+' && value[0] != '-') ? 0 : 1));
       warn(b, wd.span, codes::kExpressionValue,
-           fmt::format("'{}' takes its value from a Q parameter the program does not set before this block",
-                       b.text(wd.span)));
+           fmt::format("'{}' takes its value from a Q parameter the program does not set before this block{}; the "
+                       "block is not followed (what it moves is unknown until programmed); give its value with --set "
+                       "'{}=…' if it is known",
+                       b.text(wd.span),
+                       q == "Q120" || q == "Q121" || q == "Q122"
+                           ? " (Q120–Q122: the rotary axis angles a PLANE … STAY computes from the machine's "
+                             "kinematics)"
+                           : "",
+                       q));
+      // What the word sets is not known from here on: its axis, or the modal feed.
+      const bool inc_word = up.size() == 2 && (up[0] == 'I' || up[0] == 'i') && axis_index(text::upper(up[1])) >= 0;
+      const int ax = up.size() == 1 ? axis_index(text::upper(up[0])) : inc_word ? axis_index(text::upper(up[1])) : -1;
+      if (ax >= 0 && v != Verb::m_only) w.present |= static_cast<AxisMask>(1u << ax);
+      if (text::iequals(up, "PR") || text::iequals(up, "IPR") || text::iequals(up, "PA") || text::iequals(up, "IPA")) {
+        const PlaneAxes pa = axes();  // a polar end point: both coordinates of the plane
+        w.present |= static_cast<AxisMask>((1u << pa.u) | (1u << pa.v));
+      }
+      if (up.size() == 1 && (up[0] == 'F' || up[0] == 'f')) feed_known_ = false;
       ok = false;
       continue;
     }
-    const std::string_view up = name;
     const bool inc = up.size() == 2 && (up[0] == 'I' || up[0] == 'i') && axis_index(text::upper(up[1])) >= 0;
     const int ax = up.size() == 1 ? axis_index(text::upper(up[0])) : inc ? axis_index(text::upper(up[1])) : -1;
     if (ax >= 0 && !(v == Verb::m_only)) {
@@ -73,11 +91,20 @@ bool Interp::collect(const Block& b, Verb v, Words& w) {
       w.unread = w.unread < 0 ? idx : w.unread;
     }
   }
+  // Keywords; "F MAX" / "F AUTO" (hyperMILL writes them so) are FMAX / F AUTO; "MB MAX" the
+  // retraction of M140. Any other keyword is not read in silence: the block is not followed.
+  int f_at = -1;  // a keyword "F" waiting for MAX or AUTO
+  const auto unread_kw = [&](int i) {
+    if (w.unread_keyword < 0 && v != Verb::m_only) w.unread_keyword = static_cast<std::int16_t>(i);
+  };
   for (std::size_t i = 1; i < b.tokens.size(); ++i) {
     const Token& t = b.tokens[i];
     if (t.kind != TokenKind::keyword) continue;
     const std::string_view s = b.text(t.span);
-    if (text::iequals(s, "FMAX")) w.fmax = true;
+    const bool after_f = f_at >= 0;
+    if (after_f && !text::iequals(s, "MAX") && !text::iequals(s, "AUTO")) unread_kw(f_at);
+    f_at = -1;
+    if (text::iequals(s, "FMAX") || (after_f && text::iequals(s, "MAX"))) w.fmax = true;
     else if (text::iequals(s, "FAUTO") || text::iequals(s, "AUTO")) w.fauto = true;
     else if (text::iequals(s, "DR+")) w.dr = 1;
     else if (text::iequals(s, "DR-")) w.dr = -1;
@@ -85,7 +112,11 @@ bool Interp::collect(const Block& b, Verb v, Words& w) {
     else if (text::iequals(s, "RR")) w.comp = 2, w.comp_at = t.span;
     else if (text::iequals(s, "R+") || text::iequals(s, "R-")) w.comp = 3, w.comp_at = t.span;
     else if (text::iequals(s, "MAX")) w.mb_max = true;
+    else if (text::iequals(s, "F")) f_at = static_cast<int>(i);
+    else if (text::iequals(s, "MB") || s == "~") continue;
+    else unread_kw(static_cast<int>(i));
   }
+  if (f_at >= 0) unread_kw(f_at);
   return ok;
 }
 
@@ -96,7 +127,13 @@ void Interp::motion(const Block& b, Verb v, MotionSink& out) {
     warn(b, b.words[static_cast<std::size_t>(w.unread)].span, codes::kKlartextUnresolved,
          fmt::format("'{}' is not read by this version in a {} block; the block is not followed",
                      b.text(b.words[static_cast<std::size_t>(w.unread)].span), to_string(v)));
-  if (!ok || w.unread >= 0) {
+  if (w.unread_keyword >= 0) {
+    w.present |= kLinear;  // where the block goes is not known
+    warn(b, b.tokens[static_cast<std::size_t>(w.unread_keyword)].span, codes::kKlartextUnresolved,
+         fmt::format("'{}' is not read by this version in a {} block; the block is not followed",
+                     b.text(b.tokens[static_cast<std::size_t>(w.unread_keyword)].span), to_string(v)));
+  }
+  if (!ok || w.unread >= 0 || w.unread_keyword >= 0) {
     known_ &= static_cast<AxisMask>(~w.present);
     after_motion_m(b, w, out);
     return;

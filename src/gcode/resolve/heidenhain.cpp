@@ -238,6 +238,11 @@ class Runner {
     throw Stop{};
   }
 
+  bool readable(std::string_view name) const {
+    const std::string key = upper_name(name);
+    return q_.count(key) != 0 || opt_.set.count(key) != 0;
+  }
+
   double read(std::string_view name, Span at) {
     const std::string key = upper_name(name);
     if (auto it = q_.find(key); it != q_.end()) return it->second;
@@ -379,6 +384,11 @@ class Runner {
         const bool neg = v.front() == '-';
         const bool sign = v.front() == '+' || v.front() == '-';
         const std::string_view q = sign ? v.substr(1) : v;
+        // A word whose parameter the program does not set (Q120–Q122 after PLANE … STAY: the rotary
+        // angles the control computes from its kinematics; Q108 the tool radius) is passed on as
+        // written: the interpreter leaves that coordinate unknown with a warning at the word. Only
+        // this block depends on it; formulas, conditions and cycle parameters still refuse (read).
+        if (!readable(q)) continue;
         double x = read(q, w.value);
         if (neg) x = -x;
         edits.push_back({w.value, klartext_value(x, sign)});
