@@ -53,6 +53,25 @@ TEST(KlartextLexer, ParameterValuesAndContinuation) {
   EXPECT_EQ(kt::verb_of(lexed("5  RND R5")), kt::Verb::rnd);
 }
 
+// hyperMILL writes the block skip before the block number ("/85 M30") and FMAX as "F MAX"; a
+// keyword a path block does not read is not ignored (the block is not followed, PP-U260).
+TEST(KlartextLexer, SkipBeforeTheNumberAndFMaxInTwoWords) {
+  const gc::Block skip = lexed("/85 M30");
+  EXPECT_TRUE(skip.block_delete);
+  EXPECT_TRUE(skip.has_n);
+  EXPECT_EQ(skip.n_number, 85);
+  EXPECT_EQ(kt::verb_of(skip), kt::Verb::m_only);
+  const Program p(klartext(), "0 BEGIN PGM F MM\n1 L X+0 Y+0 Z+0 F500\n2 L X+10 R0 F MAX\n3 L X+20 FOO\n4 L Y+5\n"
+                              "5 END PGM F MM\n");
+  const gc::Motion* rapid = p.at_line(3);
+  ASSERT_NE(rapid, nullptr);
+  EXPECT_EQ(rapid->type, gc::MotionType::rapid);
+  expect_diag_at(p, "PP-U260", 4, 10);
+  const gc::Motion* after = p.at_line(5);
+  ASSERT_NE(after, nullptr);
+  EXPECT_FALSE(after->known & gc::bit(gc::Axis::x));  // the block with FOO was not followed
+}
+
 TEST(KlartextDetect, BeginPgmAfterABlockNumber) {
   const auto g = gc::guess_dialect("; header\n0  BEGIN PGM PART MM\n1  L X+0 FMAX\n");
   ASSERT_TRUE(g.has_value());
