@@ -135,6 +135,40 @@ TEST(KlartextPaths, RoundingBetweenTwoLines) {
   EXPECT_TRUE(a->words_transformed && c->words_transformed);
 }
 
+// "Rounding corners RND" next to an arc: the rounding arc is tangent to the line and to the arc about
+// CC; worked by hand: line X50 Y-30 → Y0, then the arc about (50, 20) r 20 counter-clockwise to
+// (70, 20); the path turns right, so the R5 centre lies where the line offset 5 to the right (x = 55)
+// meets the circle of radius 25 about CC: (55, 20 − √600); tangent points (50, 20 − √600) and
+// CC + 20/25 · (5, −√600).
+TEST(KlartextPaths, RoundingBetweenALineAndAnArc) {
+  const Program p(klartext(),
+                  "0 BEGIN PGM R MM\n1 L X+50 Y-30 Z+0 FMAX\n2 CC X+50 Y+20\n3 L Y+0 F100\n4 RND R5\n"
+                  "5 C X+70 Y+20 DR+\n6 END PGM R MM\n");
+  EXPECT_TRUE(p.sink.stored().empty()) << p.all_codes();
+  const gc::Motion* a = p.at_line(4);
+  const gc::Motion* r = p.at_line(5);
+  const gc::Motion* c = p.at_line(6);
+  ASSERT_TRUE(a && r && c) << p.all_codes();
+  const double h = std::sqrt(600.0);
+  EXPECT_NEAR(a->end.x(), 50, 1e-9);
+  EXPECT_NEAR(a->end.y(), 20 - h, 1e-9);
+  EXPECT_EQ(r->type, gc::MotionType::arc_cw);
+  EXPECT_NEAR(r->arc.centre.x(), 55, 1e-9);
+  EXPECT_NEAR(r->arc.centre.y(), 20 - h, 1e-9);
+  EXPECT_NEAR(r->end.x(), 50 + 20.0 / 25 * 5, 1e-9);
+  EXPECT_NEAR(r->end.y(), 20 - 20.0 / 25 * h, 1e-9);
+  EXPECT_NEAR(c->start.x(), r->end.x(), 1e-12);
+  EXPECT_NEAR(c->start.y(), r->end.y(), 1e-12);
+  EXPECT_NEAR(c->end.x(), 70, 1e-12);  // the arc still ends where programmed, about the same centre
+  EXPECT_NEAR(c->arc.centre.y(), 20, 1e-12);
+  const double start_angle = std::atan2(c->start.y() - 20, c->start.x() - 50);
+  EXPECT_NEAR(c->arc.sweep, 0 - start_angle, 1e-9);  // to the end at angle 0, counter-clockwise
+  // A chamfer next to an arc stays refused (TNC: CHF joins two straight lines).
+  const Program chf(klartext(), "0 BEGIN PGM R MM\n1 L X+50 Y-30 Z+0 FMAX\n2 CC X+50 Y+20\n3 L Y+0 F100\n"
+                                "4 CHF 2\n5 C X+70 Y+20 DR+\n6 END PGM R MM\n");
+  EXPECT_NE(chf.find("PP-U260"), nullptr) << chf.all_codes();
+}
+
 // "Cycle 7 DATUM SHIFT": the shift moves the current point's coordinates; IX adds to the shift.
 TEST(KlartextFrames, DatumShiftAbsoluteAndIncremental) {
   const Program p(klartext(),

@@ -1,4 +1,4 @@
-// Klartext corner elements: RND R (rounding) and CHF L (chamfer) between two straight moves
+// Klartext corner elements: RND R (rounding) between straight moves and arcs, CHF L (chamfer) between two straight moves
 // (TNC 640 User's Manual, "Path functions: rounding corners RND, chamfer CHF"). The element joins
 // the two lines tangentially (RND) or cuts the corner at L from it on both lines (CHF); both moves
 // are shortened to where the element begins and ends.
@@ -7,17 +7,64 @@
 
 #include <fmt/format.h>
 
+#include "src/gcode/corner_rounding.hpp"
 #include "src/gcode/klartext.hpp"
 
 namespace postproc::gcode::klartext {
+namespace {
+
+/// RND next to an arc (TNC 640: "tangentially connected to both the preceding and subsequent contour
+/// elements"): the arc of corner_rounding.hpp; the arcs beside it keep their centres and end (or
+/// start) at the tangent points.
+std::optional<Motion> rounding_with_arcs(Motion& a, Motion& c, PlaneAxes p, double size, std::string& why) {
+  bool stops = false;
+  const std::optional<RoundingArc> ra = rounding_arc(a, c, p, size, why, stops);
+  if (!ra) {
+    if (stops) why += " (the control stops with an error)";
+    return std::nullopt;
+  }
+  const auto centre_of = [&](const Motion& m) { return Eigen::Vector2d(m.arc.centre[p.u], m.arc.centre[p.v]); };
+  const auto is_arc = [](const Motion& m) { return m.type == MotionType::arc_cw || m.type == MotionType::arc_ccw; };
+  Motion m = a;
+  m.start = a.end;
+  m.start[p.u] = ra->from.x();
+  m.start[p.v] = ra->from.y();
+  m.end = m.start;
+  m.end[p.u] = ra->to.x();
+  m.end[p.v] = ra->to.y();
+  m.programmed = 0;
+  m.word_index.fill(-1);
+  m.known = c.known;
+  m.words_transformed = true;
+  m.type = ra->ccw ? MotionType::arc_ccw : MotionType::arc_cw;
+  m.arc = ArcData{};
+  m.arc.centre = m.start.head<3>();
+  m.arc.centre[p.u] = ra->centre.x();
+  m.arc.centre[p.v] = ra->centre.y();
+  m.arc.radius = size;
+  m.arc.sweep = sweep_between(ra->centre, ra->from, ra->to, ra->ccw);
+  const Eigen::Vector2d a_start(a.start[p.u], a.start[p.v]), c_end(c.end[p.u], c.end[p.v]);
+  a.end[p.u] = ra->from.x();
+  a.end[p.v] = ra->from.y();
+  if (is_arc(a)) a.arc.sweep = sweep_between(centre_of(a), a_start, ra->from, a.type == MotionType::arc_ccw);
+  a.words_transformed = true;
+  c.start = m.end;
+  if (is_arc(c)) c.arc.sweep = sweep_between(centre_of(c), ra->to, c_end, c.type == MotionType::arc_ccw);
+  c.words_transformed = true;
+  return m;
+}
+
+}  // namespace
 
 std::optional<Motion> corner_element(Motion& a, Motion& c, bool rounding, double size, std::string& why) {
   const PlaneAxes p = plane_axes(a.plane);
   const AxisMask plane = static_cast<AxisMask>((1u << p.u) | (1u << p.v));
-  const bool lines = (a.type == MotionType::linear || a.type == MotionType::rapid) &&
-                     (c.type == MotionType::linear || c.type == MotionType::rapid);
-  if (!lines) {
-    why = "this version builds it only between two straight moves (L)";
+  const auto straight = [](const Motion& m) { return m.type == MotionType::linear || m.type == MotionType::rapid; };
+  const auto arc = [](const Motion& m) { return m.type == MotionType::arc_cw || m.type == MotionType::arc_ccw; };
+  const bool lines = straight(a) && straight(c);
+  if (!lines && !(rounding && (straight(a) || arc(a)) && (straight(c) || arc(c)))) {
+    why = rounding ? "this version builds it only between straight moves and arcs"
+                   : "a chamfer joins two straight moves (L) only";  // TNC 640: "CHF … between two straight lines"
     return std::nullopt;
   }
   if (a.plane != c.plane || (a.known & plane) != plane || (c.known & plane) != plane || a.frame != Frame::work ||
@@ -32,6 +79,7 @@ std::optional<Motion> corner_element(Motion& a, Motion& c, bool rounding, double
       return std::nullopt;
     }
   }
+  if (!lines) return rounding_with_arcs(a, c, p, size, why);
   const Eigen::Vector2d s(a.start[p.u], a.start[p.v]), q(a.end[p.u], a.end[p.v]), e(c.end[p.u], c.end[p.v]);
   const double l1 = (q - s).norm(), l2 = (e - q).norm();
   if (l1 < 1e-9 || l2 < 1e-9 || !(size > 0)) {

@@ -402,7 +402,9 @@ ProgramStats run(LineReader& reader, const Dialect& d, std::string_view file, Di
     }
     std::string why = size_ok ? "" : "its size is not a number";
     std::optional<Motion> element;
-    if (size_ok && have3 && !cc.motions.empty() && okc)
+    if (size_ok && have3 && !cc.motions.empty() && okc && verb_of(bc) == Verb::ct)
+      why = "a CT after it continues the element before it, not the rounding (write the arc with C or CR)";
+    else if (size_ok && have3 && !cc.motions.empty() && okc)
       element = corner_element(ca.motions.back(), cc.motions.front(), rounding, size, why);
     else if (why.empty())
       why = !have3 ? "no block follows it"
