@@ -163,6 +163,14 @@ TEST(KlartextPaths, RoundingBetweenALineAndAnArc) {
   EXPECT_NEAR(c->arc.centre.y(), 20, 1e-12);
   const double start_angle = std::atan2(c->start.y() - 20, c->start.x() - 50);
   EXPECT_NEAR(c->arc.sweep, 0 - start_angle, 1e-9);  // to the end at angle 0, counter-clockwise
+  // The same with the CC between the corner and the arc, as TNC programs usually give it.
+  const Program cc_between(klartext(), "0 BEGIN PGM R MM\n1 L X+50 Y-30 Z+0 FMAX\n2 L Y+0 F100\n3 RND R5\n"
+                                       "4 CC X+50 Y+20\n5 C X+70 Y+20 DR+\n6 END PGM R MM\n");
+  EXPECT_TRUE(cc_between.sink.stored().empty()) << cc_between.all_codes();
+  const gc::Motion* r2 = cc_between.at_line(4);
+  ASSERT_NE(r2, nullptr) << cc_between.all_codes();
+  EXPECT_NEAR(r2->arc.centre.x(), 55, 1e-9);
+  EXPECT_NEAR(r2->arc.centre.y(), 20 - h, 1e-9);
   // A chamfer next to an arc stays refused (TNC: CHF joins two straight lines).
   const Program chf(klartext(), "0 BEGIN PGM R MM\n1 L X+50 Y-30 Z+0 FMAX\n2 CC X+50 Y+20\n3 L Y+0 F100\n"
                                 "4 CHF 2\n5 C X+70 Y+20 DR+\n6 END PGM R MM\n");

@@ -34,8 +34,9 @@ void Compensator::write_segments(const Block& b, const Motion& m, gcode::BlockEd
     // New lines would hold work coordinates where the control reads radius/angle (G16) or mirrored
     // values (G51.1).
     refuse(b, m.column, kRefused,
-           "the move needs subdividing but its axis words are not work coordinates (Fanuc G16 polar, G51.1 mirror "
-           "image or G29); write the block in plain coordinates");
+           "the move needs subdividing but its axis words are not its end point in work coordinates (Fanuc G16 "
+           "polar, G51.1 mirror image or G29; or a chamfer or rounding built at its end: Heidenhain RND/CHF, Fanuc "
+           ",C/,R, Sinumerik CHF=/RND=); write the block in plain coordinates (a corner as its own move)");
     written_known_ = 0;
     return;
   }

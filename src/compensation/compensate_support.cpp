@@ -209,9 +209,11 @@ WordWriter::Outcome WordWriter::rewrite(const Block& b, const Motion& m, gcode::
     const Word& w = b.words[static_cast<std::size_t>(wi)];
     if (std::abs(pv - program_units(a, m.end[a], m)) < 1e-9) continue;  // no correction: the word stays
     if (m.words_transformed) {
-      o = {false, column_of(w), "the block's axis words are not work coordinates (Fanuc G16 radius/angle, G51.1 "
-                                "mirror image, or G29 relative to the intermediate point) and need a correction; "
-                                "write the block in plain coordinates", 0, 0};
+      o = {false, column_of(w), "the block's axis words are not its end point in work coordinates (Fanuc G16 "
+                                "radius/angle, G51.1 mirror image, G29 relative to the intermediate point; or a "
+                                "chamfer or rounding built next to it: Heidenhain RND/CHF, Fanuc ,C/,R, Sinumerik "
+                                "CHF=/RND=) and need a correction; write the block in plain coordinates (a corner as "
+                                "its own move)", 0, 0};
       return o;
     }
     const auto lit = gcode::literal_span(b, w);

@@ -391,7 +391,7 @@ ProgramStats run(LineReader& reader, const Dialect& d, std::string_view file, Di
       for (std::size_t i = 1; i < bn.tokens.size() && !size_ok; ++i)
         size_ok = parse_number(bn.text(bn.tokens[i].span), size);
     if (interp.inch()) size *= 25.4, feed = feed > 0 ? feed * 25.4 : feed;
-    const bool have3 = fetch(third);
+    bool have3 = fetch(third);
     cc.motions.clear();
     bool okc = true;
     if (have3) {
@@ -399,6 +399,25 @@ ProgramStats run(LineReader& reader, const Dialect& d, std::string_view file, Di
       okc = lex_block(d, bc, ctx);
       interp.execute(bc, cc);
       ++st.blocks;
+    }
+    // CC blocks between the corner and the arc after it (TNC programs give the centre right before
+    // the arc): executed in order, visited after the corner, the corner built with the arc.
+    std::deque<Line> mid_lines;
+    std::deque<Block> mid_blocks;
+    std::vector<bool> mid_ok;
+    while (have3 && okc && cc.motions.empty() && verb_of(bc) == Verb::cc && mid_lines.size() < 16) {
+      mid_lines.push_back(std::move(third));
+      Block& mb = mid_blocks.emplace_back();
+      set(mb, mid_lines.back());
+      (void)lex_block(d, mb, LexContext{file, &quiet});  // reported when it was first lexed
+      mid_ok.push_back(okc);
+      have3 = fetch(third);
+      if (have3) {
+        set(bc, third);
+        okc = lex_block(d, bc, ctx);
+        interp.execute(bc, cc);
+        ++st.blocks;
+      }
     }
     std::string why = size_ok ? "" : "its size is not a number";
     std::optional<Motion> element;
@@ -408,8 +427,8 @@ ProgramStats run(LineReader& reader, const Dialect& d, std::string_view file, Di
       element = corner_element(ca.motions.back(), cc.motions.front(), rounding, size, why);
     else if (why.empty())
       why = !have3 ? "no block follows it"
-                   : "the block after it makes no move (this version builds the corner only between two straight "
-                     "moves written next to it)";
+                   : "the block after it makes no move (this version builds the corner only between two moves "
+                     "written next to it, with at most CC blocks between)";
     cn.motions.clear();
     if (element) {
       element->line = bn.line;
@@ -430,6 +449,7 @@ ProgramStats run(LineReader& reader, const Dialect& d, std::string_view file, Di
     visitor.block(b, ca.motions, ok);
     visitor.block(bn, cn.motions, okn);
     ++st.blocks;
+    for (std::size_t k = 0; k < mid_blocks.size(); ++k) visitor.block(mid_blocks[k], {}, mid_ok[k]);
     if (have3) {  // the block after the corner may start the next corner: it becomes the current one
       std::swap(cur, third);
       ca.motions.swap(cc.motions);
