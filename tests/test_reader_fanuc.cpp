@@ -204,6 +204,24 @@ TEST(ReaderFanuc, MacroArgumentsNotRounded) {
   EXPECT_NE(r.text.find("G0 X1234.56"), std::string::npos) << r.text;
 }
 
+// Whole-number addresses (M S T H D P L): a variable's value is rounded to the nearest whole number,
+// half away from zero (M#1 with #1 = 3.5 runs M4; "M03 S#1" with #1 = 1000.5 runs S1001), and written
+// without a decimal point; a literal with one there is alarm PS0007 (M3.0, T1.5: "illegal use of
+// decimal point"), refused at the word — except H as a G65 argument.
+TEST(ReaderFanuc, WholeNumberAddressesRoundedAndLiteralDecimalsRefused) {
+  gc::DiagnosticSink sink;
+  const auto r = resolved("#1=3.5\n#2=1.6\n#3=1000.5\n#4=-2.5\nT#2 M6\nG43 H#2 Z5.\nM#1 S#3\nM#4\n", sink);
+  EXPECT_FALSE(sink.has_errors());
+  EXPECT_NE(r.text.find("T2 M6\nG43 H2 Z5.\nM4 S1001\nM-3"), std::string::npos) << r.text;
+  for (const auto& [text, column] : std::vector<std::pair<std::string, std::uint32_t>>{
+           {"G0 X0 Y0\nT1.5 M6\n", 1}, {"G0 X0 Y0\nM3.0 S1000\n", 1}, {"G0 X0 Y0\nG43 H1. Z5.\n", 5}}) {
+    const Program p(dialect("fanuc"), text);
+    expect_diag_at(p, "PP-E207", 2, column);
+  }
+  const Program call(dialect("fanuc"), "G0 X0 Y0\nG65 P9010 H1.5 A2.\n");
+  EXPECT_EQ(call.find("PP-E207"), nullptr) << call.all_codes();
+}
+
 // ---- 7. Arc with both R and I J K ------------------------------------------------------------------
 
 // B-64484EN II "Circular interpolation (G02, G03)": with R and I J K in one block, R is used and

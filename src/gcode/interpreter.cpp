@@ -650,6 +650,27 @@ void Interpreter::apply_modes(const Block& b, BlockWords& w) {
       default: break;
     }
   }
+  if (d_.id == DialectId::fanuc) {
+    // Fanuc: T, H and M take whole numbers; a literal with a decimal point is alarm PS0007 "illegal
+    // use of decimal point" (M3.0, T1.5). A G65/G66 macro call's H is an argument (decimals allowed).
+    // (A variable's value there is rounded by the resolver: fanuc.cpp, whole_address.)
+    bool call = false;
+    for (int k = 0; k < w.ng; ++k) {
+      const std::uint16_t c = w.g[static_cast<std::size_t>(k)].def->code10;
+      call = call || c == 650 || c == 660 || c == 661;
+    }
+    for (const Word& word : b.words) {
+      const char L = static_cast<char>(std::toupper(static_cast<unsigned char>(word.letter)));
+      if (word.name_len != 1 || word.kind != ValueKind::number || word.whole || (L != 'T' && L != 'H' && L != 'M') ||
+          (call && L == 'H'))
+        continue;
+      report(b, word.span, Severity::error, codes::kControllerRefuses,
+             fmt::format("'{}': a decimal point in {} is alarm PS0007 on a Fanuc control (illegal use of decimal "
+                         "point); write the whole number without one",
+                         b.text(word.span), L));
+      break;
+    }
+  }
   if (d_.id == DialectId::linuxcnc) {
     if (const int bad = lcnc_whole_words(w); bad >= 0) {
       const Span at = b.words[static_cast<std::size_t>(bad)].span;

@@ -38,6 +38,16 @@ namespace {
 /// (half away from zero) to the address's least input increment — 0.001 mm / 0.0001 in for lengths,
 /// 0.001 deg for angles (increment system IS-B). Arithmetic keeps the full value; only the address
 /// gets the rounded one.
+/// Addresses of whole numbers: M S T H D P L (a literal with a decimal point there is an alarm,
+/// PS0007); a variable's value used in one is rounded to the nearest whole number, half away from
+/// zero (M#1 with #1 = 3.5 is M4; Fanuc custom macro, "real versus integer values").
+constexpr bool whole_address(char letter) {
+  switch (letter) {
+    case 'M': case 'S': case 'T': case 'H': case 'D': case 'P': case 'L': return true;
+    default: return false;
+  }
+}
+
 double round_to_increment(double v, char letter, bool inch) {
   double step = 0;
   switch (letter) {
@@ -45,7 +55,10 @@ double round_to_increment(double v, char letter, bool inch) {
       step = inch ? 1e4 : 1e3;
       break;
     case 'A': case 'B': case 'C': step = 1e3; break;
-    default: return v;
+    default:
+      if (!whole_address(letter)) return v;
+      step = 1;
+      break;
   }
   if (!std::isfinite(v) || std::fabs(v) > 1e12) return v;
   // 1.2345 is stored as 1.23449999…: nudge by a relative 1e-12 so the decimal half rounds away from zero.
@@ -293,7 +306,10 @@ void Runner::step() {
           }
           v = macro_args ? x.v : round_to_increment(x.v, it.letter, inch_);
           action_[k] = 2;
-          text_[k] = format_value(v, it.letter);
+          // A whole-number address is written without a decimal point (S1001, not S1001.).
+          text_[k] = whole_address(it.letter) && v == std::round(v) && std::fabs(v) < 1e15
+                         ? fmt::format("{:.0f}", v == 0 ? 0.0 : v)
+                         : format_value(v, it.letter);
         }
         vals[k] = v;
         if (it.letter == 'G' && (v == 20 || v == 21)) inch_ = v == 20;
