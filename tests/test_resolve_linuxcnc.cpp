@@ -130,6 +130,22 @@ TEST(ResolveLinuxcnc, LoopsAfterAContinueInADoLoopAreRefusedWhereRs274RunsThemAg
   EXPECT_EQ(spent.r.text, "  G1 X2. F100\n  G1 Y1\n  G1 Y1\nM2\n");
 }
 
+// o[expression] call: rs274 reads the number as a whole number (within 0.0001) naming the numbered
+// subroutine; other values stop it ("Non integer value for integer"). A computed number on any other
+// O-word is refused (the trap tests/resolve/linuxcnc/reader_oword_computed.ngc runs in rs274_compare).
+TEST(ResolveLinuxcnc, ComputedOWordNumberNamesTheSubroutineCalled) {
+  const std::string subs = "o100 sub\n  G1 X#1 F100\no100 endsub\n";
+  const auto run = resolve_text(subs + "#5 = 99.99995\no[#5] call [3]\no[#5 + 0.00004] call [4]\nM2\n");
+  EXPECT_FALSE(run.sink.has_errors()) << codes(run.sink);
+  EXPECT_EQ(run.r.text, "  G1 X3. F100\n  G1 X4. F100\nM2\n");
+  const auto frac = resolve_text(subs + "#5 = 100.4\no[#5] call [3]\nM2\n");
+  ASSERT_TRUE(frac.sink.has_errors());
+  EXPECT_EQ(frac.sink.stored().front().code, "PP-E207") << codes(frac.sink);
+  const auto other = resolve_text("o[1] if [1]\no[1] endif\nM2\n");
+  ASSERT_TRUE(other.sink.has_errors());
+  EXPECT_EQ(other.sink.stored().front().code, "PP-E702") << codes(other.sink);
+}
+
 // rs274 rounds a repeat count to the nearest integer, ties to even (checked with rs274 2.9).
 TEST(ResolveLinuxcnc, RepeatCountIsRoundedAsRs274) {
   for (const auto& [count, passes] : std::vector<std::pair<std::string, int>>{

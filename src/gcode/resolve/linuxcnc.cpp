@@ -168,6 +168,33 @@ void Machine::compile_control(SourceFile& f, std::size_t i, const Block& b, cons
   if (p < text.size() && text[p] == '<') {
     const auto e = text.find('>', p);
     p = e == std::string_view::npos ? text.size() : e + 1;
+  } else if (p < text.size() && text[p] == '[') {
+    // o[expression]: rs274 reads the number from the expression (a whole number within 0.0001,
+    // else "Non integer value for integer"); followed for call, where the number names the sub.
+    int depth = 0;
+    std::size_t e = p;
+    for (; e < text.size(); ++e) {
+      if (text[e] == '[') ++depth;
+      if (text[e] == ']' && --depth == 0) break;
+    }
+    if (e == text.size()) {
+      f.report(i, t.span, Severity::error, "PP-E702", "o[ without its closing ']'" + context());
+      l.ok = false;
+      return;
+    }
+    Code c;
+    Parser pn(text.substr(p, e + 1 - p), names_);
+    try {
+      pn.real_value(c);
+      pn.end();
+    } catch (const ParseError& err) {
+      parse_error(f, i, Span{static_cast<std::uint32_t>(t.span.begin + p), static_cast<std::uint32_t>(t.span.begin + e + 1)},
+                  err);
+      l.ok = false;
+      return;
+    }
+    l.onumber = std::move(c);
+    p = e + 1;
   } else {
     // LinuxCNC ignores blanks (spaces and tabs) inside the o-word and before its keyword.
     while (p < text.size() && (std::isdigit(static_cast<unsigned char>(text[p])) || text[p] == ' ' || text[p] == '\t'))
@@ -211,6 +238,14 @@ void Machine::compile_control(SourceFile& f, std::size_t i, const Block& b, cons
     return;
   }
   l.kw = it->second;
+  if (l.onumber && l.kw != Kw::call) {
+    f.report(i, t.span, Severity::error, "PP-E702",
+             fmt::format("a computed O-word number ({}) is followed for call only, not for '{}': give the {} a "
+                         "number or a name{}",
+                         l.oname, kw, kw, context()));
+    l.ok = false;
+    return;
+  }
   // Arguments: [expr] [expr] … (call: any number; if/while/repeat/elseif/return/endsub: one; the
   // others none). rs274 stops at anything else after the keyword ("Unexpected character after
   // O-word"; after else and elseif only where the line is run, not where a jump lands on it: refused

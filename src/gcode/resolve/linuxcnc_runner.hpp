@@ -70,7 +70,8 @@ struct Line {
   bool plain = true;       // nothing to evaluate: emitted as written
   // control
   Kw kw = Kw::none;
-  std::string oname;       // lower case, "o100" or "o<name>"
+  std::string oname;       // lower case, "o100" or "o<name>" ("o[…]" for a computed number)
+  std::optional<Code> onumber;  // o[expression] call: the number, computed when the call runs
   Span control_span;
   std::vector<Code> args;  // call arguments / condition / return value / repeat count
   // ordinary block

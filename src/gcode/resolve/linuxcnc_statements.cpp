@@ -616,7 +616,22 @@ void Machine::call(SourceFile& f, std::size_t i, Line& l) {
     f.report(i, l.control_span, Severity::error, "PP-E702", "a call takes at most 30 arguments" + context());
     throw Stop{};
   }
-  auto it = subs_.find(l.oname);
+  std::string computed;
+  if (l.onumber) {  // o[expression] call: rs274 read_integer_value
+    const double v = value(f, i, l.control_span, *l.onumber);
+    double n = std::floor(v);
+    if (v - n > 0.9999) n += 1;
+    else if (v - n > 0.0001 || !(std::abs(v) < 1e9)) {
+      f.report(i, l.control_span, Severity::error, "PP-E207",
+               fmt::format("the O-word number {} is not a whole number: LinuxCNC stops here (rs274: \"Non integer "
+                           "value for integer\"){}",
+                           v, context()));
+      throw Stop{};
+    }
+    computed = fmt::format("o{}", static_cast<long long>(n));
+  }
+  const std::string& oname = l.onumber ? computed : l.oname;
+  auto it = subs_.find(oname);
   if (it == subs_.end() && l.oname.size() > 2 && l.oname[1] == '<') {
     const std::string name = l.oname.substr(2, l.oname.size() - 3);
     if (SourceFile* sf = files_.find({name + ".ngc", name + ".NGC", name})) {
@@ -626,7 +641,7 @@ void Machine::call(SourceFile& f, std::size_t i, Line& l) {
   }
   if (it == subs_.end()) {
     f.report(i, l.control_span, Severity::error, "PP-E704",
-             fmt::format("no subroutine '{} sub' in this file{}{}", l.oname,
+             fmt::format("no subroutine '{} sub' in this file{}{}", oname,
                          l.oname[1] == '<' ? fmt::format(" and no file {}.ngc in the search folders",
                                                          l.oname.substr(2, l.oname.size() - 3))
                                            : std::string(),
@@ -645,7 +660,7 @@ void Machine::call(SourceFile& f, std::size_t i, Line& l) {
   frames_.push_back(std::move(fr));
   guard_.changed();
   globals_[names_.id("_call_level")] = static_cast<double>(frames_.size() - 1);
-  out_.push_call(CallFrame{f.name(), i + 1, l.oname + " call"});
+  out_.push_call(CallFrame{f.name(), i + 1, oname + " call"});
   execute(*s.file, s.begin + 1, s.end + 1, true);
   out_.pop_call();
   std::copy(frames_.back().saved.begin() + 1, frames_.back().saved.end(), numbered_.begin() + 1);
