@@ -133,6 +133,18 @@ TEST(ReaderLinuxcnc, ToolLengthAndMWordsMustBeWholeNumbersAsRs274Reads) {
   EXPECT_NEAR(near.motions[0].end[2], 10, kTol);  // program Z; the length is tool 2's, not tool 1's (unknown)
 }
 
+// LinuxCNC runs Fanuc-style subprograms (M98 P<n> [L<k>] … O<n> … M99); this version does not follow
+// them: M98 and M99 leave every position unknown (PP-U211; before, positions after a call stayed
+// known, read wrong where the subprogram moved). An "O<n>" line alone is a program number rs274 runs
+// through (tests/resolve/linuxcnc/reader_program_number.ngc).
+TEST(ReaderLinuxcnc, FanucStyleSubprogramCallsLeavePositionsUnknown) {
+  const ResolvedProgram r(dialect("linuxcnc"), "O1000\nG21 G90\nG0 X1 Y1\nM98 P100\nG0 Y2\nM2\nO100\nG91 G0 X1\nG90\nM99\n");
+  expect_diag_at(r, "PP-U211", 4, 1);
+  ASSERT_EQ(r.motions.size(), 2u) << r.all_codes();
+  EXPECT_FALSE(r.motions[1].known & gc::bit(Axis::x));  // the subprogram moved X
+  EXPECT_TRUE(r.motions[1].known & gc::bit(Axis::y));
+}
+
 // LinuxCNC M-code reference "M70–M73", checked with rs274: M72 restores units, distance modes,
 // plane, feed mode and F, G98/G99 and the tool length offset; not the motion mode.
 TEST(ReaderLinuxcnc, ModalStateSaveAndRestore) {

@@ -724,8 +724,11 @@ void Interpreter::apply_modes(const Block& b, BlockWords& w) {
     if (d_.id == DialectId::heidenhain_iso && m == 129) s_.tcp = TcpMode::off;
     if ((m == 98 || m == 99) && d_.id != DialectId::siemens) {
       report(b, at, Severity::warning, codes::kSubprogramCall,
-             m == 98 ? "M98 subprogram call is not followed by this version"
-                     : "M99 (return or loop to start) is not followed by this version");
+             m == 98 ? "M98 subprogram call is not followed by this version; positions after it are unknown until "
+                       "programmed"
+                     : "M99 (return or loop to start) is not followed by this version; positions after it are "
+                       "unknown until programmed");
+      s_.known = 0;  // the call's moves (or the jump) are not followed: where the axes are is not known
     }
   }
 }

@@ -229,6 +229,12 @@ void Machine::compile_control(SourceFile& f, std::size_t i, const Block& b, cons
     }
   if (kw.empty()) kw = letters;
   const auto it = kws.find(kw);
+  if (it == kws.end() && kw.empty() && !l.onumber && on.size() > 1 && on[1] != '<' && p == text.size()) {
+    // "O100" alone: a Fanuc-style program number. rs274 runs through it (interp_o_word.cc, O_: "continue
+    // executing into Fanuc-style programs"); M98 calls to it and its M99 are refused by the interpreter.
+    l.kw = Kw::program_number;
+    return;
+  }
   if (it == kws.end()) {
     f.report(i, t.span, Severity::error, "PP-E702",
              fmt::format("'{}' is not an O-word keyword (sub, endsub, call, return, if, elseif, else, endif, while, "

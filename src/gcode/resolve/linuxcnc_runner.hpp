@@ -48,7 +48,10 @@ inline const char* runtime_numbered(int n) {
 // ---------------------------------------------------------------------------------------------
 // Compiled lines
 
-enum class Kw : std::uint8_t { none, sub, endsub, call, ret, if_, elseif, else_, endif, while_, endwhile, do_, repeat, endrepeat, break_, continue_ };
+enum class Kw : std::uint8_t {
+  none, sub, endsub, call, ret, if_, elseif, else_, endif, while_, endwhile, do_, repeat, endrepeat, break_, continue_,
+  program_number,  ///< "O100" alone: a Fanuc-style program number, which rs274 runs through (no effect)
+};
 
 struct Assign {
   Span span;  // the assignment token

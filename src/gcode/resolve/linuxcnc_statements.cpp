@@ -340,7 +340,8 @@ std::size_t Machine::control(SourceFile& f, FileInfo& fi, std::size_t i, Line& l
       do_continued_ = false;
       return fi.end_of.at(i) + 1;
     case Kw::endwhile: return fi.start_of.at(i);
-    case Kw::do_: return i + 1;
+    case Kw::do_:
+    case Kw::program_number: return i + 1;
     case Kw::repeat: {
       const double n = repeat_count(f, i, l);
       if (n < 1) {
