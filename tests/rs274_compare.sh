@@ -27,7 +27,7 @@ done
 # reader_*: constructs of the LinuxCNC reader (issue 16), each checked against rs274 on traps; drilling
 # rows (one per hole) are expanded into rs274's moves (lcnc_samples_compare.expand_drilling); inch
 # output of rs274 is converted to mm.
-for prog in control_flow expressions subroutines lathe_g70 lathe_g70_entry lathe_rough_levels lathe_g71 lathe_g72 lathe_pocket lathe_pocket_only lathe_corners lathe_g33 reader_dwell reader_modal_state reader_polar_cycles reader_m73 reader_g7x_statements reader_oword_spacing reader_after_end reader_closing_percent reader_expression_rules reader_spaced_words reader_m72_tool_length reader_loop_flags reader_oword_computed reader_program_number; do
+for prog in control_flow expressions subroutines lathe_g70 lathe_g70_entry lathe_rough_levels lathe_g71 lathe_g72 lathe_pocket lathe_pocket_only lathe_corners lathe_g33 reader_dwell reader_modal_state reader_polar_cycles reader_m73 reader_g7x_statements reader_oword_spacing reader_after_end reader_closing_percent reader_expression_rules reader_spaced_words reader_m72_tool_length reader_loop_flags reader_oword_computed reader_program_number reader_loop_breaks; do
   (cd "$D" && timeout 60 rs274 -g "$prog.ngc") > "$T/$prog.rs274" 2>&1
   # Exit 1 (warnings) only for what LinuxCNC says too: text after the program's end (PP-W210) and
   # a program without its end (PP-W211).

@@ -146,6 +146,31 @@ TEST(ResolveLinuxcnc, ComputedOWordNumberNamesTheSubroutineCalled) {
   EXPECT_EQ(other.sink.stored().front().code, "PP-E702") << codes(other.sink);
 }
 
+// rs274 2.9 carries out a 'break' of a loop that it passes while skipping to that loop's end (the
+// skip carries the loop's name): a while loop ended by its condition with a break in its body (not
+// taken) leaves doing_break set, and the next do … while runs once (rs274_control_compare seed 7469).
+// Refused where the do loop would go back; a continue of a do loop that skips over a break of the
+// same loop ends the loop, as rs274 does (tests/resolve/linuxcnc/reader_loop_breaks.ngc).
+TEST(ResolveLinuxcnc, BreakPassedWhileSkippingIsCarriedOutAsRs274Does) {
+  const std::string untaken_break =
+      "#4 = 0\n"
+      "o107 while [#4 LT 2]\n"
+      "  #4 = [#4 + 1]\n"
+      "  o108 if [#4 EQ 0]\n"
+      "    o107 break\n"
+      "  o108 endif\n"
+      "o107 endwhile\n";
+  const auto run = resolve_text(untaken_break + "#1 = 0\no102 do\n  #1 = [#1 + 1]\n  G1 X#1 F100\no102 while [#1 LT 3]\nM2\n");
+  ASSERT_TRUE(run.sink.has_errors());
+  EXPECT_EQ(run.sink.stored().front().code, "PP-E709") << codes(run.sink);
+  EXPECT_EQ(run.sink.stored().front().where.line, 12u) << codes(run.sink);
+  // Without the break line the do loop runs all its passes.
+  const auto plain = resolve_text("#4 = 0\no107 while [#4 LT 2]\n  #4 = [#4 + 1]\no107 endwhile\n"
+                                  "#1 = 0\no102 do\n  #1 = [#1 + 1]\n  G1 X#1 F100\no102 while [#1 LT 3]\nM2\n");
+  EXPECT_FALSE(plain.sink.has_errors()) << codes(plain.sink);
+  EXPECT_EQ(plain.r.text, "  G1 X1. F100\n  G1 X2. F100\n  G1 X3. F100\nM2\n");
+}
+
 // rs274 rounds a repeat count to the nearest integer, ties to even (checked with rs274 2.9).
 TEST(ResolveLinuxcnc, RepeatCountIsRoundedAsRs274) {
   for (const auto& [count, passes] : std::vector<std::pair<std::string, int>>{

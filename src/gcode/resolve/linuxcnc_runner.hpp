@@ -205,6 +205,9 @@ class Machine {
   [[noreturn]] void runaway(SourceFile& f, std::size_t i);
   /// PP-E709 at loop statement `l` (line i): a defect of rs274 2.9's loop handling (`what` it does)
   /// would decide the result; `instead` says how to write the loop.
+  /// A break of loop `oname` on a line strictly between `from` and `to` (rs274 carries it out when it
+  /// passes it while skipping to that loop's end).
+  bool break_between(SourceFile& f, std::size_t from, std::size_t to, const std::string& oname);
   double repeat_count(SourceFile& f, std::size_t i, const Line& l);
   [[noreturn]] void loop_defect(SourceFile& f, std::size_t i, const Line& l, std::string_view what,
                                 std::string_view instead);

@@ -338,6 +338,9 @@ std::size_t Machine::control(SourceFile& f, FileInfo& fi, std::size_t i, Line& l
       // rs274 skips to the endwhile; a continue left pending by a do loop goes back to this line
       // there, whose condition is still false: the loop ends and the pending continue is spent.
       do_continued_ = false;
+      // Skipping to its endwhile, rs274 carries out a 'break' of this loop it passes (the skip's
+      // name is the loop's own): doing_break is left set although no break was taken.
+      if (break_between(f, i, fi.end_of.at(i), l.oname)) while_broken_ = true;
       return fi.end_of.at(i) + 1;
     case Kw::endwhile: return fi.start_of.at(i);
     case Kw::do_:
@@ -397,8 +400,19 @@ std::size_t Machine::control(SourceFile& f, FileInfo& fi, std::size_t i, Line& l
       // rs274: a continue of a while loop is spent at its endwhile; one of a do loop stays pending
       // (doing_continue is cleared only at an endwhile or endrepeat the interpreter skips to).
       do_continued_ = ll.kw == Kw::do_;
-      if (ll.kw == Kw::while_) return loop;  // evaluate the condition again
-      return end;                            // do: its while line
+      // Skipping to the loop's end, rs274 carries out a 'break' of the same loop it passes: doing_break
+      // is set. A do loop then ends at its while line (doing_break cleared there); a while loop goes
+      // back all the same, with doing_break left set.
+      const bool passes_break = break_between(f, i, end, l.oname);
+      if (ll.kw == Kw::while_) {
+        if (passes_break) while_broken_ = true;
+        return loop;  // evaluate the condition again
+      }
+      if (passes_break) {
+        while_broken_ = false;
+        return end + 1;
+      }
+      return end;  // do: its while line
     }
     default: return i + 1;
   }
@@ -583,6 +597,16 @@ void Machine::check_restore(SourceFile& f, std::size_t i, Span at, const SavedSt
                         "written back into itself, subroutines kept), or save and restore at one call level{}",
                         what, between, context()));
   if (!capture.stored().empty()) r_.not_flat.push_back(capture.stored().front());
+}
+
+bool Machine::break_between(SourceFile& f, std::size_t from, std::size_t to, const std::string& oname) {
+  for (std::size_t k = from + 1; k < to; ++k) {
+    const std::string_view raw = f.raw(k);
+    if (raw.find_first_of("oO") == std::string_view::npos) continue;
+    const Line& x = line(f, k);
+    if (x.ok && x.kw == Kw::break_ && x.oname == oname) return true;
+  }
+  return false;
 }
 
 double Machine::repeat_count(SourceFile& f, std::size_t i, const Line& l) {
