@@ -139,4 +139,42 @@ std::optional<RoundingArc> rounding_arc(const Motion& m, const Motion& n, PlaneA
   return best;
 }
 
+namespace {
+bool is_arc(const Motion& m) { return m.type == MotionType::arc_cw || m.type == MotionType::arc_ccw; }
+Eigen::Vector2d in_plane(const Eigen::Vector3d& v, PlaneAxes p) { return {v[p.u], v[p.v]}; }
+Eigen::Vector2d in_plane(const AxisVector& v, PlaneAxes p) { return {v[p.u], v[p.v]}; }
+}  // namespace
+
+Motion round_corner(Motion& first, PlaneAxes p, const RoundingArc& ra, double r) {
+  Motion e = first;
+  const Eigen::Vector2d start = in_plane(first.start, p);
+  first.end[p.u] = ra.from.x();
+  first.end[p.v] = ra.from.y();
+  if (is_arc(first))
+    first.arc.sweep = sweep_between(in_plane(first.arc.centre, p), start, ra.from, first.type == MotionType::arc_ccw);
+  e.start = first.end;
+  e.end = first.end;
+  e.end[p.u] = ra.to.x();
+  e.end[p.v] = ra.to.y();
+  e.programmed = 0;
+  e.word_index.fill(-1);
+  e.words_transformed = true;
+  e.type = ra.ccw ? MotionType::arc_ccw : MotionType::arc_cw;
+  e.arc = ArcData{};
+  e.arc.centre = Eigen::Vector3d(e.start[0], e.start[1], e.start[2]);
+  e.arc.centre[p.u] = ra.centre.x();
+  e.arc.centre[p.v] = ra.centre.y();
+  e.arc.radius = r;
+  e.arc.sweep = sweep_between(ra.centre, ra.from, ra.to, ra.ccw);
+  return e;
+}
+
+void start_at(Motion& next, PlaneAxes p, const Eigen::Vector2d& at) {
+  next.start[p.u] = at.x();
+  next.start[p.v] = at.y();
+  if (is_arc(next))  // same centre, shorter sweep
+    next.arc.sweep = sweep_between(in_plane(next.arc.centre, p), at, in_plane(next.end, p),
+                                   next.type == MotionType::arc_ccw);
+}
+
 }  // namespace postproc::gcode

@@ -31,6 +31,13 @@ struct RoundingArc {
 [[nodiscard]] std::optional<RoundingArc> rounding_arc(const Motion& m, const Motion& n, PlaneAxes p, double r,
                                                       std::string& why, bool& stops);
 
+/// Shortens `first` to end at `ra.from` (an arc keeps its centre) and returns the rounding arc as a
+/// move with `first`'s modes and feed and no words of its own, from `ra.from` to `ra.to`, radius `r`.
+[[nodiscard]] Motion round_corner(Motion& first, PlaneAxes p, const RoundingArc& ra, double r);
+
+/// Makes `next` start at `at` in the plane (an arc keeps its centre and ends where it did).
+void start_at(Motion& next, PlaneAxes p, const Eigen::Vector2d& at);
+
 /// Signed sweep from `a` to `b` about `c` in the arc's direction, in (−2π, 2π).
 [[nodiscard]] double sweep_between(const Eigen::Vector2d& c, const Eigen::Vector2d& a, const Eigen::Vector2d& b,
                                    bool ccw);

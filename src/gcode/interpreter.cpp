@@ -650,7 +650,8 @@ void Interpreter::apply_modes(const Block& b, BlockWords& w) {
       default: break;
     }
   }
-  if (d_.id == DialectId::fanuc) {
+  constexpr std::uint32_t kTH = (1u << ('T' - 'A')) | (1u << ('H' - 'A'));
+  if (d_.id == DialectId::fanuc && (w.m_count != 0 || (w.letter_present & kTH) != 0)) {
     // Fanuc: T, H and M take whole numbers; a literal with a decimal point is alarm PS0007 "illegal
     // use of decimal point" (M3.0, T1.5). A G65/G66 macro call's H is an argument (decimals allowed).
     // (A variable's value there is rounded by the resolver: fanuc.cpp, whole_address.)

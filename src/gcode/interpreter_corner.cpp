@@ -37,14 +37,7 @@ struct StartFromCorner final : MotionSink {
       return;
     }
     Motion c = m;
-    c.start[plane.u] = start[plane.u];
-    c.start[plane.v] = start[plane.v];
-    if (c.type == MotionType::arc_cw || c.type == MotionType::arc_ccw) {
-      // The arc now starts at the rounding's tangent point on it: same centre, shorter sweep.
-      const Eigen::Vector2d ctr(c.arc.centre[plane.u], c.arc.centre[plane.v]);
-      c.arc.sweep = sweep_between(ctr, Eigen::Vector2d(c.start[plane.u], c.start[plane.v]),
-                                  Eigen::Vector2d(c.end[plane.u], c.end[plane.v]), c.type == MotionType::arc_ccw);
-    }
+    start_at(c, plane, Eigen::Vector2d(start[plane.u], start[plane.v]));  // an arc: its tangent point
     done = true;
     out.motion(c, b);
   }
@@ -95,30 +88,8 @@ void Interpreter::round_with_arcs(const Block& current, const Corner& c, Motion&
     else refuse(why);
     return;
   }
-  const double r = c.size_mm;
-  const Eigen::Vector2d s1(m.start[p.u], m.start[p.v]);
-  const Eigen::Vector2d q = ra->centre, k1 = ra->from, k2 = ra->to;
-  const double side = ra->ccw ? 1.0 : -1.0;
-  const bool m_arc = m.type != MotionType::linear;
-  Motion e = m;  // the rounding arc: the block's modes and feed, no words of its own
-  m.end[p.u] = k1.x();
-  m.end[p.v] = k1.y();
-  if (m_arc) m.arc.sweep = sweep_between(Eigen::Vector2d(m.arc.centre[p.u], m.arc.centre[p.v]), s1, k1, m.type == MotionType::arc_ccw);
-  e.start = m.end;
-  e.end = m.end;
-  e.end[p.u] = k2.x();
-  e.end[p.v] = k2.y();
+  Motion e = round_corner(m, p, *ra, c.size_mm);  // the block's modes and feed, no words of its own
   e.column = c.at.begin + 1;
-  e.programmed = 0;
-  e.word_index.fill(-1);
-  e.words_transformed = true;
-  e.type = side > 0 ? MotionType::arc_ccw : MotionType::arc_cw;
-  e.arc = ArcData{};
-  e.arc.centre = Eigen::Vector3d(e.start[0], e.start[1], e.start[2]);
-  e.arc.centre[p.u] = q.x();
-  e.arc.centre[p.v] = q.y();
-  e.arc.radius = r;
-  e.arc.sweep = sweep_between(q, k1, k2, side > 0);
   motions.push_back(e);
   corner_start_ = e.end;
 }

@@ -23,33 +23,10 @@ std::optional<Motion> rounding_with_arcs(Motion& a, Motion& c, PlaneAxes p, doub
     if (stops) why += " (the control stops with an error)";
     return std::nullopt;
   }
-  const auto centre_of = [&](const Motion& m) { return Eigen::Vector2d(m.arc.centre[p.u], m.arc.centre[p.v]); };
-  const auto is_arc = [](const Motion& m) { return m.type == MotionType::arc_cw || m.type == MotionType::arc_ccw; };
-  Motion m = a;
-  m.start = a.end;
-  m.start[p.u] = ra->from.x();
-  m.start[p.v] = ra->from.y();
-  m.end = m.start;
-  m.end[p.u] = ra->to.x();
-  m.end[p.v] = ra->to.y();
-  m.programmed = 0;
-  m.word_index.fill(-1);
+  Motion m = round_corner(a, p, *ra, size);
   m.known = c.known;
-  m.words_transformed = true;
-  m.type = ra->ccw ? MotionType::arc_ccw : MotionType::arc_cw;
-  m.arc = ArcData{};
-  m.arc.centre = m.start.head<3>();
-  m.arc.centre[p.u] = ra->centre.x();
-  m.arc.centre[p.v] = ra->centre.y();
-  m.arc.radius = size;
-  m.arc.sweep = sweep_between(ra->centre, ra->from, ra->to, ra->ccw);
-  const Eigen::Vector2d a_start(a.start[p.u], a.start[p.v]), c_end(c.end[p.u], c.end[p.v]);
-  a.end[p.u] = ra->from.x();
-  a.end[p.v] = ra->from.y();
-  if (is_arc(a)) a.arc.sweep = sweep_between(centre_of(a), a_start, ra->from, a.type == MotionType::arc_ccw);
   a.words_transformed = true;
-  c.start = m.end;
-  if (is_arc(c)) c.arc.sweep = sweep_between(centre_of(c), ra->to, c_end, c.type == MotionType::arc_ccw);
+  start_at(c, p, ra->to);
   c.words_transformed = true;
   return m;
 }

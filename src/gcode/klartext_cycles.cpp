@@ -29,7 +29,6 @@ int Interp::cycle_number(const Block& b, double& sub) const {
 void Interp::cycle_def(const Block& b) {
   double sub = 0;
   const int n = cycle_number(b, sub);
-  const Span at = b.tokens.front().span;
   switch (n) {
     case 7: return datum_shift(b, sub);
     case 8: {  // mirror: 8.1 with the mirrored axes, none = off

@@ -20,6 +20,8 @@ bool Interp::collect(const Block& b, Verb v, Words& w) {
     const std::string_view name = b.text(wd.name);
     const auto idx = static_cast<std::int16_t>(i);
     const std::string_view up = name;
+    const bool inc = up.size() == 2 && (up[0] == 'I' || up[0] == 'i') && axis_index(text::upper(up[1])) >= 0;
+    const int ax = up.size() == 1 ? axis_index(text::upper(up[0])) : inc ? axis_index(text::upper(up[1])) : -1;
     if (wd.kind != ValueKind::number) {
       const std::string_view value = b.text(wd.value);
       const std::string q = text::upper(value.substr(value.empty() || (value[0] != '+' && value[0] != '-') ? 0 : 1));
@@ -34,8 +36,6 @@ bool Interp::collect(const Block& b, Verb v, Words& w) {
                            : "",
                        q));
       // What the word sets is not known from here on: its axis, or the modal feed.
-      const bool inc_word = up.size() == 2 && (up[0] == 'I' || up[0] == 'i') && axis_index(text::upper(up[1])) >= 0;
-      const int ax = up.size() == 1 ? axis_index(text::upper(up[0])) : inc_word ? axis_index(text::upper(up[1])) : -1;
       if (ax >= 0 && v != Verb::m_only) w.present |= static_cast<AxisMask>(1u << ax);
       if (text::iequals(up, "PR") || text::iequals(up, "IPR") || text::iequals(up, "PA") || text::iequals(up, "IPA")) {
         const PlaneAxes pa = axes();  // a polar end point: both coordinates of the plane
@@ -45,8 +45,6 @@ bool Interp::collect(const Block& b, Verb v, Words& w) {
       ok = false;
       continue;
     }
-    const bool inc = up.size() == 2 && (up[0] == 'I' || up[0] == 'i') && axis_index(text::upper(up[1])) >= 0;
-    const int ax = up.size() == 1 ? axis_index(text::upper(up[0])) : inc ? axis_index(text::upper(up[1])) : -1;
     if (ax >= 0 && !(v == Verb::m_only)) {
       if (w.present & (1u << ax)) {
         error(b, wd.span, fmt::format("{} is programmed twice in one block", kAxisLetters[static_cast<std::size_t>(ax)]));

@@ -390,6 +390,7 @@ void Machine::prepare(SourceFile& f) {
                                f.raw(i).substr(l.control_span.begin, l.control_span.size())));
           throw Stop{};
         }
+        if (o != open.rend() && l.kw == Kw::break_) fi.breaks[o->line].push_back(i);
         break;
       }
       case Kw::endsub: close(f, fi, open, l, i, Kw::sub); break;

@@ -150,6 +150,7 @@ class Machine {
     std::map<std::size_t, std::size_t> end_of;    // sub → endsub, if → endif, while → endwhile, do → while, repeat → endrepeat
     std::map<std::size_t, std::size_t> start_of;  // the reverse, for closers
     std::map<std::size_t, std::vector<std::size_t>> branches;  // if → [elseif…, else…, endif]
+    std::map<std::size_t, std::vector<std::size_t>> breaks;    // while / do → its break lines, in order
   };
 
   // -- compile -------------------------------------------------------------------------------
@@ -203,12 +204,13 @@ class Machine {
   void close_tape(SourceFile& main);
   [[noreturn]] void endless(SourceFile& f, std::size_t i, const std::string& why);
   [[noreturn]] void runaway(SourceFile& f, std::size_t i);
+  /// A break of loop `loop` (its while / do line) on a line strictly between `from` and its end
+  /// (rs274 carries it out when it passes it while skipping to that loop's end).
+  static bool break_after(const FileInfo& fi, std::size_t loop, std::size_t from);
+  /// The count of a repeat line, rounded as rs274 rounds it.
+  double repeat_count(SourceFile& f, std::size_t i, const Line& l);
   /// PP-E709 at loop statement `l` (line i): a defect of rs274 2.9's loop handling (`what` it does)
   /// would decide the result; `instead` says how to write the loop.
-  /// A break of loop `oname` on a line strictly between `from` and `to` (rs274 carries it out when it
-  /// passes it while skipping to that loop's end).
-  bool break_between(SourceFile& f, std::size_t from, std::size_t to, const std::string& oname);
-  double repeat_count(SourceFile& f, std::size_t i, const Line& l);
   [[noreturn]] void loop_defect(SourceFile& f, std::size_t i, const Line& l, std::string_view what,
                                 std::string_view instead);
 

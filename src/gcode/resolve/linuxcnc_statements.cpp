@@ -340,7 +340,7 @@ std::size_t Machine::control(SourceFile& f, FileInfo& fi, std::size_t i, Line& l
       do_continued_ = false;
       // Skipping to its endwhile, rs274 carries out a 'break' of this loop it passes (the skip's
       // name is the loop's own): doing_break is left set although no break was taken.
-      if (break_between(f, i, fi.end_of.at(i), l.oname)) while_broken_ = true;
+      if (break_after(fi, i, i)) while_broken_ = true;
       return fi.end_of.at(i) + 1;
     case Kw::endwhile: return fi.start_of.at(i);
     case Kw::do_:
@@ -403,7 +403,7 @@ std::size_t Machine::control(SourceFile& f, FileInfo& fi, std::size_t i, Line& l
       // Skipping to the loop's end, rs274 carries out a 'break' of the same loop it passes: doing_break
       // is set. A do loop then ends at its while line (doing_break cleared there); a while loop goes
       // back all the same, with doing_break left set.
-      const bool passes_break = break_between(f, i, end, l.oname);
+      const bool passes_break = break_after(fi, loop, i);
       if (ll.kw == Kw::while_) {
         if (passes_break) while_broken_ = true;
         return loop;  // evaluate the condition again
@@ -599,14 +599,9 @@ void Machine::check_restore(SourceFile& f, std::size_t i, Span at, const SavedSt
   if (!capture.stored().empty()) r_.not_flat.push_back(capture.stored().front());
 }
 
-bool Machine::break_between(SourceFile& f, std::size_t from, std::size_t to, const std::string& oname) {
-  for (std::size_t k = from + 1; k < to; ++k) {
-    const std::string_view raw = f.raw(k);
-    if (raw.find_first_of("oO") == std::string_view::npos) continue;
-    const Line& x = line(f, k);
-    if (x.ok && x.kw == Kw::break_ && x.oname == oname) return true;
-  }
-  return false;
+bool Machine::break_after(const FileInfo& fi, std::size_t loop, std::size_t from) {
+  const auto it = fi.breaks.find(loop);
+  return it != fi.breaks.end() && it->second.back() > from;  // the lines lie inside the loop, in order
 }
 
 double Machine::repeat_count(SourceFile& f, std::size_t i, const Line& l) {
