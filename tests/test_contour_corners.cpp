@@ -76,6 +76,27 @@ TEST(ContourCorners, DefaultIsTheFiveMillisecondCornerTime) {
   EXPECT_NEAR(p.points[1].speed, kA * 0.005, 1e-9);  // Δv per axis = v ≤ a·t
 }
 
+TEST(ContourCorners, RepeatedPointIsPassedThrough) {
+  // "X20." twice (a block that repeats the point, common in CAM output): the planner joins the
+  // moves on either side of it (LinuxCNC's drops a zero-length segment), so the corner speed is
+  // that of the square's corner at both ends of the empty move, not a stop or a jump from rest.
+  for (const std::string corner : {"time", "tolerance"}) {
+    const mc::Machine m = machine("\n[interpolator]\ncorner = \"" + corner + "\"\n");
+    const ct::Path plain = path_of(square(), m);
+    const ct::Path p = path_of("G90 G54\nG0 X0 Y0 Z0\nG1 X20. F2000\nX20.\nY20.\nM30\n", m);
+    ASSERT_EQ(p.points.size(), 4u) << corner;
+    EXPECT_GT(plain.points[1].speed, 1.0) << corner;
+    EXPECT_NEAR(p.points[1].speed, plain.points[1].speed, 1e-9) << corner;
+    EXPECT_NEAR(p.points[2].speed, plain.points[1].speed, 1e-9) << corner;
+    EXPECT_NEAR(p.points[2].t, p.points[1].t, 1e-12) << corner;  // the empty move takes no time
+    EXPECT_NEAR(p.duration, plain.duration, 1e-9) << corner;
+  }
+  // A run that ends with a repeated point stops at the last real move's end.
+  const ct::Path q = path_of("G90 G54\nG0 X0 Y0 Z0\nG1 X20. F2000\nX20.\nM30\n", machine());
+  ASSERT_EQ(q.points.size(), 3u);
+  EXPECT_NEAR(q.points[1].speed, 0.0, 1e-12);
+}
+
 TEST(ContourCorners, CornerTimeFromTheMachineFile) {
   const ct::Path p = path_of(square(), machine("\n[interpolator]\ncorner = \"time\"\ncorner_time = \"12 ms\"\n"));
   EXPECT_NEAR(p.points[1].speed, kA * 0.012, 1e-9);

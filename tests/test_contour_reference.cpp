@@ -284,6 +284,27 @@ TEST(ContourReference, SinglePointRunsArePlainDistances) {
   EXPECT_THROW((void)ref.error(toy_pose(0, 0, 0, 0), 5), postproc::Error);  // no such point
 }
 
+TEST(ContourReference, RepeatedPointDoesNotHideACorner) {
+  // X 0 → 10, the point 10 again (a zero-length block), then Y 0 → 10 in 1 mm steps: the path
+  // turns 90° at (10, 0, 0). The repeated point must not hide the corner from the span cut (a
+  // cubic through it would overshoot): the actual tip on the straight first move is on the
+  // contour, and so is one on the second.
+  std::vector<kin::JointVector> pts;
+  for (int k = 0; k <= 10; ++k) pts.push_back(xyza(k, 0, 0, 0));
+  pts.push_back(xyza(10, 0, 0, 0));
+  for (int k = 1; k <= 10; ++k) pts.push_back(xyza(10, k, 0, 0));
+  const ToyHead head;
+  const ct::Reference ref(toy_path({pts}), head);
+  for (double x : {8.5, 9.2, 9.7, 9.95}) {
+    const ct::ContourError e = ref.error(toy_pose(x, 0, 0, 0), static_cast<std::size_t>(x));
+    EXPECT_LT(e.distance, 1e-6) << x;
+  }
+  for (double y : {0.05, 0.3, 0.8, 1.5}) {
+    const ct::ContourError e = ref.error(toy_pose(10, y, 0, 0), 12);
+    EXPECT_LT(e.distance, 1e-6) << y;
+  }
+}
+
 TEST(ContourReference, RejectsBadOptions) {
   const ToyHead head;
   const ct::Path p = toy_path({{xyza(0, 0, 0, 0), xyza(5, 0, 0, 0)}});

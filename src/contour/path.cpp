@@ -446,10 +446,19 @@ class Builder final : public gcode::BlockVisitor {
       kin::JointVector d = p_.points[i].q - p_.points[i - 1].q;
       return L > 0 ? kin::JointVector(d / L) : kin::JointVector(d * 0.0);
     };
+    // A move of zero length (a block that repeats the point) is passed through, not a stop: the
+    // junction around it joins the moves on either side of it (as LinuxCNC's planner drops such
+    // a segment), with both its ends at that speed. None on one side: the run starts or ends there.
+    const auto moving = [&](std::size_t i, std::ptrdiff_t step) -> std::size_t {  // 0: none
+      for (; i > b && i < e; i = static_cast<std::size_t>(static_cast<std::ptrdiff_t>(i) + step))
+        if (p_.segments[i].length > 0) return i;
+      return 0;
+    };
     for (std::size_t k = 1; k + 1 < n; ++k) {
-      const std::size_t i = b + k;
-      const double v = std::min(p_.segments[i].v_cruise, p_.segments[i + 1].v_cruise);
-      vj[k] = std::min(v, corner_speed(i, dir(i), dir(i + 1)));
+      const std::size_t i = b + k, s1 = moving(i, -1), s2 = moving(i + 1, 1);
+      if (s1 == 0 || s2 == 0) continue;  // vj[k] stays 0
+      const double v = std::min(p_.segments[s1].v_cruise, p_.segments[s2].v_cruise);
+      vj[k] = std::min(v, corner_speed(i, s1, s2, dir(s1), dir(s2)));
     }
     for (std::size_t k = n - 1; k-- > 1;) {  // backward: able to slow down in time
       const SegmentProfile& s = p_.segments[b + k + 1];
@@ -477,12 +486,14 @@ class Builder final : public gcode::BlockVisitor {
     p_.runs.push_back(Run{b, e});
   }
 
-  /// The highest speed through the junction at point i (between segments i and i+1, joint
-  /// directions d1, d2 = dq/ds) that the corner rule in force there allows (docs/contour.md "Corners").
-  double corner_speed(std::size_t i, const kin::JointVector& d1, const kin::JointVector& d2) const {
+  /// The highest speed through the junction at point i (between the moving segments s1 before
+  /// and s2 after it, joint directions d1, d2 = dq/ds) that the corner rule in force at i allows
+  /// (docs/contour.md "Corners").
+  double corner_speed(std::size_t i, std::size_t s1, std::size_t s2, const kin::JointVector& d1,
+                      const kin::JointVector& d2) const {
     const Blend& bl = blend_at_[i];
-    const Metric& m1 = metric_[i];
-    const Metric& m2 = metric_[i + 1];
+    const Metric& m1 = metric_[s1];
+    const Metric& m2 = metric_[s2];
     double v = std::numeric_limits<double>::infinity();
     if (bl.rule != machine::CornerRule::time && m1.tip == m2.tip && m1.length > 0 && m2.length > 0) {
       // A circular blend in the feed metric's space, tangent to both moves: radius R from the

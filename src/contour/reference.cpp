@@ -76,7 +76,7 @@ Reference::Reference(const Path& path, const kin::Model& model, const ReferenceO
     std::size_t span_begin = run.begin;
     for (std::size_t k = run.begin + 1; k < run.end; ++k) {
       const bool last = k + 1 == run.end;
-      if (!last && !corner(poses_, k, l, dup)) continue;
+      if (!last && !corner(poses_, k, run.end, l, dup)) continue;
       fit_span(span_begin, k + 1, l, dup, tips, markers);
       span_begin = k;
     }
@@ -84,14 +84,21 @@ Reference::Reference(const Path& path, const kin::Model& model, const ReferenceO
   }
 }
 
-bool Reference::corner(const std::vector<kin::Pose>& poses, std::size_t k, double l, double dup) {
-  const auto turn = [&](const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c) {
-    const Eigen::Vector3d u = b - a, v = c - b;
-    if (u.norm() <= dup || v.norm() <= dup) return false;
-    return u.normalized().dot(v.normalized()) < std::cos(kCornerDeg * kin::kDeg);
+bool Reference::corner(const std::vector<kin::Pose>& poses, std::size_t k, std::size_t end, double l, double dup) {
+  // The turn at k of one of the two curves (point of pose i: at(i)): from the move ending at k to
+  // the first later point that differs from k. Only the first of repeated points is a corner, so
+  // a span never holds nothing but copies of one point.
+  const auto turn = [&](auto at) {
+    const Eigen::Vector3d b = at(k), u = b - at(k - 1);
+    if (u.norm() <= dup) return false;
+    for (std::size_t j = k + 1; j < end; ++j) {
+      const Eigen::Vector3d v = at(j) - b;
+      if (v.norm() > dup) return u.normalized().dot(v.normalized()) < std::cos(kCornerDeg * kin::kDeg);
+    }
+    return false;
   };
-  const kin::Pose &a = poses[k - 1], &b = poses[k], &c = poses[k + 1];
-  return turn(a.p, b.p, c.p) || turn(a.p + l * a.axis(), b.p + l * b.axis(), c.p + l * c.axis());
+  return turn([&](std::size_t i) -> Eigen::Vector3d { return poses[i].p; }) ||
+         turn([&](std::size_t i) -> Eigen::Vector3d { return poses[i].p + l * poses[i].axis(); });
 }
 
 void Reference::fit_span(std::size_t begin, std::size_t end, double l, double dup, std::vector<Eigen::Vector3d>& tips,

@@ -121,8 +121,11 @@ class Reference {
   [[nodiscard]] const RunFit* run_of(std::size_t i) const;
   [[nodiscard]] ContourError error_in(const RunFit& span, const kin::Pose& actual, std::size_t hint,
                                       std::size_t toward, double fraction) const;
-  /// Whether the path turns by more than kCornerDeg at point k (tip or marker path).
-  [[nodiscard]] static bool corner(const std::vector<kin::Pose>& poses, std::size_t k, double l, double dup);
+  /// Whether the path turns by more than kCornerDeg at point k (tip or marker path), from the move
+  /// that ends at k to the next move of the run (before `end`) that leaves k: repeated points
+  /// (a zero-length block) do not hide a corner.
+  [[nodiscard]] static bool corner(const std::vector<kin::Pose>& poses, std::size_t k, std::size_t end, double l,
+                                   double dup);
   void fit_span(std::size_t begin, std::size_t end, double l, double dup, std::vector<Eigen::Vector3d>& tips,
                 std::vector<Eigen::Vector3d>& markers);
   std::vector<Run> path_runs_;
