@@ -43,7 +43,7 @@ struct CompensateArgs {
   bool in_place = false;
   std::size_t max_per_code = 20;
   int iterations = 12;
-  int refine_iterations = 8;
+  int refine_iterations = 16;
   std::string contour_split = "auto";
   bool quiet = false;
   bool flatten = false;

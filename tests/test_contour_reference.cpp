@@ -305,6 +305,22 @@ TEST(ContourReference, RepeatedPointDoesNotHideACorner) {
   }
 }
 
+TEST(ContourReference, FootPastASharpCornerIsOnTheNextSpan) {
+  // X 0 → 10 in 0.5 mm steps, then back at 160° (1 mm steps): a tool 0.45 mm past the corner,
+  // 1 µm above the path, searched from the corner point (which belongs to the first span). The
+  // first span's curve has a false local minimum 0.15 mm away, near its point before the corner;
+  // the foot is on the second span, 1 µm away (simulate once reported 204 µm there for one
+  // sample of a Siemens sample, which made the verification withhold a good correction).
+  std::vector<kin::JointVector> pts;
+  for (int k = 0; k <= 20; ++k) pts.push_back(xyza(0.5 * k, 0, 0, 0));
+  const Eigen::Vector2d d(std::cos(160 * kin::kDeg), std::sin(160 * kin::kDeg));
+  for (int j = 1; j <= 10; ++j) pts.push_back(xyza(10 + j * d.x(), j * d.y(), 0, 0));
+  const ToyHead head;
+  const ct::Reference ref(toy_path({pts}), head);
+  const ct::ContourError e = ref.error(toy_pose(10 + 0.45 * d.x(), 0.45 * d.y(), 0.001, 0), 20, 21, 0.45);
+  EXPECT_NEAR(e.distance, 0.001, 1e-6);
+}
+
 TEST(ContourReference, RejectsBadOptions) {
   const ToyHead head;
   const ct::Path p = toy_path({{xyza(0, 0, 0, 0), xyza(5, 0, 0, 0)}});

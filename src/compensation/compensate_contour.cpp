@@ -275,20 +275,22 @@ struct Refined {
 /// Refinement on the simulation (contour/learning_control.hpp), all runs at once: every round
 /// writes the trial commands (`write(commands)` → the text), reads them back and simulates the
 /// runs still refining (`simulate(text, equations, why, runs)` gathers their samples' normal
-/// equations); per run the step is taken where the run improves (none of its four figures worse, its largest error tip + L × axis
-/// or its RMS better by more than the noise), else halved; a run stops after
-/// LearningOptions::max_iterations steps, when a step gains less than the relative tolerance, or
-/// after max_halvings halvings in a row. `cur` (per path point) holds the start and receives the
-/// result. At most 2 × max_iterations + max_halvings rounds.
+/// equations); per run the step is taken where the run stays within `box` (none of its four
+/// figures above the program as received) and its merit (largest error tip + L × axis and RMS,
+/// each relative to the box's, summed) falls by more than the noise, else halved; a run stops
+/// after LearningOptions::max_iterations steps, when a step gains less than the relative
+/// tolerance of the merit, or after max_halvings halvings in a row. `cur` (per path point) holds
+/// the start and receives the result. At most 2 × max_iterations + max_halvings rounds.
 template <class Write, class Simulate>
 std::vector<Refined> refine(const contour::Path& path, std::vector<kin::JointVector>& cur,
-                            const std::vector<RunFigures>& start_figures, const contour::LearningOptions& lo,
+                            const std::vector<RunFigures>& start_figures, const std::vector<RunFigures>& box,
+                            const contour::LearningOptions& lo,
                             Write&& write, Simulate&& simulate) {
   // `simulate(text, equations, why, runs)`: runs == nullptr simulates every run, else the runs
   // marked (the trials of the runs still refining).
   const std::size_t runs = path.runs.size();
   std::vector<Refined> out(runs);
-  contour::SampleEquations eq_cur(path, lo.orientation_length_mm), eq_trial(path, lo.orientation_length_mm);
+  contour::SampleEquations eq_cur(path, lo.orientation_length_mm, lo.dynamic), eq_trial(path, lo.orientation_length_mm, lo.dynamic);
   std::string why;
   // Each run's tool-tip and tool-axis rows weighted by the inverse of the start's RMS of each (L ×
   // axis in mm; `start_figures`: the gate's simulation of the candidate each run starts from): the
@@ -337,7 +339,13 @@ std::vector<Refined> refine(const contour::Path& path, std::vector<kin::JointVec
       const RunFigures got = figures_of(*ts, r), was = fig[r];
       const double score = got.tip + L * got.axis, score_was = was.tip + L * was.axis;
       const double rms = got.tip_rms + L * got.axis_rms, rms_was = was.tip_rms + L * was.axis_rms;
-      if (not_worse(got, was) && (score < score_was - kTipNoiseMm || rms < rms_was - kTipNoiseMm)) {
+      // Taken when it stays within the box (no figure worse than the program as received, which
+      // the final choice requires) and lowers the merit: the largest error and the RMS, each
+      // relative to the box's, summed. One figure may rise on the way where the others fall more.
+      const RunFigures& b = box[r];
+      const double score_box = std::max(b.tip + L * b.axis, kTipNoiseMm), rms_box = std::max(b.tip_rms + L * b.axis_rms, kTipNoiseMm);
+      const double merit = score / score_box + rms / rms_box, merit_was = score_was / score_box + rms_was / rms_box;
+      if (not_worse(got, b) && merit < merit_was - kTipNoiseMm / score_box) {
         for (std::size_t i = run.begin; i < run.end; ++i) cur[i] = trial[i];
         fig[r] = out[r].figures = got;
         ++out[r].steps;
@@ -345,8 +353,7 @@ std::vector<Refined> refine(const contour::Path& path, std::vector<kin::JointVec
         fresh[r] = 1;
         alpha[r] = std::min(1.0, 2 * alpha[r]);
         halvings[r] = 0;
-        if (out[r].steps >= lo.max_iterations ||
-            (score_was - score < lo.relative_tolerance * score && rms_was - rms < lo.relative_tolerance * rms))
+        if (out[r].steps >= lo.max_iterations || merit_was - merit < lo.relative_tolerance * merit)
           active[r] = 0;
       } else {
         for (std::size_t i = run.begin; i < run.end; ++i) trial[i] = cur[i];
@@ -496,8 +503,8 @@ CompensateResult compensate_contour(const ProgramInput& program, const Compensat
       }
     }
     // Refinement on the simulation (contour/learning_control.hpp), from each run's choice: a run's
-    // step is taken only where the simulation of the written trial improves the run (none of its
-    // four figures worse, its largest error or RMS better), else halved.
+    // step is taken only where the simulation of the written trial keeps the run within the
+    // received program's figures and lowers its merit, else halved.
     if (po.learning_iterations > 0) {
       for (const contour::PathPoint& p : d.path.points) refined_commands.push_back(p.q);
       for (std::size_t run = 0; run < runs; ++run)
@@ -515,7 +522,9 @@ CompensateResult compensate_contour(const ProgramInput& program, const Compensat
                                         : choice[run] == Choice::iterated ? *sim_iterated
                                                                           : *before,
                                         run);
-      refined_steps = refine(d.path, refined_commands, start_figures, lo, write, [&](const std::string& written, contour::SampleEquations& eq,
+      std::vector<RunFigures> box(runs);
+      for (std::size_t run = 0; run < runs; ++run) box[run] = figures_of(*before, run);
+      refined_steps = refine(d.path, refined_commands, start_figures, box, lo, write, [&](const std::string& written, contour::SampleEquations& eq,
                                                                      std::string& because, const std::vector<char>* runs_to) {
         contour::SimulateOptions so;
         so.visit = [&eq](const contour::SampleVisit& v) { eq.add(v); };

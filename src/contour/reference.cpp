@@ -149,13 +149,17 @@ ContourError Reference::error(const kin::Pose& actual, std::size_t hint, std::si
   const RunFit* span = run_of(hint);
   ContourError e = error_in(*span, actual, hint, toward, fraction);
   // At a corner the neighbouring span of the same run (which shares the corner point) may hold
-  // the nearer foot.
+  // the nearer foot: where the foot or the place searched from is at the corner (a hint at the
+  // corner point belongs to the span before it, while the tool may already be past the corner:
+  // the span's curve then has its foot short of the corner, at a false local minimum).
   const auto si = static_cast<std::size_t>(span - runs_.data());
-  if (e.point + 1 == span->end && si + 1 < runs_.size() && runs_[si + 1].begin + 1 == span->end) {
+  const bool at_end = e.point + 1 == span->end || hint + 1 == span->end || toward + 1 >= span->end;
+  const bool at_begin = e.point == span->begin || hint == span->begin || toward <= span->begin;
+  if (at_end && si + 1 < runs_.size() && runs_[si + 1].begin + 1 == span->end) {
     const ContourError f = error_in(runs_[si + 1], actual, span->end - 1, span->end - 1, 0.0);
     if (f.distance < e.distance) e = f;
   }
-  if (e.point == span->begin && si > 0 && runs_[si - 1].end == span->begin + 1) {
+  if (at_begin && si > 0 && runs_[si - 1].end == span->begin + 1) {
     const ContourError f = error_in(runs_[si - 1], actual, span->begin, span->begin, 0.0);
     if (f.distance < e.distance) e = f;
   }

@@ -122,7 +122,7 @@ Simulation simulate(const Path& commanded, const Reference& ref, const kin::Mode
       previous_command = commanded_pose;
       const double w = 2 * (ref.pose_distance(pose, commanded_pose) + place.distance) + kWindowMarginMm;
       const ContourError ce = ref.error_within(pose, place, place.arc - w, place.arc + w);
-      if (opt.visit) opt.visit(SampleVisit{r, s.segment, s.fraction, y, model, ce});
+      if (opt.visit) opt.visit(SampleVisit{r, s.segment, s.fraction, y, model, ce, s.t, &commanded});
       const std::uint64_t line = commanded.points[s.segment].line;
       if (ce.distance > worst_tip) {
         worst_tip = ce.distance;

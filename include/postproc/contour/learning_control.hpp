@@ -17,8 +17,19 @@
 /// (Levenberg–Marquardt) and solved by block elimination along the run in O(points); then smoothed
 /// along the run like the iteration's shifts (correction_smoothing).
 ///
+/// With `dynamic` (the default of compensate since 2026-12-07) the samples are modelled through
+/// the drives instead: the commands between point times are linear, so a shift x_k of point k
+/// adds x_k·φ_k(t) to the command (φ_k the hat function of the point times t_{k−1}, t_k, t_{k+1})
+/// and, every drive being linear, x_k·ψ_k(t) to the actual joints, ψ_k = the drive's response to
+/// φ_k (a sum of three ramp responses, closed form: drive.hpp propagate). Every sample couples the
+/// points whose response has not died out (about 12 time constants of the slowest drive): banded
+/// normal equations, solved by sparse LDLᵀ. The step is the command shift itself (the dynamics are
+/// in the model: no lag is added, no smoothing), so a corner's transient, which varies faster than
+/// the quasi-static model can follow, is corrected by the pieces around it.
+///
 /// The caller (compensate_contour.cpp) simulates the written trial commands, takes each run's step
-/// only where its simulated figures improve, and halves it otherwise.
+/// only where its simulated figures stay within those of the program as received and their
+/// merit falls, and halves it otherwise.
 
 #include <vector>
 
@@ -28,7 +39,7 @@ namespace postproc::contour {
 
 struct LearningOptions {
   /// Accepted steps per run at most (0: no refinement).
-  int max_iterations = 8;
+  int max_iterations = 16;
   /// Halvings of a run's step after a trial that did not improve it, before the run stops.
   int max_halvings = 2;
   /// L of the orientation rows, mm per rad.
@@ -40,13 +51,18 @@ struct LearningOptions {
   /// A run stops when an accepted step improves its largest error and its RMS each by less than
   /// this fraction.
   double relative_tolerance = 0.01;
+  /// The samples' dependence on the shifts through the drives' responses (above) rather than the
+  /// quasi-static (1 − f)·x_a + f·x_b.
+  bool dynamic = true;
 };
 
 /// The normal equations of a correction of the path's correctable end points, gathered from the
 /// samples of a simulation of `path`'s commands (or of a program with the same points).
 class SampleEquations {
  public:
-  SampleEquations(const Path& path, double orientation_length_mm);
+  /// `dynamic`: the drives' responses couple the points (LearningOptions::dynamic); needs samples
+  /// that carry their time and path (SampleVisit::t, path), others are taken quasi-statically.
+  SampleEquations(const Path& path, double orientation_length_mm, bool dynamic = false);
   /// Weights of run r's tool-tip rows and tool-axis rows (default 1 and 1): e.g. the inverse of
   /// the run's RMS of each, so that the least squares lowers both in proportion rather than
   /// trading one for the other.
@@ -70,6 +86,14 @@ class SampleEquations {
   std::vector<double> diag_;       ///< per point: n × n block Σ w²·AᵀA (column-major)
   std::vector<double> off_;        ///< per point i: n × n block Σ w_i·w_{i+1}·AᵀA, coupling i and i + 1
   std::vector<double> grad_;       ///< per point: n-vector Σ w·Aᵀε
+  bool dynamic_ = false;
+  /// Dynamic model: per point i, the n × n blocks coupling i with i + 1, i + 2, … (as far as a
+  /// sample has coupled them), column-major, one after the other.
+  std::vector<std::vector<double>> band_;
+  double horizon_ = 0;             ///< s: a ramp response differs from its asymptote by < 1e-5 after this
+  void add_dynamic(const SampleVisit& s, const double* rows, const double* eps);
+  void solve_dynamic(const Run& run, const LearningOptions& opt, const std::vector<std::size_t>& idx,
+                     std::vector<kin::JointVector>& step) const;
 };
 
 }  // namespace postproc::contour

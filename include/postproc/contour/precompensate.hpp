@@ -55,7 +55,7 @@ struct PrecompensateOptions {
   bool invert_lag = true;
   /// Accepted steps per run of the refinement on the time-domain simulation after the
   /// verification (learning_control.hpp; compensate_contour.cpp runs it), 0: none.
-  int learning_iterations = 8;
+  int learning_iterations = 16;
   /// Told "contour: correcting" with the runs done of the runs (optional).
   Progress progress;
 };

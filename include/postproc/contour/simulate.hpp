@@ -22,6 +22,8 @@ struct SampleVisit {
   const kin::JointVector& actual;  ///< the drives' actual joints, mm / degrees
   const kin::Model& model;         ///< the calibrated model of the segment's controller context
   const ContourError& error;       ///< the actual pose's contour error against the reference
+  double t = 0;                    ///< the sample's time on the simulated path's clock (Path::points[i].t), s
+  const Path* path = nullptr;      ///< the simulated path (its point times), when the simulator gives it
 };
 
 struct SimulateOptions {
