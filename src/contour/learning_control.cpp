@@ -30,6 +30,10 @@ double ramp_response(const Drive& d, double tau, double horizon) {
   return tau - e.e;
 }
 
+/// The dynamic model is used on runs with at most this many points, on average, within the
+/// response horizon (learning_control.hpp).
+constexpr double kDynamicPointsPerHorizon = 24;
+
 /// Time constant of the slowest decaying mode of a drive's loop, s.
 double slowest_mode(const Drive& d) {
   const double T = d.velocity_loop_time;
@@ -53,9 +57,19 @@ SampleEquations::SampleEquations(const Path& path, double orientation_length_mm,
   diag_.assign(np * nn, 0.0);
   off_.assign(np * nn, 0.0);
   grad_.assign(np * static_cast<std::size_t>(n_), 0.0);
+  run_dynamic_.assign(path.runs.size(), 0);
   if (dynamic_) {
     band_.assign(np, {});
-    for (const Drive& d : path.drives) horizon_ = std::max(horizon_, 12 * slowest_mode(d));
+    for (const Drive& d : path.drives) horizon_ = std::max(horizon_, 8 * slowest_mode(d));
+    for (std::size_t r = 0; r < path.runs.size(); ++r) {
+      const Run& run = path.runs[r];
+      if (run.end - run.begin < 3 || run.end > np) continue;
+      const double duration = path.points[run.end - 1].t - path.points[run.begin].t;
+      run_dynamic_[r] = duration > 0 && static_cast<double>(run.end - run.begin - 1) * horizon_ / duration <=
+                                            kDynamicPointsPerHorizon
+                            ? 1
+                            : 0;
+    }
   }
 }
 
@@ -90,7 +104,8 @@ void SampleEquations::add(const SampleVisit& s) {
   Eigen::Matrix<double, 6, 1> eps;
   eps.head<3>() = wt * s.error.vector;
   eps.tail<3>() = wr * (tilt * s.error.rotation);
-  if (dynamic_ && s.path != nullptr && s.path->points.size() == correctable_.size()) {
+  if (s.run < run_dynamic_.size() && run_dynamic_[s.run] != 0 && s.path != nullptr &&
+      s.path->points.size() == correctable_.size()) {
     add_dynamic(s, rows.data(), eps.data());
     return;
   }
@@ -187,7 +202,10 @@ void SampleEquations::solve(const Run& run, const LearningOptions& opt, std::vec
       times.push_back(path.points[i].t);
     }
   if (idx.empty()) return;
-  if (dynamic_) return solve_dynamic(run, opt, idx, step);
+  const auto r = static_cast<std::size_t>(
+      std::upper_bound(path.runs.begin(), path.runs.end(), run.begin, [](std::size_t v, const Run& x) { return v < x.begin; }) -
+      path.runs.begin() - 1);
+  if (r < run_dynamic_.size() && run_dynamic_[r] != 0) return solve_dynamic(run, opt, idx, step);
   const auto diag = [&](std::size_t i) { return Eigen::Map<const Eigen::MatrixXd>(diag_.data() + i * nn, n, n); };
   const auto grad = [&](std::size_t i) {
     return Eigen::Map<const Eigen::VectorXd>(grad_.data() + i * static_cast<std::size_t>(n), n);

@@ -22,8 +22,11 @@
 /// adds x_k·φ_k(t) to the command (φ_k the hat function of the point times t_{k−1}, t_k, t_{k+1})
 /// and, every drive being linear, x_k·ψ_k(t) to the actual joints, ψ_k = the drive's response to
 /// φ_k (a sum of three ramp responses, closed form: drive.hpp propagate). Every sample couples the
-/// points whose response has not died out (about 12 time constants of the slowest drive): banded
-/// normal equations, solved by sparse LDLᵀ. The step is the command shift itself (the dynamics are
+/// points whose response has not died out (8 time constants of the slowest drive): banded
+/// normal equations, solved by sparse LDLᵀ. A run whose points are dense (more than
+/// kDynamicPointsPerHorizon on average within that time, e.g. CAM finishing output of short
+/// blocks) keeps the quasi-static model: there the shifts vary slowly against the drives, which
+/// that model follows, and the dynamic one would couple every sample with dozens of points. The step is the command shift itself (the dynamics are
 /// in the model: no lag is added, no smoothing), so a corner's transient, which varies faster than
 /// the quasi-static model can follow, is corrected by the pieces around it.
 ///
@@ -87,10 +90,11 @@ class SampleEquations {
   std::vector<double> off_;        ///< per point i: n × n block Σ w_i·w_{i+1}·AᵀA, coupling i and i + 1
   std::vector<double> grad_;       ///< per point: n-vector Σ w·Aᵀε
   bool dynamic_ = false;
+  std::vector<char> run_dynamic_;  ///< per run: the dynamic model is used (dynamic_ and the run's points sparse enough)
   /// Dynamic model: per point i, the n × n blocks coupling i with i + 1, i + 2, … (as far as a
   /// sample has coupled them), column-major, one after the other.
   std::vector<std::vector<double>> band_;
-  double horizon_ = 0;             ///< s: a ramp response differs from its asymptote by < 1e-5 after this
+  double horizon_ = 0;             ///< s: a ramp response differs from its asymptote by < 4e-4 of its lag after this
   void add_dynamic(const SampleVisit& s, const double* rows, const double* eps);
   void solve_dynamic(const Run& run, const LearningOptions& opt, const std::vector<std::size_t>& idx,
                      std::vector<kin::JointVector>& step) const;
