@@ -276,8 +276,8 @@ struct Refined {
 /// writes the trial commands (`write(commands)` → the text), reads them back and simulates the
 /// runs still refining (`simulate(text, equations, why, runs)` gathers their samples' normal
 /// equations); per run the step is taken where the run stays within `box` (none of its four
-/// figures above the program as received) and its merit (largest error tip + L × axis and RMS,
-/// each relative to the box's, summed) falls by more than the noise, else halved; a run stops
+/// figures above the program as received) and its merit (the four figures, each relative to the
+/// box's, summed) falls, else halved; a run stops
 /// after LearningOptions::max_iterations steps, when a step gains less than the relative
 /// tolerance of the merit, or after max_halvings halvings in a row. `cur` (per path point) holds
 /// the start and receives the result. At most 2 × max_iterations + max_halvings rounds.
@@ -304,7 +304,6 @@ std::vector<Refined> refine(const contour::Path& path, std::vector<kin::JointVec
   }
   const std::optional<contour::Simulation> sim = simulate(write(cur), eq_cur, why, nullptr);
   if (!sim) return out;
-  const double L = lo.orientation_length_mm;
   std::vector<RunFigures> fig(runs);
   std::vector<double> alpha(runs, 1.0);
   std::vector<int> halvings(runs, 0);
@@ -337,15 +336,17 @@ std::vector<Refined> refine(const contour::Path& path, std::vector<kin::JointVec
       const contour::Run& run = path.runs[r];
       ++out[r].trials;
       const RunFigures got = figures_of(*ts, r), was = fig[r];
-      const double score = got.tip + L * got.axis, score_was = was.tip + L * was.axis;
-      const double rms = got.tip_rms + L * got.axis_rms, rms_was = was.tip_rms + L * was.axis_rms;
       // Taken when it stays within the box (no figure worse than the program as received, which
-      // the final choice requires) and lowers the merit: the largest error and the RMS, each
-      // relative to the box's, summed. One figure may rise on the way where the others fall more.
+      // the final choice requires) and lowers the merit: the four figures (largest tool-tip and
+      // tool-axis errors, their RMS), each relative to the box's, summed. One figure may rise on
+      // the way where the others fall more.
       const RunFigures& b = box[r];
-      const double score_box = std::max(b.tip + L * b.axis, kTipNoiseMm), rms_box = std::max(b.tip_rms + L * b.axis_rms, kTipNoiseMm);
-      const double merit = score / score_box + rms / rms_box, merit_was = score_was / score_box + rms_was / rms_box;
-      if (not_worse(got, b) && merit < merit_was - kTipNoiseMm / score_box) {
+      const auto merit_of = [&](const RunFigures& f) {
+        return f.tip / std::max(b.tip, kTipNoiseMm) + f.tip_rms / std::max(b.tip_rms, kTipNoiseMm) +
+               f.axis / std::max(b.axis, kAxisNoiseRad) + f.axis_rms / std::max(b.axis_rms, kAxisNoiseRad);
+      };
+      const double merit = merit_of(got), merit_was = merit_of(was);
+      if (not_worse(got, b) && merit < merit_was - 1e-6) {
         for (std::size_t i = run.begin; i < run.end; ++i) cur[i] = trial[i];
         fig[r] = out[r].figures = got;
         ++out[r].steps;
@@ -522,8 +523,13 @@ CompensateResult compensate_contour(const ProgramInput& program, const Compensat
                                         : choice[run] == Choice::iterated ? *sim_iterated
                                                                           : *before,
                                         run);
+      // The box: no figure above the program as received nor above the candidate the run starts from.
       std::vector<RunFigures> box(runs);
-      for (std::size_t run = 0; run < runs; ++run) box[run] = figures_of(*before, run);
+      for (std::size_t run = 0; run < runs; ++run) {
+        const RunFigures b = figures_of(*before, run), s = start_figures[run];
+        box[run] = RunFigures{std::min(b.tip, s.tip), std::min(b.axis, s.axis), std::min(b.tip_rms, s.tip_rms),
+                              std::min(b.axis_rms, s.axis_rms)};
+      }
       refined_steps = refine(d.path, refined_commands, start_figures, box, lo, write, [&](const std::string& written, contour::SampleEquations& eq,
                                                                      std::string& because, const std::vector<char>* runs_to) {
         contour::SimulateOptions so;
