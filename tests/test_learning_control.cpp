@@ -16,6 +16,18 @@ namespace {
 namespace ct = postproc::contour;
 namespace kin = postproc::kin;
 
+/// The contour error that a joint shift `dq` at joints `q` would cancel: the pose change J·dq.
+ct::ContourError error_of_shift(const kin::Model& model, const kin::JointVector& q, const kin::JointVector& dq) {
+  const kin::Jacobian j = model.jacobian(q);
+  ct::ContourError e;
+  e.vector = j.topRows<3>() * dq;
+  e.rotation = j.bottomRows<3>() * dq;
+  e.distance = e.vector.norm();
+  e.angle = e.rotation.norm();
+  e.axis = Eigen::Vector3d::UnitZ();
+  return e;
+}
+
 /// Feeds `eq` the samples of every segment of run 0 at ten fractions each, with the contour error
 /// that the end-point shifts `x` (per path point; zero where the point is not correctable) would
 /// cancel under the learning model: the actual joints move by (1 − f)·x_a + f·x_b.
@@ -25,14 +37,7 @@ void feed(ct::SampleEquations& eq, const ct::Path& p, const kin::Model& model, c
     for (int k = 0; k < 10; ++k) {
       const double f = 0.05 + 0.1 * k;
       const kin::JointVector q = p.points[s - 1].q + f * (p.points[s].q - p.points[s - 1].q);
-      const kin::Jacobian j = model.jacobian(q);
-      const kin::JointVector shift = (1 - f) * x[s - 1] + f * x[s];
-      ct::ContourError e;
-      e.vector = j.topRows<3>() * shift;
-      e.rotation = j.bottomRows<3>() * shift;
-      e.distance = e.vector.norm();
-      e.angle = e.rotation.norm();
-      e.axis = Eigen::Vector3d::UnitZ();
+      const ct::ContourError e = error_of_shift(model, q, (1 - f) * x[s - 1] + f * x[s]);
       eq.add(ct::SampleVisit{0, s, f, q, model, e});
     }
 }
@@ -154,14 +159,7 @@ TEST(LearningControl, DynamicModelMatchesTheSimulatedDrives) {
   const auto solve = [&](bool dynamic) {
     ct::SampleEquations eq(p, 100, dynamic);
     for (std::size_t i = 0; i < a.size(); ++i) {
-      const kin::Jacobian j = model.jacobian(a[i].actual);
-      const kin::JointVector dy = b[i].actual - a[i].actual;
-      ct::ContourError e;
-      e.vector = j.topRows<3>() * dy;
-      e.rotation = j.bottomRows<3>() * dy;
-      e.distance = e.vector.norm();
-      e.angle = e.rotation.norm();
-      e.axis = Eigen::Vector3d::UnitZ();
+      const ct::ContourError e = error_of_shift(model, a[i].actual, b[i].actual - a[i].actual);
       eq.add(ct::SampleVisit{a[i].run, a[i].segment, a[i].fraction, a[i].actual, model, e, a[i].t, &p});
     }
     ct::LearningOptions opt;
