@@ -202,10 +202,10 @@ void SampleEquations::solve(const Run& run, const LearningOptions& opt, std::vec
       times.push_back(path.points[i].t);
     }
   if (idx.empty()) return;
-  const auto r = static_cast<std::size_t>(
+  const auto which = static_cast<std::size_t>(
       std::upper_bound(path.runs.begin(), path.runs.end(), run.begin, [](std::size_t v, const Run& x) { return v < x.begin; }) -
       path.runs.begin() - 1);
-  if (r < run_dynamic_.size() && run_dynamic_[r] != 0) return solve_dynamic(run, opt, idx, step);
+  if (which < run_dynamic_.size() && run_dynamic_[which] != 0) return solve_dynamic(run, opt, idx, step);
   const auto diag = [&](std::size_t i) { return Eigen::Map<const Eigen::MatrixXd>(diag_.data() + i * nn, n, n); };
   const auto grad = [&](std::size_t i) {
     return Eigen::Map<const Eigen::VectorXd>(grad_.data() + i * static_cast<std::size_t>(n), n);
