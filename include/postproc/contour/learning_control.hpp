@@ -53,7 +53,7 @@ struct LearningOptions {
   double damping = 1e-2;
   /// A run stops when an accepted step improves its largest error and its RMS each by less than
   /// this fraction.
-  double relative_tolerance = 0.01;
+  double relative_tolerance = 0.002;
   /// The samples' dependence on the shifts through the drives' responses (above) rather than the
   /// quasi-static (1 − f)·x_a + f·x_b.
   bool dynamic = true;
