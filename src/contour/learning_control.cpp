@@ -47,7 +47,7 @@ double slowest_mode(const Drive& d) {
 }  // namespace
 
 SampleEquations::SampleEquations(const Path& path, double orientation_length_mm, bool dynamic)
-    : path_(&path), length_(orientation_length_mm), n_(path.joints), dynamic_(dynamic) {
+    : path_(&path), length_(orientation_length_mm), n_(path.joints) {
   const std::size_t np = path.points.size(), nn = static_cast<std::size_t>(n_ * n_);
   correctable_.assign(np, 0);
   for (const Run& run : path.runs)
@@ -57,18 +57,17 @@ SampleEquations::SampleEquations(const Path& path, double orientation_length_mm,
   diag_.assign(np * nn, 0.0);
   off_.assign(np * nn, 0.0);
   grad_.assign(np * static_cast<std::size_t>(n_), 0.0);
-  run_dynamic_.assign(path.runs.size(), 0);
-  if (dynamic_) {
+  dynamic_at_.assign(np, 0);
+  if (dynamic) {
     band_.assign(np, {});
     for (const Drive& d : path.drives) horizon_ = std::max(horizon_, 8 * slowest_mode(d));
-    for (std::size_t r = 0; r < path.runs.size(); ++r) {
-      const Run& run = path.runs[r];
+    for (const Run& run : path.runs) {
       if (run.end - run.begin < 3 || run.end > np) continue;
       const double duration = path.points[run.end - 1].t - path.points[run.begin].t;
-      run_dynamic_[r] = duration > 0 && static_cast<double>(run.end - run.begin - 1) * horizon_ / duration <=
-                                            kDynamicPointsPerHorizon
-                            ? 1
-                            : 0;
+      const bool sparse = duration > 0 && static_cast<double>(run.end - run.begin - 1) * horizon_ / duration <=
+                                              kDynamicPointsPerHorizon;
+      std::fill(dynamic_at_.begin() + static_cast<std::ptrdiff_t>(run.begin),
+                dynamic_at_.begin() + static_cast<std::ptrdiff_t>(run.end), sparse ? 1 : 0);
     }
   }
 }
@@ -104,8 +103,7 @@ void SampleEquations::add(const SampleVisit& s) {
   Eigen::Matrix<double, 6, 1> eps;
   eps.head<3>() = wt * s.error.vector;
   eps.tail<3>() = wr * (tilt * s.error.rotation);
-  if (s.run < run_dynamic_.size() && run_dynamic_[s.run] != 0 && s.path != nullptr &&
-      s.path->points.size() == correctable_.size()) {
+  if (s.path != nullptr && s.path->points.size() == correctable_.size() && dynamic_at_[s.segment] != 0) {
     add_dynamic(s, rows.data(), eps.data());
     return;
   }
@@ -186,7 +184,7 @@ void SampleEquations::take_run(const SampleEquations& other, const Run& run) {
   std::copy(other.diag_.begin() + b * nn, other.diag_.begin() + e * nn, diag_.begin() + b * nn);
   std::copy(other.off_.begin() + b * nn, other.off_.begin() + e * nn, off_.begin() + b * nn);
   std::copy(other.grad_.begin() + b * n, other.grad_.begin() + e * n, grad_.begin() + b * n);
-  if (dynamic_ && other.band_.size() == band_.size())
+  if (other.band_.size() == band_.size())
     for (std::size_t i = run.begin; i < run.end && i < band_.size(); ++i) band_[i] = other.band_[i];
 }
 
@@ -202,10 +200,7 @@ void SampleEquations::solve(const Run& run, const LearningOptions& opt, std::vec
       times.push_back(path.points[i].t);
     }
   if (idx.empty()) return;
-  const auto which = static_cast<std::size_t>(
-      std::upper_bound(path.runs.begin(), path.runs.end(), run.begin, [](std::size_t v, const Run& x) { return v < x.begin; }) -
-      path.runs.begin() - 1);
-  if (which < run_dynamic_.size() && run_dynamic_[which] != 0) return solve_dynamic(run, opt, idx, step);
+  if (dynamic_at_[run.begin] != 0) return solve_dynamic(run, opt, idx, step);
   const auto diag = [&](std::size_t i) { return Eigen::Map<const Eigen::MatrixXd>(diag_.data() + i * nn, n, n); };
   const auto grad = [&](std::size_t i) {
     return Eigen::Map<const Eigen::VectorXd>(grad_.data() + i * static_cast<std::size_t>(n), n);

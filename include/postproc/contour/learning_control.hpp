@@ -26,9 +26,10 @@
 /// normal equations, solved by sparse LDLᵀ. A run whose points are dense (more than
 /// kDynamicPointsPerHorizon on average within that time, e.g. CAM finishing output of short
 /// blocks) keeps the quasi-static model: there the shifts vary slowly against the drives, which
-/// that model follows, and the dynamic one would couple every sample with dozens of points. The step is the command shift itself (the dynamics are
-/// in the model: no lag is added, no smoothing), so a corner's transient, which varies faster than
-/// the quasi-static model can follow, is corrected by the pieces around it.
+/// that model follows, and the dynamic one would couple every sample with dozens of points. The
+/// step is the command shift itself (the dynamics are in the model: no lag is added, no
+/// smoothing), so a corner's transient, which varies faster than the quasi-static model can
+/// follow, is corrected by the pieces around it.
 ///
 /// The caller (compensate_contour.cpp) simulates the written trial commands, takes each run's step
 /// only where its simulated figures stay within those of the program as received and their
@@ -51,8 +52,8 @@ struct LearningOptions {
   double smoothing = 0.5;
   /// Levenberg–Marquardt damping: added to the normal equations' diagonal, relative to it.
   double damping = 1e-2;
-  /// A run stops when an accepted step improves its largest error and its RMS each by less than
-  /// this fraction.
+  /// A run stops when an accepted step lowers its merit (compensate_contour.cpp: the four figures,
+  /// each relative to the box's, summed) by less than this fraction.
   double relative_tolerance = 0.002;
   /// The samples' dependence on the shifts through the drives' responses (above) rather than the
   /// quasi-static (1 − f)·x_a + f·x_b.
@@ -89,8 +90,7 @@ class SampleEquations {
   std::vector<double> diag_;       ///< per point: n × n block Σ w²·AᵀA (column-major)
   std::vector<double> off_;        ///< per point i: n × n block Σ w_i·w_{i+1}·AᵀA, coupling i and i + 1
   std::vector<double> grad_;       ///< per point: n-vector Σ w·Aᵀε
-  bool dynamic_ = false;
-  std::vector<char> run_dynamic_;  ///< per run: the dynamic model is used (dynamic_ and the run's points sparse enough)
+  std::vector<char> dynamic_at_;   ///< per point: its run uses the dynamic model (asked for, and the run's points sparse enough)
   /// Dynamic model: per point i, the n × n blocks coupling i with i + 1, i + 2, … (as far as a
   /// sample has coupled them), column-major, one after the other.
   std::vector<std::vector<double>> band_;
