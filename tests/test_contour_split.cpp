@@ -89,16 +89,25 @@ TEST(ContourSplit, BlocksWithOtherWordsStayWhole) {
   EXPECT_EQ(split_only(prog, pptest::mill()), prog);
 }
 
-// Inverse time (G93): F is the reciprocal of the block's time, so the pieces are equal and each
-// gets F times their count (the move keeps its duration). A move of 0.15 s (F400: 1/400 min) is
-// cut in 6 pieces of 0.025 s; a move longer than both spans (6 s) stays whole: equal pieces short
-// enough for its ends would be hundreds.
-TEST(ContourSplit, InverseTimeMovesAreSplitEvenlyWithTheirFeedScaled) {
-  const std::string prog = "G90 G54 G0 X0. Y0. Z0.\nG93\nG1 X6. F400.\nX66. F10.\nG94 G0 Z10.\nM30\n";
+// Inverse time (G93): F is the reciprocal of the block's time in minutes, so a piece that takes
+// the share s of the move's time gets F / s and the move keeps its duration (LinuxCNC G93, Fanuc
+// inverse time feed: the axes reach the end point in 1/F min, moving proportionally). A move of
+// 0.15 s (F400) is cut in 6 equal pieces of 0.025 s (F2400); a move of 6 s (F10) is split 0.1 s
+// from each end into pieces of 0.025 s, its middle piece taking 5.8 s (F = 10 · 6 / 5.8 = 10.345).
+// A feed-mode G code in the block (G93) is modal and set before the move: the block still splits.
+TEST(ContourSplit, InverseTimeMovesAreSplitWithTheirFeedScaledToThePieceTime) {
+  const std::string prog = "G90 G54 G0 X0. Y0. Z0.\nG93 G1 X6. F400.\nX66. F10.\nG94 G0 Z10.\nM30\n";
   const std::vector<std::string> l = lines_of(split_only(prog, pptest::mill()));
-  const std::vector<std::string> want = {"G90 G54 G0 X0. Y0. Z0.", "G93", "G1 X1. F2400.", "X2. F2400.", "X3. F2400.",
-                                         "X4. F2400.", "X5. F2400.", "X6. F2400.", "X66. F10.", "G94 G0 Z10.", "M30"};
+  const std::vector<std::string> want = {
+      "G90 G54 G0 X0. Y0. Z0.", "G93 G1 X1. F2400.", "X2. F2400.", "X3. F2400.",     "X4. F2400.",
+      "X5. F2400.",             "X6. F2400.",        "X6.25 F2400.", "X6.5 F2400.", "X6.75 F2400.",
+      "X7. F2400.",             "X65. F10.345",      "X65.25 F2400.", "X65.5 F2400.", "X65.75 F2400.",
+      "X66. F2400.",            "G94 G0 Z10.",       "M30"};
   EXPECT_EQ(l, want);
+  // The pieces of the 6 s move take 6 s as written (F rounded to 3 decimals: within 0.2 ms).
+  double minutes = 0;
+  for (std::size_t i = 7; i + 2 < l.size(); ++i) minutes += 1 / std::stod(l[i].substr(l[i].find('F') + 1));
+  EXPECT_NEAR(minutes * 60, 6.0, 2e-4);
 }
 
 // Arcs in a run are written as chords within max_deviation / 2 (0.5 µm), every chord a block.

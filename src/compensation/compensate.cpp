@@ -27,7 +27,8 @@ void Compensator::write_end(const Block& b, const Motion& m, gcode::BlockEditor&
 }
 
 void Compensator::write_segments(const Block& b, const Motion& m, gcode::BlockEditor& ed,
-                                 const std::vector<Command>& pts, const Command& out) {
+                                 const std::vector<Command>& pts, const std::vector<double>& fractions,
+                                 const Command& out) {
   // The block keeps its words and moves to the first point; the other points follow as new
   // lines of the same motion (inverse-time feeds scaled so the block keeps its duration).
   if (m.words_transformed) {
@@ -41,8 +42,16 @@ void Compensator::write_segments(const Block& b, const Motion& m, gcode::BlockEd
     return;
   }
   const std::uint64_t n = pts.size() + 1;
-  const WordWriter::Outcome o = writer_.rewrite(b, m, mask_, written_, written_known_, pts.front(), ed,
-                                                m.feed_mode == gcode::FeedMode::inverse_time ? n : 0);
+  // Inverse time (G93): piece i takes its share of the move's time, so its F is the block's
+  // divided by that share (the piece count for equal pieces).
+  const bool g93 = m.feed_mode == gcode::FeedMode::inverse_time;
+  const auto scale = [&](std::size_t i) {
+    if (!g93) return 0.0;
+    if (fractions.size() != pts.size()) return static_cast<double>(n);
+    const double from = i == 0 ? 0.0 : fractions[i - 1], to = i < fractions.size() ? fractions[i] : 1.0;
+    return 1 / (to - from);
+  };
+  const WordWriter::Outcome o = writer_.rewrite(b, m, mask_, written_, written_known_, pts.front(), ed, scale(0));
   if (!o.ok) {
     refuse(b, o.column, kRefused, o.why);
     written_known_ = 0;
@@ -55,7 +64,7 @@ void Compensator::write_segments(const Block& b, const Motion& m, gcode::BlockEd
   for (std::size_t i = 1; i <= pts.size(); ++i) {
     const Command& p = i < pts.size() ? pts[i] : out;
     std::optional<std::string> line =
-        writer_.segment_line(b, m, mask_, prev, p, m.feed_mode == gcode::FeedMode::inverse_time ? n : 0);
+        writer_.segment_line(b, m, mask_, prev, p, scale(i));
     if (!line) {
       refuse(b, m.column, kRefused,
              "a segment of this subdivided move cannot be written under the rotary axis's roll-over rule "

@@ -75,6 +75,11 @@ bool Compensator::splittable(const Block& b, const Motion& m, const ProgramMap& 
     if (!gcode::plain_letter(w) || w.kind != gcode::ValueKind::number) return false;
     if (w.letter == 'F') continue;
     if (w.letter == 'G' && g != nullptr && g->word == i) continue;
+    // The feed mode (G93 / G94 / G95) is modal and set before the move: it holds for every piece.
+    if (w.letter == 'G' && std::any_of(track_.block_g.begin(), track_.block_g.end(), [&](const auto& bg) {
+          return bg.word == i && bg.def != nullptr && bg.def->group == gcode::GGroup::feed_mode;
+        }))
+      continue;
     if (const int a = track_.axis_of(w); a >= 0 && ((mask_ >> a) & 1u)) continue;
     if ((w.letter == 'I' || w.letter == 'J' || w.letter == 'K') && map.form() == Form::tcp_vector)
       continue;
@@ -104,9 +109,6 @@ std::vector<double> Compensator::split_fractions(const Motion& m) const {
   else if (m.feed_mode == gcode::FeedMode::per_minute) t = std::sqrt(len2) * 60.0 / m.feed;
   if (!(t > s.step_s)) return {};
   std::vector<double> f;
-  // Inverse time: equal pieces only (write_segments scales every piece's F by their count), so
-  // a move longer than both spans is not split (its pieces would all be short).
-  if (m.feed_mode == gcode::FeedMode::inverse_time && t > 2 * s.span_s) return {};
   if (t <= 2 * s.span_s) {
     const auto n = static_cast<std::uint32_t>(std::min(std::ceil(t / s.step_s), 256.0));
     for (std::uint32_t i = 1; i < n; ++i) f.push_back(static_cast<double>(i) / n);
@@ -118,15 +120,11 @@ std::vector<double> Compensator::split_fractions(const Motion& m) const {
   return f;
 }
 
-void Compensator::split_for_contour(const Motion& m, const ProgramMap& map, const Command& out, std::vector<Command>& pts) {
+void Compensator::split_for_contour(const Motion& m, const ProgramMap& map, const Command& out, std::vector<Command>& pts,
+                                    std::vector<double>& fractions) {
   std::vector<double> f = split_fractions(m);
   if (f.empty()) return;
   const std::size_t n = pts.size() + 1;
-  if (m.feed_mode == gcode::FeedMode::inverse_time) {  // equal pieces, a multiple of the subdivision's
-    const std::size_t k = (f.size() + 1 + n - 1) / n;
-    f.clear();
-    for (std::size_t i = 1; i < k * n; ++i) f.push_back(static_cast<double>(i) / static_cast<double>(k * n));
-  }
   for (std::size_t i = 1; i < n; ++i) f.push_back(static_cast<double>(i) / static_cast<double>(n));
   std::sort(f.begin(), f.end());
   f.erase(std::unique(f.begin(), f.end(), [](double a, double b) { return b - a < 1e-9; }), f.end());
@@ -150,6 +148,7 @@ void Compensator::split_for_contour(const Motion& m, const ProgramMap& map, cons
     t_prev = t;
   }
   pts = std::move(cand);
+  fractions = std::move(f);
   ++r_.moves_split;
 }
 
@@ -209,7 +208,7 @@ bool Compensator::linearize_arc(const Block& b, const Motion& m, const ProgramMa
     for (std::size_t i = 0; i < b.words.size(); ++i)
       if (gcode::plain_letter(b.words[i]) && b.words[i].letter == 'R') ed.remove_word(i);
     ++r_.arcs_linearized;
-    write_segments(b, m, ed, pts, out);
+    write_segments(b, m, ed, pts, {}, out);
     return !block_error_;
   }
   if (const auto* g = track_.block_motion()) {
@@ -231,7 +230,7 @@ bool Compensator::linearize_arc(const Block& b, const Motion& m, const ProgramMa
     if (centre || turns || cr) ed.remove_word(i);
   }
   ++r_.arcs_linearized;
-  write_segments(b, m, ed, pts, out);
+  write_segments(b, m, ed, pts, {}, out);
   return !block_error_;
 }
 

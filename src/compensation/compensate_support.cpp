@@ -122,6 +122,20 @@ int vector_word(const Block& b, int k, bool siemens, bool klartext = false) {
 
 std::uint32_t column_of(const Word& w) { return w.span.begin + 1; }
 
+/// Decimals of an inverse-time F written for a piece of a split move (the piece's share of the
+/// block's time is 1/F min; at 3 decimals an F of 4 or more is off by at most 1.3e-4 of its time,
+/// and the contour stage simulates the F as written).
+constexpr int kInverseTimeDecimals = 3;
+
+/// Decimals for a scaled inverse-time F written in the style of the block's own F (`decimals`):
+/// those, when the value is exact in them (an F4. scaled by a piece count), else at least
+/// kInverseTimeDecimals.
+int inverse_time_decimals(double f, int decimals) {
+  const double s = gcode::decimal_scale(decimals);
+  if (std::abs(f * s - std::round(f * s)) < 1e-9 * std::max(1.0, std::abs(f * s))) return decimals;
+  return std::max(decimals, kInverseTimeDecimals);
+}
+
 /// A literal with ',' as its decimal separator (Klartext files often carry one) read with '.'.
 std::string comma_to_point(std::string_view t) {
   std::string s(t);
@@ -157,7 +171,7 @@ std::string WordWriter::rollover_refusal(int a, double target, double from) cons
 
 WordWriter::Outcome WordWriter::rewrite(const Block& b, const Motion& m, gcode::AxisMask mask, const AxisVector& start,
                                         gcode::AxisMask start_known, const Command& target, gcode::BlockEditor& ed,
-                                        std::uint64_t g93_segments) {
+                                        double g93_scale) {
   Outcome o;
   for (const Word& w : b.words)
     if (w.letter == '@' || w.letter == '^') {
@@ -308,11 +322,11 @@ WordWriter::Outcome WordWriter::rewrite(const Block& b, const Motion& m, gcode::
       ++o.changed;
     }
   }
-  if (g93_segments > 1) {
+  if (g93_scale > 1) {
     int fw = -1;
     for (std::size_t i = 0; i < b.words.size(); ++i)
       if (gcode::plain_letter(b.words[i]) && b.words[i].letter == 'F') fw = static_cast<int>(i);
-    const double f = m.feed * static_cast<double>(g93_segments);
+    const double f = m.feed * g93_scale;
     if (fw >= 0) {
       const auto lit = gcode::literal_span(b, b.words[static_cast<std::size_t>(fw)]);
       if (!lit) {
@@ -321,7 +335,7 @@ WordWriter::Outcome WordWriter::rewrite(const Block& b, const Motion& m, gcode::
         return o;
       }
       const gcode::NumberStyle st = gcode::detect_style(b.text(*lit));
-      ed.replace(*lit, gcode::format_number(f, st, st.decimals, d_.decimal_point_required));
+      ed.replace(*lit, gcode::format_number(f, st, inverse_time_decimals(f, st.decimals), d_.decimal_point_required));
     } else {
       ed.insert_after(anchor, sep + "F" + gcode::format_number(f, default_style(), 3, d_.decimal_point_required));
     }
@@ -330,7 +344,7 @@ WordWriter::Outcome WordWriter::rewrite(const Block& b, const Motion& m, gcode::
 }
 
 std::optional<std::string> WordWriter::segment_line(const Block& b, const Motion& m, gcode::AxisMask mask, const AxisVector& from,
-                                     const Command& to, std::uint64_t g93_segments) {
+                                     const Command& to, double g93_scale) {
   const std::string sep = word_separator(b);
   std::string line;
   if (b.block_delete) line = std::string(b.text(b.block_delete_span)) + sep;
@@ -365,8 +379,8 @@ std::optional<std::string> WordWriter::segment_line(const Block& b, const Motion
       add(vector_name(k) +
           decimal_mark(b, gcode::format_number(to.vector[k], insert_style(), 6, d_.decimal_point_required)));
   }
-  if (g93_segments > 1)
-    add("F" + gcode::format_number(m.feed * static_cast<double>(g93_segments), default_style(), 3,
+  if (g93_scale > 1)
+    add("F" + gcode::format_number(m.feed * g93_scale, default_style(), kInverseTimeDecimals,
                                    d_.decimal_point_required));
   for (const gcode::Token& t : b.tokens)
     if (t.kind == gcode::TokenKind::block_end) add("*");

@@ -106,16 +106,18 @@ class WordWriter {
   };
   /// Rewrites the block's words for `mask` (and the tool vector for vector forms) so that the
   /// block ends at `target`. `start`: the corrected position the controller holds before the
-  /// block (valid where `start_known`), for incremental words and absent axes. `g93_segments` > 0:
-  /// inverse-time F multiplied by it (the move is split into that many segments).
+  /// block (valid where `start_known`), for incremental words and absent axes. `g93_scale` > 0:
+  /// inverse-time F multiplied by it (the block is the first piece of a split move and takes
+  /// 1 / g93_scale of the move's time: the piece count for equal pieces).
   Outcome rewrite(const gcode::Block& b, const gcode::Motion& m, gcode::AxisMask mask, const gcode::AxisVector& start,
                   gcode::AxisMask start_known, const Command& target, gcode::BlockEditor& ed,
-                  std::uint64_t g93_segments = 0);
-  /// A new line continuing the block's motion from `from` to `to`; nullopt when a rotary word
-  /// cannot be written under its axis's roll-over rule.
+                  double g93_scale = 0);
+  /// A new line continuing the block's motion from `from` to `to` (`g93_scale` > 0: its inverse-time
+  /// F is the block's multiplied by it, the piece taking that share of the move's time); nullopt when
+  /// a rotary word cannot be written under its axis's roll-over rule.
   std::optional<std::string> segment_line(const gcode::Block& b, const gcode::Motion& m, gcode::AxisMask mask,
                                           const gcode::AxisVector& from, const Command& to,
-                                          std::uint64_t g93_segments);
+                                          double g93_scale);
 
  private:
   /// The style of inserted words and new lines: plain, leading zero, trimmed trailing zeros.

@@ -492,16 +492,17 @@ class Compensator final : public gcode::BlockVisitor {
     }
     // Subdivide feed moves whose joint-space interpolation would leave the intended path.
     std::vector<Command> points;
+    std::vector<double> fractions;  // where the points are along the move; empty: equal pieces
     bool subdivided = false;
     if (m.type == MotionType::linear && (written_known_ & mask_) == mask_ && (m.known & mask_) == mask_) {
       if (!subdivide(b, m, map, out, points)) return;
       subdivided = !points.empty();
-      if (opt_.split.step_s > 0 && splittable(b, m, map)) split_for_contour(m, map, out, points);
+      if (opt_.split.step_s > 0 && splittable(b, m, map)) split_for_contour(m, map, out, points, fractions);
     }
     if (m.type != MotionType::rapid && !arc) restore_arc_mode(b, ed);
     if (!points.empty()) {
       if (subdivided) ++r_.subdivided_blocks;
-      write_segments(b, m, ed, points, out);
+      write_segments(b, m, ed, points, fractions, out);
     } else {
       write_end(b, m, ed, out);
     }
@@ -642,8 +643,9 @@ class Compensator final : public gcode::BlockVisitor {
   }
 
   /// The contour candidate splits only plain moves: the block holds nothing but its motion word,
-  /// axis words, F, a tool vector (I J K under G43.5-like forms) and comments (Klartext: the L
-  /// verb and its words), all literal numbers, and is not block-deleted. Anything else (G9's exact
+  /// axis words, F, a feed-mode G code (G93 / G94 / G95: modal, in force from the first piece on),
+  /// a tool vector (I J K under G43.5-like forms) and comments (Klartext: the L verb and its
+  /// words), all literal numbers, and is not block-deleted. Anything else (G9's exact
   /// stop, M functions, S T D H, other G codes, radius compensation) would act at the first
   /// piece instead of the move's end, or is left to the geometric stage's own rules.
   [[nodiscard]] bool splittable(const Block& b, const Motion& m, const ProgramMap& map) const;
@@ -654,9 +656,11 @@ class Compensator final : public gcode::BlockVisitor {
   [[nodiscard]] std::vector<double> split_fractions(const Motion& m) const;
   /// Adds the contour candidate's split points to `pts` (the subdivision's, equal pieces): each
   /// corrected through the remap, every new piece checked against the intended path as the
-  /// subdivision's are. Leaves `pts` as it was when a point cannot be corrected or a piece leaves
-  /// the path.
-  void split_for_contour(const Motion& m, const ProgramMap& map, const Command& out, std::vector<Command>& pts);
+  /// subdivision's are; `fractions` receives where each point is along the move (G93 pieces take
+  /// those shares of the block's time). Leaves both as they were when a point cannot be corrected
+  /// or a piece leaves the path.
+  void split_for_contour(const Motion& m, const ProgramMap& map, const Command& out, std::vector<Command>& pts,
+                         std::vector<double>& fractions);
 
   static Command lerp(const Command& a, const Command& b, double t) {
     Command c;
@@ -689,8 +693,11 @@ class Compensator final : public gcode::BlockVisitor {
   }
 
   void write_end(const Block& b, const Motion& m, gcode::BlockEditor& ed, const Command& out);
+  /// The block ends at pts.front(), new lines continue to the other points and `out`.
+  /// `fractions`: where each point is along the move (empty: equal pieces); an inverse-time F is
+  /// scaled per piece so that every piece takes its share of the block's time.
   void write_segments(const Block& b, const Motion& m, gcode::BlockEditor& ed, const std::vector<Command>& pts,
-                      const Command& out);
+                      const std::vector<double>& fractions, const Command& out);
 
   std::string_view file_;
   const gcode::Dialect& d_;
