@@ -279,8 +279,9 @@ struct Refined {
 /// figures above the program as received) and its merit (the four figures, each relative to the
 /// box's, summed) falls, else halved; a run stops
 /// after LearningOptions::max_iterations steps, when a step gains less than the relative
-/// tolerance of the merit, or after max_halvings halvings in a row. `cur` (per path point) holds
-/// the start and receives the result. At most 2 × max_iterations + max_halvings rounds.
+/// tolerance of the merit, or after max_halvings halvings in a row; a halved step keeps its length
+/// for the run's later steps. `cur` (per path point) holds the start and receives the result. At
+/// most 2 × max_iterations + max_halvings rounds (a cap on the whole refinement).
 template <class Write, class Simulate>
 std::vector<Refined> refine(const contour::Path& path, std::vector<kin::JointVector>& cur,
                             const std::vector<RunFigures>& start_figures, const std::vector<RunFigures>& box,
@@ -352,7 +353,8 @@ std::vector<Refined> refine(const contour::Path& path, std::vector<kin::JointVec
         ++out[r].steps;
         eq_cur.take_run(eq_trial, run);
         fresh[r] = 1;
-        alpha[r] = std::min(1.0, 2 * alpha[r]);
+        // The step length stays where it was taken: a step that needed halving is most likely
+        // refused again at twice its length (a round lost per step).
         halvings[r] = 0;
         if (out[r].steps >= lo.max_iterations || merit_was - merit < lo.relative_tolerance * merit)
           active[r] = 0;
