@@ -9,6 +9,7 @@
 
 #include "common.hpp"
 #include "progress_bar.hpp"
+#include "postproc/compensation/compensate.hpp"
 #include "postproc/contour/report.hpp"
 #include "postproc/io/input_file.hpp"
 #include "postproc/machine/machine.hpp"
@@ -26,13 +27,17 @@ struct Loaded {
   contour::Path path;
 };
 
+/// `own_contour`: the program's own path is the contour its errors are measured against (predict;
+/// simulate without --reference): a program written by compensate's contour modes is warned
+/// about (PP-W622).
 std::optional<Loaded> load(const std::string& program, const std::string& machine_file, std::size_t max_per_code,
-                           const ResolveArgs& resolve, int& rc) {
+                           const ResolveArgs& resolve, int& rc, std::string_view own_contour = {}) {
   machine::Machine m = load_or_refuse(machine_file, max_per_code);
   gcode::DiagnosticSink sink;
   DiagnosticPrinter printer(sink, max_per_code);
   gcode::Dialect d = *gcode::make_dialect(m.dialect_name, m.dialect_options);
   Loaded l{std::move(m), d, io::read_file(program, "NC program"), {}};
+  if (!own_contour.empty()) comp::warn_servo_precompensated(l.text, program, own_contour, sink);
   l.path = contour::build_path(l.text, program, l.dialect, l.machine, contour::PathOptions{}, sink,
                                make_resolve_options(resolve));
   printer.finish();
@@ -93,7 +98,7 @@ void setup_predict(CLI::App& app, int& rc) {
     if (!(o->marker_length_mm > 0)) throw Error(ExitCode::usage, "--marker-length must be a positive length in mm");
     ProgressBar bar("postproc: predict:");
     bar.update("reading the path", 0, 0);
-    auto l = load(o->input, o->machine, o->max_per_code, o->resolve, rc);
+    auto l = load(o->input, o->machine, o->max_per_code, o->resolve, rc, "predict");
     if (!l) return;
     contour::ReferenceOptions ropt;
     ropt.marker_length_mm = o->marker_length_mm;
@@ -162,7 +167,8 @@ void setup_simulate(CLI::App& app, int& rc) {
     if (!(o->settle_s >= 0)) throw Error(ExitCode::usage, "--settle must be a time ≥ 0 in s");
     ProgressBar bar("postproc: simulate:");
     bar.update("reading the path", 0, 0);
-    auto l = load(o->input, o->machine, o->max_per_code, o->resolve, rc);
+    auto l = load(o->input, o->machine, o->max_per_code, o->resolve, rc,
+                  o->reference.empty() ? std::string_view("simulate without --reference") : std::string_view());
     if (!l) return;
     std::optional<Loaded> ref_prog;
     if (!o->reference.empty()) {

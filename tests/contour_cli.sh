@@ -48,8 +48,18 @@ check_sample() {  # name program machine
   [[ $(tail -3 "$prog") == $(tail -3 "$T/$name.c") ]] || fail "$name: the program end changed"
 
   "$P" simulate "$prog" -m "$mach" --json "$T/$name.s0.json" 2> /dev/null || fail "$name: simulate (original) failed"
-  "$P" simulate "$T/$name.c" --reference "$prog" -m "$mach" --json "$T/$name.s1.json" 2> /dev/null ||
+  "$P" simulate "$T/$name.c" --reference "$prog" -m "$mach" --json "$T/$name.s1.json" 2> "$T/$name.s1.err" ||
     fail "$name: simulate (compensated) failed"
+  grep -q "PP-W622" "$T/$name.s1.err" && fail "$name: PP-W622 with --reference"
+  # Without --reference the written program is measured against its own (lead) points: warned at
+  # its header line (PP-W622), which names the machine file for the command to run instead.
+  local hl
+  hl=$(grep -n 'compensate mode=contour' "$T/$name.c" | head -1 | cut -d: -f1)
+  for cmd in simulate predict; do
+    "$P" $cmd "$T/$name.c" -m "$mach" 2> "$T/$name.own.err" > /dev/null || fail "$name: $cmd (compensated) failed"
+    grep -q "$name.c:$hl:[0-9]*: warning: PP-W622: .*--reference ORIGINAL" "$T/$name.own.err" ||
+      fail "$name: $cmd of the compensated program without a located PP-W622: $(head -2 "$T/$name.own.err")"
+  done
   local t0 t1 a0 a1
   t0=$(json_in "$T/$name.s0.json" tip_um max)
   t1=$(json_in "$T/$name.s1.json" tip_um max)

@@ -181,27 +181,75 @@ std::size_t compensation_header_offset(std::string_view line) {
   return std::string_view::npos;
 }
 
+namespace {
+
+/// The header in one line (compensation_header_offset), with its words.
+std::optional<CompensationHeader> header_in(std::string_view line, std::uint64_t line_no) {
+  const std::size_t h = compensation_header_offset(line);
+  if (h == std::string_view::npos) return std::nullopt;
+  const auto word = [&](std::string_view key) -> std::string_view {
+    const std::size_t k = line.find(key, h);
+    if (k == std::string_view::npos) return "?";
+    const std::size_t v = k + key.size();
+    return line.substr(v, std::min(line.size(), line.find_first_of(" )", v)) - v);
+  };
+  return CompensationHeader{line_no, static_cast<std::uint32_t>(h + 1), line, word(" compensate mode="),
+                            word(" machine=")};
+}
+
+}  // namespace
+
+std::optional<CompensationHeader> find_compensation_header(std::string_view program) {
+  if (program.find(" compensate mode=") == std::string_view::npos) return std::nullopt;
+  std::uint64_t line_no = 1;
+  for (std::size_t at = 0; at < program.size(); ++line_no) {
+    std::size_t end = program.find('\n', at);
+    if (end == std::string_view::npos) end = program.size();
+    std::string_view line = program.substr(at, end - at);
+    if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
+    if (std::optional<CompensationHeader> h = header_in(line, line_no)) return h;
+    at = end + 1;
+  }
+  return std::nullopt;
+}
+
+bool warn_servo_precompensated(std::string_view program, std::string_view file, std::string_view command,
+                               gcode::DiagnosticSink& sink) {
+  const std::optional<CompensationHeader> h = find_compensation_header(program);
+  if (!h || (h->mode != "contour" && h->mode != "all")) return false;
+  gcode::Diagnostic d;
+  d.severity = gcode::Severity::warning;
+  d.code = "PP-W622";
+  d.file = std::string(file);
+  d.where = {h->line, h->column};
+  d.message = fmt::format(
+      "this program was written by postproc compensate --mode {}: its points lead the servo lag on purpose, so the "
+      "contour errors that {} measures against its own points are not those of the part; simulate it against the "
+      "original program: postproc simulate {} -m {} --reference ORIGINAL",
+      h->mode, command, file, h->machine);
+  d.length = 8;  // "postproc"
+  gcode::set_source_line(d, h->text);
+  sink.report(std::move(d));
+  return true;
+}
+
 bool refuse_recompensation(std::string_view line, std::uint64_t line_no, std::string_view file,
                            const CompensateOptions& opt, gcode::DiagnosticSink& sink) {
   if (opt.allow_recompensation) return false;
-  const std::size_t at = compensation_header_offset(line);
-  if (at == std::string_view::npos) return false;
-  const std::size_t m0 = line.find(" machine=", at);
-  const std::size_t m1 = m0 == std::string_view::npos ? m0 : line.find(' ', m0 + 9);
-  const std::string machine =
-      m0 == std::string_view::npos ? std::string("?") : std::string(line.substr(m0 + 9, m1 == std::string_view::npos ? m1 : m1 - m0 - 9));
+  const std::optional<CompensationHeader> h = header_in(line, line_no);
+  if (!h) return false;
   gcode::Diagnostic d;
   d.severity = gcode::Severity::error;
   d.code = "PP-E620";
   d.file = std::string(file);
-  d.where = {line_no, static_cast<std::uint32_t>(at + 1)};
+  d.where = {line_no, h->column};
   d.message = fmt::format(
       "this program was already compensated by postproc (its header names machine file {}): compensating it again "
       "applies the corrections a second time; compensate the original program, or give --allow-recompensation if "
       "a second compensation is intended",
-      machine);
+      h->machine);
   gcode::set_source_line(d, line);
-  d.length = static_cast<std::uint32_t>(line.size() - at);
+  d.length = static_cast<std::uint32_t>(line.size() - (h->column - 1));
   sink.report(std::move(d));
   return true;
 }

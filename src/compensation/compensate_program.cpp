@@ -46,17 +46,10 @@ CompensateResult compensate_program(const ProgramInput& in, const CompensateOpti
   const machine::Machine& m = in.machine;
   CompensateOptions opt = options;
   if (opt.input_bytes == 0) opt.input_bytes = text.size();
-  if (!opt.allow_recompensation && text.find(" compensate mode=") != std::string_view::npos) {
-    std::uint64_t line_no = 1;
-    for (std::size_t at = 0; at < text.size(); ++line_no) {
-      std::size_t end = text.find('\n', at);
-      if (end == std::string_view::npos) end = text.size();
-      std::string_view line = text.substr(at, end - at);
-      if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
-      if (refuse_recompensation(line, line_no, file, opt, sink)) return {};
-      at = end + 1;
-    }
-  }
+  if (!opt.allow_recompensation)
+    if (const std::optional<CompensationHeader> h = find_compensation_header(text);
+        h && refuse_recompensation(h->text, h->line, file, opt, sink))
+      return {};
   opt.allow_recompensation = true;  // checked here once (the stages below would check again)
   if (gcode::first_resolution_line(text, dialect) != 0) {
     const gcode::ResolveOptions ro = gcode::with_program_folder(opt.resolve, file);

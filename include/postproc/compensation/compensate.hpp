@@ -109,6 +109,23 @@ struct ProgramInput {
 /// VERSION compensate mode=… machine=… sha256=…" in a comment): its 0-based byte offset, or npos.
 [[nodiscard]] std::size_t compensation_header_offset(std::string_view line);
 
+/// The first line of a program that carries postproc's compensation header.
+struct CompensationHeader {
+  std::uint64_t line = 0;      ///< 1-based line number
+  std::uint32_t column = 1;    ///< of "postproc" in it
+  std::string_view text;       ///< the line (into the program's text; no end of line)
+  std::string_view mode;       ///< "geometric", "contour" or "all" (as the header writes it)
+  std::string_view machine;    ///< the machine file it names ("?" when the header leaves it out)
+};
+[[nodiscard]] std::optional<CompensationHeader> find_compensation_header(std::string_view program);
+
+/// Warns (PP-W622, located at the header) when `program` was written by `compensate --mode contour`
+/// or `--mode all`: its points lead the servo lag on purpose, so contour errors measured against
+/// its own points (`predict`; `simulate` without --reference) are not those of the intended
+/// contour. `command` names the command that measures so. True when warned.
+bool warn_servo_precompensated(std::string_view program, std::string_view file, std::string_view command,
+                               gcode::DiagnosticSink& sink);
+
 /// Refuses (PP-E620, located at the header of line `line_no` = `line`) a program that already
 /// carries postproc's compensation header, unless opt.allow_recompensation. True when refused.
 bool refuse_recompensation(std::string_view line, std::uint64_t line_no, std::string_view file,
