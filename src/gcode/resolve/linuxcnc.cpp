@@ -111,6 +111,41 @@ void Machine::compile(SourceFile& f, std::size_t i, Line& l) {
       }
     }
   }
+  for (const Word& w : b.words)
+    if (w.letter == 'M' && w.kind == ValueKind::number && (w.number == 98 || w.number == 99)) {
+      (w.number == 98 ? l.numbered_call : l.numbered_return) = true;
+      l.call_span = w.span;
+      l.plain = false;
+    }
+  if (l.numbered_call || l.numbered_return) {
+    // The call's words: M98 P L (M99 alone); anything else on the line (N aside) is refused where
+    // it runs: the order of a motion and the call within one block is not followed.
+    for (const Word& w : b.words) {
+      if (w.letter == 'N' && w.name_len == 1) continue;
+      const bool call_m = w.letter == 'M' && w.kind == ValueKind::number && w.span.begin == l.call_span.begin;
+      const bool pl = l.numbered_call && (w.letter == 'P' || w.letter == 'L') && w.name_len == 1;
+      if (!call_m && !pl) {
+        l.call_other_words = true;
+        continue;
+      }
+      l.call_words.push_back(w.span);
+      if (!pl) continue;
+      Code c;
+      Parser p(b.text(w.value), names_);
+      try {
+        p.real_value(c);
+        p.end();
+      } catch (const ParseError& e) {
+        parse_error(f, i, w.value, e);
+        l.ok = false;
+        return;
+      }
+      (w.letter == 'P' ? l.call_p : l.call_l) = std::move(c);
+    }
+    for (const Token& t : b.tokens)
+      if (t.kind == TokenKind::assignment || t.kind == TokenKind::control_flow) l.call_other_words = true;
+    return;
+  }
   for (const Word& w : b.words) {
     if (program_end::ends_program(w)) l.ends_program = true;
     if (w.letter == 'M' && w.kind == ValueKind::number && w.number >= 70 && w.number <= 73 &&

@@ -89,6 +89,14 @@ struct Line {
   std::uint8_t context = 0;     // literal M70 (1), M71 (2), M72 (4), M73 (8): saved modal state
   std::uint8_t modes = 0;       // literal G90 (1), G91 (2), G7 (4), G8 (8): the modes a G7x profile reads by
   Span context_span;            // the first of them
+  // Fanuc-style numbered programs (LinuxCNC O codes, "Fanuc-Style Numbered Programs"): a literal
+  // M98 calls the numbered program P (L times), a literal M99 returns from it.
+  bool numbered_call = false;   // M98
+  bool numbered_return = false; // M99
+  std::optional<Code> call_p, call_l;
+  std::vector<Span> call_words; // M98 / M99, P, L: removed from the resolved line (comments stay)
+  bool call_other_words = false; // a word beside them (N excepted)
+  Span call_span;               // the M98 / M99 word
   bool cycle_profile = false;   // G70–G72: profile in a subroutine
   Span cycle_span;
   bool cycle_q_literal = false; // the Q word is a plain number (cycle_q)
@@ -121,6 +129,7 @@ struct Frame {
   std::unordered_map<int, double> locals;  // named locals
   std::map<std::size_t, long> repeats;     // remaining passes by repeat line
   std::map<std::string, std::size_t> labels;  // O-word number → the block (line) it named first at this level
+  bool numbered = false;                   // an M98 call of a numbered program (#1–#30 are not its own)
 };
 
 class Machine {
@@ -238,6 +247,15 @@ class Machine {
   }
   std::size_t enclosing_loop(SourceFile& f, FileInfo& fi, std::size_t i, const Line& l);
   void call(SourceFile& f, std::size_t i, Line& l);
+  /// M98 P<n> [L<k>] at line i: runs the numbered program O<n> (its "O<n>" line to the first M99
+  /// after it, later in the same file) k times (default 1, L0 none); #1–#30 stay global (LinuxCNC
+  /// O codes, "Fanuc-Style Numbered Programs"; checked against rs274 by tests/rs274_control_compare.py).
+  void numbered_call(SourceFile& f, std::size_t i, const Line& l);
+  /// M99 at line i: the return from the numbered program being run; refused elsewhere (in the main
+  /// program LinuxCNC starts the program again, an endless program; an o-word sub ends only with endsub).
+  void numbered_return(SourceFile& f, std::size_t i, const Line& l, bool in_sub);
+  /// The resolved line of an M98 / M99 line: its comments (the call words removed), if any.
+  void emit_call_comments(SourceFile& f, std::size_t i, const Line& l);
 
   /// M70/M71/M72/M73 (bits 1 2 4 8) executed at line i of the current call level (LinuxCNC M-code
   /// reference "M70–M73": one saved state per call level; M73 asks for the restore at the return).
@@ -264,6 +282,7 @@ class Machine {
   std::unordered_map<int, double> globals_;
   std::vector<Frame> frames_;
   std::map<std::string, Sub> subs_;
+  std::map<std::string, Sub> numbered_programs_;  ///< numbered programs found by M98 calls ("file:o<n>"): "O<n>" line → its M99
   SavedState flat_;            ///< the resolved program's one saved state (M70/M73, M71 of any level)
   // The modes a G7x profile's #<_x> / #<_z> depend on, followed through the run (rs274 starts in G90, G8).
   bool absolute_ = true, diameter_ = false;

@@ -189,6 +189,17 @@ void Machine::execute(SourceFile& f, std::size_t from, std::size_t to, bool in_s
       ++pc;
       continue;
     }
+    if (l.numbered_return) {
+      numbered_return(f, pc, l, in_sub);
+      emit_call_comments(f, pc, l);
+      return;
+    }
+    if (l.numbered_call) {
+      emit_call_comments(f, pc, l);
+      numbered_call(f, pc, l);
+      ++pc;
+      continue;
+    }
     if (l.kw != Kw::none) {
       const std::size_t next = control(f, fi, pc, l, in_sub);
       if (next == kReturn) return;
@@ -289,6 +300,13 @@ std::size_t Machine::control(SourceFile& f, FileInfo& fi, std::size_t i, Line& l
       if (!in_sub) {
         f.report(i, l.control_span, Severity::error, "PP-E708",
                  fmt::format("'{}' outside a subroutine", f.raw(i).substr(l.control_span.begin, l.control_span.size())));
+        throw Stop{};
+      }
+      if (frames_.back().numbered) {
+        f.report(i, l.control_span, Severity::error, "PP-E708",
+                 fmt::format("'{}' inside a numbered program called by M98: LinuxCNC returns from it only with M99 "
+                             "(the two styles of subprogram do not mix){}",
+                             f.raw(i).substr(l.control_span.begin, l.control_span.size()), context()));
         throw Stop{};
       }
       // rs274 2.9: a return or endsub without a value sets #<_value> and #<_value_returned> to 0;
@@ -686,6 +704,115 @@ void Machine::call(SourceFile& f, std::size_t i, Line& l) {
   std::copy(frames_.back().saved.begin() + 1, frames_.back().saved.end(), numbered_.begin() + 1);
   frames_.pop_back();
   globals_[names_.id("_call_level")] = static_cast<double>(frames_.size() - 1);
+}
+
+void Machine::emit_call_comments(SourceFile& f, std::size_t i, const Line& l) {
+  if (f.raw(i).find('(') == std::string_view::npos && f.raw(i).find(';') == std::string_view::npos) return;
+  std::vector<Edit> del;
+  for (const Span& w : l.call_words) del.push_back({w, ""});
+  if (!out_.emit(f, i, del)) runaway(f, i);
+}
+
+void Machine::numbered_return(SourceFile& f, std::size_t i, const Line& l, bool in_sub) {
+  const auto refuse = [&](std::string_view why) {
+    f.report(i, l.call_span, Severity::error, "PP-E708", fmt::format("M99 {}{}", why, context()));
+    throw Stop{};
+  };
+  if (!in_sub)
+    refuse("in the main program: LinuxCNC starts the program again from its first line (an endless program, "
+           "O codes, \"Fanuc-Style Numbered Programs\"); end the program with M2 or M30");
+  if (!frames_.back().numbered)
+    refuse("inside an o-word subroutine: LinuxCNC ends one only with endsub or return (the two styles of subprogram "
+           "do not mix)");
+  if (l.call_other_words) refuse("with other words on its line: put the return on a line of its own");
+  if (const SavedState& st = frames_.back().state; st.valid && st.restore) {
+    f.report(i, l.call_span, Severity::error, "PP-E709",
+             fmt::format("M99 returns from a numbered program that asked for the modal state's restore (M73): not "
+                         "followed by this version; restore it with M72 before M99{}",
+                         context()));
+    throw Stop{};
+  }
+}
+
+void Machine::numbered_call(SourceFile& f, std::size_t i, const Line& l) {
+  const auto refuse = [&](const char* code, const std::string& why) {
+    f.report(i, l.call_span, Severity::error, code, why + context());
+    throw Stop{};
+  };
+  if (l.call_other_words)
+    refuse("PP-E709", "M98 with other words on its line: the order of the call and the rest of the block is not "
+                      "followed by this version; put the call on a line of its own");
+  if (!l.call_p) refuse("PP-E702", "M98 without P: give the number of the program to call (M98 P100)");
+  // rs274 read_integer_value: a whole number within 0.0001.
+  const auto whole = [&](const Code& c, char letter) {
+    const double v = value(f, i, l.call_span, c);
+    double n = std::floor(v);
+    if (v - n > 0.9999) n += 1;
+    else if (v - n > 0.0001 || !(std::abs(v) < 1e9))
+      refuse("PP-E207", fmt::format("M98 {}{} is not a whole number: LinuxCNC stops here (rs274: \"Non integer value "
+                                    "for integer\")", letter, v));
+    return static_cast<long long>(n);
+  };
+  const long long n = whole(*l.call_p, 'P');
+  const long long times = l.call_l ? whole(*l.call_l, 'L') : 1;
+  if (times < 0) refuse("PP-E702", fmt::format("M98 L{}: the repeat count must be 0 or more", times));
+  // The LinuxCNC documentation says L0 does not run the program; rs274 2.9 enters the call level
+  // without running it: the caller's next lines run at that level, the next M99 returns to them
+  // once more, and an endif, endrepeat or endsub of the caller is refused ("undefined O-word
+  // label"). Checked with rs274; neither reading can be followed exactly.
+  if (times == 0)
+    refuse("PP-E709", "M98 with a repeat count of 0: LinuxCNC 2.9's interpreter does not skip the call cleanly (the "
+                      "lines after it run at a new call level, and the next M99 returns to them again); remove the "
+                      "call or give it a count of 1 or more");
+  const std::string name = fmt::format("o{}", n);
+  // rs274 keeps a numbered program once a call found it (a later call from after it finds it too).
+  const std::string key = fmt::format("{}:{}", f.index(), name);
+  auto it = numbered_programs_.find(key);
+  if (it == numbered_programs_.end()) {
+    // rs274 looks for the program from the call on, to the end of the file.
+    const auto numbered_start = [&](std::size_t k) {
+      const Line& d = line(f, k);
+      return d.ok && d.kw == Kw::program_number && d.oname == name;
+    };
+    std::size_t at = i + 1;
+    while (at < f.lines() && !numbered_start(at)) ++at;
+    if (at == f.lines()) {
+      std::size_t before = 0;
+      while (before < i && !numbered_start(before)) ++before;
+      if (before < i)
+        refuse("PP-E708", fmt::format("M98 P{} calls the numbered program O{} of line {}, before the call: LinuxCNC "
+                                      "looks for it only after the call (O codes, \"Fanuc-Style Numbered Programs\"); "
+                                      "move the program after the main program's end",
+                                      n, n, before + 1));
+      if (subs_.count(name) != 0)
+        refuse("PP-E708", fmt::format("M98 P{} calls '{} sub': LinuxCNC calls an o-word subroutine only with "
+                                      "'{} call' (the two styles of subprogram do not mix)",
+                                      n, name, name));
+      refuse("PP-E704", fmt::format("M98 P{}: no numbered program O{} after this line (an 'O{}' line, its "
+                                    "blocks, M99)",
+                                    n, n, n));
+    }
+    std::size_t end = at + 1;
+    while (end < f.lines() && !(line(f, end).ok && line(f, end).numbered_return)) ++end;
+    if (end == f.lines())
+      refuse("PP-E708", fmt::format("the numbered program O{} of line {} has no M99 to return with", n, at + 1));
+    it = numbered_programs_.emplace(key, Sub{&f, at, end}).first;
+  }
+  if (static_cast<int>(frames_.size()) > opt_.max_call_depth)
+    refuse("PP-E706", fmt::format("calls nest deeper than {} levels (endless recursion?)", opt_.max_call_depth));
+  const Sub s = it->second;
+  for (long long k = 0; k < times; ++k) {
+    Frame fr;
+    fr.numbered = true;
+    frames_.push_back(std::move(fr));
+    guard_.changed();
+    globals_[names_.id("_call_level")] = static_cast<double>(frames_.size() - 1);
+    out_.push_call(CallFrame{f.name(), i + 1, fmt::format("M98 P{}", n)});
+    execute(*s.file, s.begin + 1, s.end + 1, true);
+    out_.pop_call();
+    frames_.pop_back();
+    globals_[names_.id("_call_level")] = static_cast<double>(frames_.size() - 1);
+  }
 }
 
 }  // namespace postproc::gcode::resolver::lcnc_run

@@ -296,7 +296,9 @@ bool may_need(std::string_view raw, const Dialect& d) {
     std::size_t q = p;
     if (raw[q] == 'N' || raw[q] == 'n')
       while (++q < raw.size() && (std::isdigit(static_cast<unsigned char>(raw[q])) || raw[q] == ' ')) {}
-    return q < raw.size() && (raw[q] == 'o' || raw[q] == 'O');
+    if (q < raw.size() && (raw[q] == 'o' || raw[q] == 'O')) return true;
+    // M98 / M99: Fanuc-style numbered programs (lexed below where the line has an M).
+    return raw.find_first_of("Mm") != std::string_view::npos && raw.find("9") != std::string_view::npos;
   }
   const bool fanuc = d.id == DialectId::fanuc;
   if (!fanuc && d.id != DialectId::siemens) return false;
@@ -364,6 +366,9 @@ bool line_needs(std::string_view raw, std::uint64_t line, const Dialect& d, Bloc
   lex_block(d, b, ctx);
   if (d.id == DialectId::heidenhain) return resolver::klartext_needs(b);
   if (resolver::block_has_statements(b)) return true;
+  if (d.id == DialectId::linuxcnc)
+    for (const Word& w : b.words)
+      if (w.letter == 'M' && w.kind == ValueKind::number && (w.number == 98 || w.number == 99)) return true;
   if (d.id == DialectId::fanuc)
     for (const Word& w : b.words)
       if ((w.letter == 'M' && (w.number == 98 || w.number == 99)) || (w.letter == 'G' && (w.number == 65 || w.number == 66)))
