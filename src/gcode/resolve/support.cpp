@@ -290,15 +290,16 @@ bool may_need(std::string_view raw, const Dialect& d) {
   if (d.id == DialectId::heidenhain)  // Q parameters, FN, LBL, CALL: the lexer decides
     return raw.find_first_of("QqLlFf") != std::string_view::npos;
   if (d.id == DialectId::linuxcnc) {
-    if (raw.find_first_of("#[") != std::string_view::npos) return true;
+    // One pass: a parameter or expression, or an M word (M98 / M99, Fanuc-style numbered programs:
+    // the lexer below decides; few lines of a program hold an M).
+    for (const char c : raw)
+      if (c == '#' || c == '[' || c == 'M' || c == 'm') return true;
     const auto p = raw.find_first_not_of(" \t/");
     if (p == std::string_view::npos) return false;
     std::size_t q = p;
     if (raw[q] == 'N' || raw[q] == 'n')
       while (++q < raw.size() && (std::isdigit(static_cast<unsigned char>(raw[q])) || raw[q] == ' ')) {}
-    if (q < raw.size() && (raw[q] == 'o' || raw[q] == 'O')) return true;
-    // M98 / M99: Fanuc-style numbered programs (lexed below where the line has an M).
-    return raw.find_first_of("Mm") != std::string_view::npos && raw.find("9") != std::string_view::npos;
+    return q < raw.size() && (raw[q] == 'o' || raw[q] == 'O');
   }
   const bool fanuc = d.id == DialectId::fanuc;
   if (!fanuc && d.id != DialectId::siemens) return false;
