@@ -133,16 +133,34 @@ TEST(ReaderLinuxcnc, ToolLengthAndMWordsMustBeWholeNumbersAsRs274Reads) {
   EXPECT_NEAR(near.motions[0].end[2], 10, kTol);  // program Z; the length is tool 2's, not tool 1's (unknown)
 }
 
-// LinuxCNC runs Fanuc-style subprograms (M98 P<n> [L<k>] … O<n> … M99); this version does not follow
-// them: M98 and M99 leave every position unknown (PP-U211; before, positions after a call stayed
-// known, read wrong where the subprogram moved). An "O<n>" line alone is a program number rs274 runs
-// through (tests/resolve/linuxcnc/reader_program_number.ngc).
-TEST(ReaderLinuxcnc, FanucStyleSubprogramCallsLeavePositionsUnknown) {
+// LinuxCNC O codes, "Fanuc-Style Numbered Programs" (checked with rs274; random programs in
+// tests/rs274_numbered_compare.py): M98 P<n> [L<k>] runs O<n> … M99 k times, #1–#30 global. An
+// "O<n>" line alone where the main program runs is a program number rs274 runs through
+// (tests/resolve/linuxcnc/reader_program_number.ngc).
+TEST(ReaderLinuxcnc, FanucStyleNumberedProgramsAreFollowed) {
+  // rs274: (1,1), (2,1) in O100, (2,2).
   const ResolvedProgram r(dialect("linuxcnc"), "O1000\nG21 G90\nG0 X1 Y1\nM98 P100\nG0 Y2\nM2\nO100\nG91 G0 X1\nG90\nM99\n");
-  expect_diag_at(r, "PP-U211", 4, 1);
-  ASSERT_EQ(r.motions.size(), 2u) << r.all_codes();
-  EXPECT_FALSE(r.motions[1].known & gc::bit(Axis::x));  // the subprogram moved X
-  EXPECT_TRUE(r.motions[1].known & gc::bit(Axis::y));
+  ASSERT_EQ(r.motions.size(), 3u) << r.all_codes();
+  EXPECT_TRUE(r.sink.stored().empty()) << r.all_codes();
+  EXPECT_NEAR(r.motions[1].end[0], 2, kTol);
+  EXPECT_NEAR(r.motions[2].end[0], 2, kTol);
+  EXPECT_NEAR(r.motions[2].end[1], 2, kTol);
+  // L3 and a nested call; #1 is global (rs274: X1 X2 X3, then Y1 Y2 from O200 called by O100 once, then X[#1] = 7).
+  const ResolvedProgram n(dialect("linuxcnc"),
+                          "G21 G90\nG0 X0 Y0\nM98 P100 L3\nM98 P150\nG0 X#1\nM30\nO100\nG91 G0 X1\nG90\nM99\n"
+                          "O150\n#1 = 7\nM98 P200 L2\nM99\nO200\nG91 G0 Y1\nG90\nM99\n");
+  ASSERT_EQ(n.motions.size(), 7u) << n.all_codes();
+  EXPECT_NEAR(n.motions[3].end[0], 3, kTol);
+  EXPECT_NEAR(n.motions[5].end[1], 2, kTol);
+  EXPECT_NEAR(n.motions[6].end[0], 7, kTol);
+  // Refused where rs274 stops or does not follow its own reference.
+  expect_diag_at(ResolvedProgram(dialect("linuxcnc"), "G0 X0\nM98 P100 L0\nM30\nO100\nG0 X1\nM99\n"), "PP-E709", 2, 1);
+  expect_diag_at(ResolvedProgram(dialect("linuxcnc"), "G0 X0\nO100\nG0 X1\nM99\n"), "PP-E708", 4, 1);  // endless
+  expect_diag_at(ResolvedProgram(dialect("linuxcnc"), "G0 X0\nM98 P100\nM30\n"), "PP-E704", 2, 1);
+  expect_diag_at(ResolvedProgram(dialect("linuxcnc"), "G0 X0\nM98 P100\nM30\no100 sub\nG0 X1\no100 endsub\n"),
+                 "PP-E708", 2, 1);  // the styles do not mix
+  expect_diag_at(ResolvedProgram(dialect("linuxcnc"), "M98 P200\nM30\nO100\nG0 X1\nM99\nO200\nM98 P100\nM99\n"),
+                 "PP-E708", 7, 1);  // O100 lies before the first call that reaches it
 }
 
 // LinuxCNC M-code reference "M70–M73", checked with rs274: M72 restores units, distance modes,
