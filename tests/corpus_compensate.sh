@@ -18,10 +18,10 @@ if [[ ! -d "$corpus" ]]; then
 fi
 corpus=$(realpath "$corpus")
 # Programs written back byte for byte, flat or resolved (issue 3: programs with parameters are
-# resolved, written back in place and flattened, or refused with a located reason). 14 since three
-# LinuxCNC programs that write their own work offsets (G10 L2/L20) are refused: the machine file's
-# [work_offsets] is not where the controller puts them (taking the written value is still to do).
-readonly min_accepted=14
+# resolved, written back in place and flattened, or refused with a located reason). 16 since two of the three
+# LinuxCNC programs that write their own work offsets (G10 L2 with plain numbers) are now placed where they put
+# them (2026-12-08); the third writes its offset from the current point (G10 L20), still refused (PP-E602).
+readonly min_accepted=16
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 

@@ -224,6 +224,33 @@ TEST(Compensate, UnknownWorkOffsetAndToolLengthAreRefusedNamingTheFix) {
   EXPECT_NE(r2.sink.stored().front().message.find("H12"), std::string::npos);
 }
 
+/// A program that writes its own work offset with plain numbers (LinuxCNC G-code reference "G10 L2
+/// Set Coordinate System"; Fanuc B-64484EN "Changing workpiece coordinate system by programmed
+/// command (G10)", G90) is placed where it puts the origin: the output equals that of the same
+/// program without the G10 on a machine file whose G54 holds those values (axes not written keep
+/// the machine file's). G10 L2 under Fanuc G91 (added to a value not known here) and G10 L20
+/// (from the current point) are still refused.
+TEST(Compensate, WorkOffsetWrittenByTheProgramIsWhereItPutsIt) {
+  mc::Machine m = load("trunnion_bc_fanuc.toml");
+  const std::string body = "G0 X0 Y0 Z100 B0 C0\nG1 X20 Y10 Z50 B-20 C30 F500\nM30\n";
+  Comp with_g10;
+  compensate(m, "G90 G10 L2 P1 X12.5 Y-7 Z3\nG54\n" + body, with_g10);
+  ASSERT_TRUE(with_g10.committed) << (with_g10.sink.stored().empty() ? "" : with_g10.sink.stored().front().message);
+  mc::Machine moved = m;
+  gc::AxisVector g54 = moved.work_offsets.at("G54");
+  g54[0] = 12.5;
+  g54[1] = -7;
+  g54[2] = 3;
+  moved.work_offsets["G54"] = g54;
+  Comp plain;
+  compensate(moved, "G90 G54\n" + body, plain);
+  ASSERT_TRUE(plain.committed);
+  // The bodies from the first move on (the headers differ: the machine file's hash, the G10 line).
+  const auto body_of = [](const std::string& t) { return t.substr(std::min(t.size(), t.find("G0 X"))); };
+  EXPECT_EQ(body_of(with_g10.out), body_of(plain.out));
+  EXPECT_NE(body_of(with_g10.out), body);  // it was corrected
+}
+
 /// G92 at a point the program does not know (after G28 the axes are at the controller's reference
 /// point) shifts the program's coordinates by an unknown amount: the later moves are refused,
 /// located and naming the shift, not placed on the machine with a made-up shift.
@@ -267,15 +294,17 @@ TEST(Compensate, ToolLengthRewrittenByG10IsRefused) {
   EXPECT_TRUE(refused_at(after, 7, "rewrote the length of tool H1"));
 }
 
-/// G10 L2 / L20 write a work offset at run time: the machine file's value for that system is no
-/// longer where the controller puts the program, so the moves under it are refused, naming the G10,
-/// absolute ones too (Fanuc B-64484EN "Changing workpiece coordinate system by programmed command
-/// (G10)"; LinuxCNC G-code reference "G10 L2", "G10 L20"). A write of another system does not touch
-/// the active one until the program selects it.
+/// G10 writes of a work offset whose value is not known here (Fanuc G10 L2 under G91: added to the
+/// table's value; LinuxCNC G10 L2 with R, G10 L20 from the current point) leave the machine file's
+/// value for that system no longer where the controller puts the program: the moves under it are
+/// refused, naming the G10 (Fanuc B-64484EN "Changing workpiece coordinate system by programmed
+/// command (G10)"; LinuxCNC G-code reference "G10 L2", "G10 L20"). A write of another system does
+/// not touch the active one until the program selects it. Plain G90 values are taken
+/// (WorkOffsetWrittenByTheProgramIsWhereItPutsIt).
 TEST(Compensate, WorkOffsetWrittenByG10IsRefused) {
   const mc::Machine m = load("trunnion_bc_fanuc.toml");
   Comp fanuc;
-  compensate(m, "G90 G54\nG0 X0 Y0 Z100 B0 C0\nG10 L2 P1 X5.\nG0 X10. Y10. Z50.\nG1 X20. F100.\n", fanuc);
+  compensate(m, "G90 G54\nG0 X0 Y0 Z100 B0 C0\nG91 G10 L2 P1 X5.\nG90 G0 X10. Y10. Z50.\nG1 X20. F100.\n", fanuc);
   EXPECT_TRUE(refused_at(fanuc, 4, "wrote work offset G54"));
   Comp other;
   compensate(m, "G90 G54\nG0 X0 Y0 Z100 B0 C0\nG10 L2 P2 X5.\nG0 X10. Y10. Z50.\nG1 X20. F100.\n", other);

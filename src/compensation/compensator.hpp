@@ -71,10 +71,12 @@ class Compensator final : public gcode::BlockVisitor {
     AxisVector shift = AxisVector::Zero();
     gcode::AxisMask shift_unknown = 0;
     bool work_rewritten = false, length_rewritten = false;  ///< a G10 wrote the offset / the length
+    gcode::AxisMask work_written = 0;                       ///< axes a G10 L2 wrote as numbers …
+    AxisVector work_value = AxisVector::Zero();             ///< … and their values
     bool operator==(const MapKey& o) const {
       return form == o.form && frame == o.frame && code10 == o.code10 && p == o.p && length_active == o.length_active &&
              h == o.h && shift == o.shift && shift_unknown == o.shift_unknown && work_rewritten == o.work_rewritten &&
-             length_rewritten == o.length_rewritten;
+             length_rewritten == o.length_rewritten && work_written == o.work_written && work_value == o.work_value;
     }
   };
 
@@ -337,12 +339,13 @@ class Compensator final : public gcode::BlockVisitor {
     // The controller map depends on the modal context only: reuse it while that stays the same.
     const MapKey key{form, m.frame, m.work_offset.code10, m.work_offset.p, m.tool_length_active, m.tool_length_h,
                      m.local_offset + m.position_offset, m.position_offset_unknown, m.work_offset_rewritten,
-                     m.tool_length_rewritten};
+                     m.tool_length_rewritten, m.work_offset_written, m.work_offset_value};
     if (!map_ || !(key == map_key_)) {  // map_ is empty whenever !map_held_
       // The held corrected position is in the old context's coordinates unless only the tool
       // length changed (the program still names the same points).
       if (map_held_ && !(key.form == map_key_.form && key.frame == map_key_.frame && key.code10 == map_key_.code10 &&
-                    key.p == map_key_.p && key.shift == map_key_.shift))
+                    key.p == map_key_.p && key.shift == map_key_.shift && key.work_written == map_key_.work_written &&
+                    key.work_value == map_key_.work_value))
         written_known_ = 0;
       map_.reset();
       map_held_ = false;

@@ -39,6 +39,13 @@ void Interpreter::fill_state(Motion& m) const {
   m.work_offset_rewritten =
       work_table_unknown_ ||
       (!work_written_.empty() && work_written_.count(std::uint32_t{s_.work_offset.code10} * 1000 + s_.work_offset.p) > 0);
+  m.work_offset_written = 0;
+  if (!work_values_.empty())
+    if (const auto it = work_values_.find(std::uint32_t{s_.work_offset.code10} * 1000 + s_.work_offset.p);
+        it != work_values_.end()) {
+      m.work_offset_written = it->second.first;
+      m.work_offset_value = it->second.second;
+    }
   m.tcp = s_.tcp;
   m.tilted_plane = s_.tilted_plane;
   m.orientation_machine_frame = s_.ori_mks;

@@ -58,7 +58,9 @@ void Interpreter::set_offsets(const Block& b, BlockWords& w) {
     // The table entry written: L2 P0 is the external offset (every system moves), P1-P6 G54-G59,
     // L20 Pn G54.1 Pn; with L or P not known, any of them.
     if (!l_known || ((l == 2 || l == 20) && !p_known) || (l == 2 && p == 0)) work_table_write(-1);
-    else if (l == 2 && p >= 1 && p <= 6) work_table_write((530 + 10 * p) * 1000);
+    else if (l == 2 && p >= 1 && p <= 6)
+      // Under G90 the values are the entry's (absolute); under G91 they add to a value not known here.
+      work_table_values(w, static_cast<std::uint32_t>((530 + 10 * p) * 1000), s_.absolute);
     else if (l == 20) work_table_write(541 * 1000 + p);
     return;
   }
@@ -76,7 +78,16 @@ void Interpreter::set_offsets(const Block& b, BlockWords& w) {
     // Where it lies on the machine is the program's value now, not the machine file's.
     const long sys = p == 0 ? index : p;
     const bool named = w.has('P') && !w.unresolved('P') && sys >= 1 && sys <= 9;
-    work_table_write(named ? (sys <= 6 ? 530 + 10 * sys : 590 + (sys - 6)) * 1000 : -1);
+    if (!named) work_table_write(-1);
+    else {
+      const auto key = static_cast<std::uint32_t>((sys <= 6 ? 530 + 10 * sys : 590 + (sys - 6)) * 1000);
+      // G10 L2 (LinuxCNC G-code reference "G10 L2 Set Coordinate System"): the origin's machine
+      // coordinates, absolute whatever the distance mode; an axis not given keeps its value. With R
+      // (a rotation) or an X under G7 (a diameter?) the entry is not followed. L20 writes it from
+      // the current point, which is not known in machine coordinates here.
+      const bool exact = l == 2 && !w.has('R') && !(s_.diameter_mode && (w.axis_present & bit(Axis::x)));
+      work_table_values(w, key, exact);
+    }
   }
   if ((l == 2 || l == 20) && active) {
     for (int a = 0; a < kAxisCount; ++a) {
@@ -94,6 +105,19 @@ void Interpreter::set_offsets(const Block& b, BlockWords& w) {
     const AxisMask xy = bit(Axis::x) | bit(Axis::y);
     if (l == 2 && (w.has('R') || (w.axis_present & xy))) s_.known &= static_cast<AxisMask>(~xy);
   }
+}
+
+void Interpreter::work_table_values(const BlockWords& w, std::uint32_t key, bool exact) {
+  if (!exact || w.axis_unresolved != 0 || work_written_.count(key) > 0) {
+    work_table_write(key);
+    return;
+  }
+  auto& [mask, value] = work_values_[key];
+  for (int a = 0; a < kAxisCount; ++a)
+    if (w.axis_present & (1u << a)) {
+      value[a] = to_mm(a, w.axis[a]);
+      mask |= static_cast<AxisMask>(1u << a);
+    }
 }
 
 void Interpreter::work_table_write(long p_index) {

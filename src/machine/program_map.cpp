@@ -46,7 +46,11 @@ std::optional<gcode::AxisVector> program_offset(const machine::Machine& m, const
   if (mo.work_offset_rewritten) return std::nullopt;          // the program wrote the offset (G10)
   const auto it = m.work_offsets.find(machine::work_offset_name(mo.work_offset));
   if (it == m.work_offsets.end()) return std::nullopt;
-  return gcode::AxisVector(it->second + mo.local_offset + mo.position_offset);
+  gcode::AxisVector origin = it->second;
+  // The axes the program wrote (G10 L2 with plain numbers) lie where it put them.
+  for (int a = 0; a < gcode::kAxisCount; ++a)
+    if (mo.work_offset_written & (1u << a)) origin[a] = mo.work_offset_value[a];
+  return gcode::AxisVector(origin + mo.local_offset + mo.position_offset);
 }
 
 std::string program_offset_refusal(const machine::Machine& m, const gcode::Motion& mo) {

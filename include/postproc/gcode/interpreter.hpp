@@ -303,6 +303,12 @@ class Interpreter {
   /// Work systems whose table entry the program wrote (G10 L2/L20): code10 * 1000 + P (G54.1 Pn);
   /// `work_table_unknown_`: an entry whose system is not known (or Fanuc's external offset) was written.
   std::set<std::uint32_t> work_written_;
+  /// Work systems whose table entry the program wrote as plain numbers (G10 L2, see
+  /// Motion::work_offset_written), same keys: the axes written and their values (mm / degrees).
+  std::map<std::uint32_t, std::pair<AxisMask, AxisVector>> work_values_;
+  /// G10 L2 writes table entry `key` (code10 * 1000 + P): its plain values are recorded
+  /// (work_values_) when `exact`, else the entry becomes unknown (work_written_).
+  void work_table_values(const BlockWords& w, std::uint32_t key, bool exact);
   bool work_table_unknown_ = false;
   void work_table_write(long p_index);
   bool corner_angle_ = false;  ///< this block's refused corner word is a direct-drawing angle  ///< Fanuc: line of a ,C/,R whose next motion is moved by it

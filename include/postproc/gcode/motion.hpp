@@ -109,6 +109,11 @@ struct Motion {
   /// The program wrote the table entry of work_offset (G10 L2/L20, or an entry it could not name):
   /// the machine file's offset for that system is not the controller's.
   bool work_offset_rewritten = false;
+  /// Axes of work_offset whose table value the program wrote as a plain number (LinuxCNC G10 L2 P…,
+  /// Fanuc G10 L2 P1–P6 under G90, no rotation): the controller's offset of those axes is
+  /// work_offset_value (mm / degrees, machine coordinates of the origin), not the machine file's.
+  AxisMask work_offset_written = 0;
+  AxisVector work_offset_value = AxisVector::Zero();
   TcpMode tcp = TcpMode::off;
   bool tilted_plane = false;     ///< G68.2 / CYCLE800 / PLANE active
   /// Tool-axis direction programmed as a vector in this block (Siemens A3/B3/C3 under TRAORI,
